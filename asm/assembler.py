@@ -1,0 +1,565 @@
+"""The assembler: statements to a `Program`, with every error of a source reported at once.
+
+Pass 1 walks the statements in order — expanding `.include`, following `.if`/`.elif`/`.else`/
+`.endif`, defining `.equ` constants and `.reg` aliases, placing labels (code labels count bundles,
+data labels count local words). Pass 2 resolves each operation's operands against the complete
+symbol table and runs the resource checker on every bundle. Diagnostics from both passes are
+reported in source order as `file:line:col: error: message` with the line and a caret.
+"""
+
+from __future__ import annotations
+
+import difflib
+import os
+import re
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+from netsushisen.asm.checker import check_bundle
+from netsushisen.asm.expressions import BUILTIN_CONSTANTS, ExprError, evaluate, names_in
+from netsushisen.asm.objects import Op, Program, SourceLoc
+from netsushisen.asm.parser import (CONDITIONAL_RE, Bundle, Chunk, Directive, Instr, Loc,
+                                    Statement, parse_chunk, split_statements)
+from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.opcodes import OPCODES
+from netsushisen.isa.processors import N_REGISTERS, PROCESSORS, REGISTER_ALIASES
+from netsushisen.isa.ring import predefined_symbols
+from netsushisen.isa.words import wrap32
+
+MAX_INCLUDE_DEPTH = 32
+DIRECTIVES = ("proc", "equ", "reg", "include", "if", "ifdef", "ifndef", "elif", "else", "endif",
+              "text", "data", "word", "float", "space", "align", "error")
+_REG_RE = re.compile(r"r(\d+)$")
+
+
+class AssemblyError(NetsushisenError):
+    """A kernel source with errors; `diagnostics` holds every one of them."""
+
+
+def kernels_dir() -> Path:
+    """The bundled kernels (always searched last for `.include`)."""
+    return Path(str(resources.files("netsushisen.kernels")))
+
+
+@dataclass
+class _Symbol:
+    value: int | float
+    kind: str  # predefined, define, equ, text, data
+    loc: Loc | None
+
+
+@dataclass
+class _PendingBundle:
+    instrs: list[Instr]
+    loc: Loc
+    text: str
+    order: int
+
+
+@dataclass
+class _Cond:
+    active: bool  # this branch is being assembled
+    taken: bool  # some branch of this .if has been taken
+    parent_active: bool
+    loc: Loc
+    seen_else: bool = False
+
+
+@dataclass
+class _State:
+    proc: str | None
+    proc_from_caller: bool
+    include_dirs: list[Path]
+    symbols: dict[str, _Symbol] = field(default_factory=dict)
+    aliases: dict[str, tuple[int, Loc]] = field(default_factory=dict)
+    bundles: list[_PendingBundle] = field(default_factory=list)
+    data: list[tuple[str, object, Loc, int]] = field(default_factory=list)  # kind, expr|value, loc, order
+    section: str = "text"
+    diags: list[tuple[int, int, Diagnostic]] = field(default_factory=list)
+    order: int = 0
+    lines: dict[tuple[str, int], str] = field(default_factory=dict)
+
+    def error(self, message: str, loc: Loc | None, order: int | None = None) -> None:
+        src = self.lines.get((loc.file, loc.line)) if loc else None
+        self.diags.append((self.order if order is None else order, loc.col if loc else 0,
+                           Diagnostic(message, loc.file if loc else None, loc.line if loc else None,
+                                      loc.col if loc else None, src)))
+
+
+def register_index(name: str, aliases: dict[str, tuple[int, Loc]] | None = None) -> int | None:
+    """The register a name denotes (r0..r63, zero, lr, or a `.reg` alias), else None."""
+    if aliases and name in aliases:
+        return aliases[name][0]
+    if name in REGISTER_ALIASES:
+        return REGISTER_ALIASES[name]
+    m = _REG_RE.match(name)
+    if m and int(m.group(1)) < N_REGISTERS and (m.group(1) == "0" or not m.group(1).startswith("0")):
+        return int(m.group(1))
+    return None
+
+
+def _read_source(path: Path, display: str) -> str:
+    data = path.read_bytes()
+    bad = data.find(b"\x00")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        bad = err.start if bad < 0 else min(bad, err.start)
+        text = None
+    if bad >= 0:
+        line = data.count(b"\n", 0, bad) + 1
+        col = bad - (data.rfind(b"\n", 0, bad) + 1) + 1
+        raise AssemblyError(Diagnostic(
+            f"not a text file: byte 0x{data[bad]:02x} cannot appear in assembly source",
+            display, line, col))
+    return text
+
+
+class Assembler:
+    def __init__(self, proc: str | None = None, defines: dict[str, int | float] | None = None,
+                 include_dirs: list[str | Path] | None = None):
+        if proc is not None and proc not in PROCESSORS:
+            raise NetsushisenError(f"unknown processor {proc!r}: choose os, ic or sc")
+        self.defines = dict(defines or {})
+        self.st = _State(proc, proc is not None, [Path(d) for d in include_dirs or []])
+        for name, value in predefined_symbols().items():
+            self.st.symbols[name] = _Symbol(value, "predefined", None)
+        for name, value in self.defines.items():
+            if register_index(name) is not None:
+                raise NetsushisenError(f"-D {name}: a register name cannot be a symbol")
+            self.st.symbols[name] = _Symbol(value, "define", None)
+
+    # -- entry points ------------------------------------------------------------------------
+
+    def assemble_file(self, path: str | Path) -> Program:
+        p = Path(path)
+        display = os.path.normpath(str(path))
+        if not p.is_file():
+            raise AssemblyError(Diagnostic("no such source file", display))
+        return self.assemble_text(_read_source(p, display), display, base_dir=p.parent)
+
+    def assemble_text(self, text: str, filename: str = "<string>",
+                      base_dir: Path | None = None) -> Program:
+        st = self.st
+        if "\x00" in text:
+            raise AssemblyError(Diagnostic("not a text file: NUL byte in assembly source", filename))
+        self._walk(text, filename, base_dir or Path.cwd(), [])
+        if not st.bundles and not st.diags:
+            st.error("empty program: the source holds no instructions", Loc(filename, 1, 1))
+        program = self._resolve()
+        if st.diags:
+            st.diags.sort(key=lambda d: (d[0], d[1]))
+            raise AssemblyError([d for _, _, d in st.diags])
+        return program
+
+    # -- pass 1 ------------------------------------------------------------------------------
+
+    def _walk(self, text: str, file: str, base_dir: Path, stack: list[str]) -> None:
+        st = self.st
+        for n, line in enumerate(text.split("\n"), start=1):
+            st.lines[(file, n)] = line
+        chunks, split_errors = split_statements(text, file)
+        for d in split_errors:
+            st.order += 1
+            st.diags.append((st.order, d.col or 0, d))
+        conds: list[_Cond] = []
+        for chunk in chunks:
+            st.order += 1
+            active = not conds or conds[-1].active
+            if not active and not CONDITIONAL_RE.match(chunk.text):
+                continue  # skipped like a preprocessor: not even parsed
+            parsed = parse_chunk(chunk)
+            if isinstance(parsed, Diagnostic):
+                st.diags.append((st.order, parsed.col or 0, parsed))
+                continue
+            item = parsed.item
+            if isinstance(item, Directive) and item.name in ("if", "ifdef", "ifndef", "elif", "else", "endif"):
+                self._conditional(item, conds)
+                continue
+            if not active:
+                continue
+            for name, loc in parsed.labels:
+                self._define_label(name, loc)
+            if item is None:
+                continue
+            if isinstance(item, Directive):
+                self._directive(item, base_dir, stack, chunk)
+            else:
+                instrs = item.instrs if isinstance(item, Bundle) else [item]
+                self._add_bundle(instrs, item.loc, chunk)
+        for c in conds:
+            st.error(".if without a matching .endif", c.loc)
+
+    def _conditional(self, d: Directive, conds: list[_Cond]) -> None:
+        st = self.st
+        parent_active = not conds or conds[-1].active
+        if d.name in ("if", "ifdef", "ifndef"):
+            value = False
+            if parent_active:
+                value = self._condition(d)
+            conds.append(_Cond(parent_active and value, value, parent_active, d.loc))
+            return
+        if not conds:
+            st.error(f".{d.name} without a matching .if", d.loc)
+            return
+        top = conds[-1]
+        if d.name == "endif":
+            conds.pop()
+            return
+        if top.seen_else:
+            st.error(f".{d.name} after .else (opened at line {top.loc.line})", d.loc)
+            return
+        if d.name == "else":
+            top.seen_else = True
+            top.active = top.parent_active and not top.taken
+            top.taken = True
+            return
+        value = False  # .elif
+        if top.parent_active and not top.taken:
+            value = self._condition(d)
+        top.active = top.parent_active and not top.taken and value
+        top.taken = top.taken or value
+
+    def _condition(self, d: Directive) -> bool:
+        if d.name in ("ifdef", "ifndef"):
+            if len(d.args) != 1 or d.args[0].kind != "expr" or d.args[0].value[0] != "name":
+                self.st.error(f".{d.name} takes one symbol name", d.loc)
+                return False
+            known = self._is_defined(d.args[0].value[1])
+            return known if d.name == "ifdef" else not known
+        if len(d.args) != 1 or d.args[0].kind != "expr":
+            self.st.error(f".{d.name} takes one expression", d.loc)
+            return False
+        value = self._eval(d.args[0].value, d.args[0].loc, allow_labels=False)
+        return bool(value) if value is not None else False
+
+    def _is_defined(self, name: str) -> bool:
+        return name in self.st.symbols or name in self.st.aliases
+
+    def _define_label(self, name: str, loc: Loc) -> None:
+        st = self.st
+        if register_index(name, st.aliases) is not None:
+            st.error(f"'{name}' is a register name and cannot be a label", loc)
+            return
+        if name in st.symbols:
+            prev = st.symbols[name]
+            where = f" (first defined at {prev.loc.file}:{prev.loc.line})" if prev.loc else ""
+            st.error(f"duplicate label '{name}'{where}", loc)
+            return
+        addr = len(st.bundles) if st.section == "text" else len(st.data)
+        st.symbols[name] = _Symbol(addr, st.section, loc)
+
+    def _add_bundle(self, instrs: list[Instr], loc: Loc, chunk: Chunk) -> None:
+        st = self.st
+        if st.section != "text":
+            st.error("instructions belong in .text; this follows a .data directive", loc)
+            return
+        if st.proc is None:
+            st.error("which processor? give --proc os|ic|sc or write `.proc os|ic|sc` "
+                     "before the first instruction", loc)
+            st.proc = "?"
+        st.bundles.append(_PendingBundle(instrs, loc, chunk.source_lines[0].strip(), st.order))
+
+    def _directive(self, d: Directive, base_dir: Path, stack: list[str], chunk: Chunk) -> None:
+        st = self.st
+        name, args = d.name, d.args
+        if name not in DIRECTIVES:
+            close = difflib.get_close_matches(name, DIRECTIVES, n=1)
+            hint = f" (did you mean .{close[0]}?)" if close else ""
+            st.error(f"unknown directive .{name}{hint}", d.loc)
+            return
+        if name == "proc":
+            if len(args) != 1 or args[0].kind != "expr" or args[0].value[0] != "name" \
+                    or args[0].value[1] not in PROCESSORS:
+                st.error(".proc takes one of os, ic, sc", d.loc)
+                return
+            want = args[0].value[1]
+            if st.proc not in (None, want) and st.proc != "?":
+                why = "--proc says" if st.proc_from_caller else "an earlier .proc says"
+                st.error(f".proc {want} contradicts {why} {st.proc}", d.loc)
+                return
+            if st.bundles and st.proc is None:
+                st.error(".proc must come before the first instruction", d.loc)
+            st.proc = want
+        elif name == "equ":
+            pair = self._name_value(d, "equ")
+            if pair:
+                sym, expr, loc = pair
+                if register_index(sym, st.aliases) is not None:
+                    st.error(f"'{sym}' is a register name and cannot be a constant", loc)
+                elif sym in st.symbols and st.symbols[sym].kind != "define":
+                    prev = st.symbols[sym]
+                    where = f" (first defined at {prev.loc.file}:{prev.loc.line})" if prev.loc else " (a predefined symbol)"
+                    st.error(f"'{sym}' is already defined{where}", loc)
+                else:
+                    value = self._eval(expr, d.loc, allow_labels=False)
+                    if value is not None and st.symbols.get(sym, _Symbol(0, "", None)).kind != "define":
+                        st.symbols[sym] = _Symbol(value, "equ", loc)
+        elif name == "reg":
+            pair = self._name_value(d, "reg")
+            if pair:
+                alias, expr, loc = pair
+                reg = register_index(expr[1], st.aliases) if expr[0] == "name" else None
+                if reg is None:
+                    st.error(".reg needs a register on the right (r0..r63, zero, lr or an alias)", d.loc)
+                elif register_index(alias) is not None:
+                    st.error(f"'{alias}' is already a register name", loc)
+                elif alias in st.symbols:
+                    st.error(f"'{alias}' is already a symbol", loc)
+                else:
+                    st.aliases[alias] = (reg, loc)
+        elif name == "include":
+            if len(args) != 1 or args[0].kind != "string":
+                st.error('.include takes one quoted file name: .include "file.inc"', d.loc)
+                return
+            self._include(args[0].value, args[0].loc, base_dir, stack)
+        elif name in ("text", "data"):
+            if args:
+                st.error(f".{name} takes no arguments", d.loc)
+            st.section = name
+        elif name in ("word", "float"):
+            if st.section != "data":
+                st.error(f".{name} belongs in .data (write .data first)", d.loc)
+                return
+            if not args:
+                st.error(f".{name} needs at least one value", d.loc)
+            for a in args:
+                if a.kind != "expr":
+                    st.error(f".{name} takes expressions", a.loc)
+                    continue
+                st.data.append(("i" if name == "word" else "f", a.value, a.loc, st.order))
+        elif name in ("space", "align"):
+            if st.section != "data":
+                st.error(f".{name} belongs in .data (write .data first)", d.loc)
+                return
+            if len(args) != 1 or args[0].kind != "expr":
+                st.error(f".{name} takes one number", d.loc)
+                return
+            n = self._eval(args[0].value, args[0].loc, allow_labels=False)
+            if n is None:
+                return
+            if not isinstance(n, int) or n < (0 if name == "space" else 1) or n > 1 << 20:
+                st.error(f".{name} needs a whole number in range, got {n!r}", args[0].loc)
+                return
+            count = n if name == "space" else (-len(st.data)) % n
+            st.data.extend(("i", ("int", 0), d.loc, st.order) for _ in range(count))
+        elif name == "error":
+            msg = args[0].value if args and args[0].kind == "string" else "error directive"
+            st.error(msg, d.loc)
+
+    def _name_value(self, d: Directive, what: str):
+        args = d.args
+        if len(args) == 1 and args[0].kind == "assign":
+            sym, expr = args[0].value
+            return sym, expr, args[0].loc
+        if len(args) == 2 and args[0].kind == "expr" and args[0].value[0] == "name" \
+                and args[1].kind == "expr":
+            return args[0].value[1], args[1].value, args[0].loc
+        self.st.error(f".{what} takes NAME, value (or NAME = value)", d.loc)
+        return None
+
+    def _include(self, name: str, loc: Loc, base_dir: Path, stack: list[str]) -> None:
+        st = self.st
+        candidates = [base_dir] + st.include_dirs + [kernels_dir()]
+        for d in candidates:
+            p = d / name
+            if p.is_file():
+                break
+        else:
+            searched = ", ".join(os.path.normpath(str(d)) for d in candidates)
+            st.error(f"cannot find include file '{name}' (searched: {searched})", loc)
+            return
+        key = str(p.resolve())
+        if key in stack:
+            st.error(f"include loop: '{name}' includes itself", loc)
+            return
+        if len(stack) >= MAX_INCLUDE_DEPTH:
+            st.error(f"includes nested deeper than {MAX_INCLUDE_DEPTH}", loc)
+            return
+        display = os.path.normpath(str(p))
+        try:
+            text = _read_source(p, display)
+        except AssemblyError as err:
+            for d in err.diagnostics:
+                st.diags.append((st.order, 0, d))
+            return
+        self._walk(text, display, p.parent, stack + [key])
+
+    # -- expressions ---------------------------------------------------------------------------
+
+    def _lookup(self, allow_labels: bool):
+        st = self.st
+
+        def lookup(name: str, loc: Loc):
+            if register_index(name, st.aliases) is not None:
+                raise ExprError(f"'{name}' is a register; a value is expected here", loc)
+            sym = st.symbols.get(name)
+            if sym is None:
+                if name in BUILTIN_CONSTANTS:
+                    return BUILTIN_CONSTANTS[name]
+                known = [n for n in st.symbols] + list(BUILTIN_CONSTANTS)
+                close = difflib.get_close_matches(name, known, n=1)
+                hint = f" (did you mean '{close[0]}'?)" if close else ""
+                raise ExprError(f"undefined symbol '{name}'{hint}", loc)
+            if sym.kind in ("text", "data") and not allow_labels:
+                raise ExprError(f"label '{name}' cannot be used here (only constants)", loc)
+            return sym.value
+        return lookup
+
+    def _eval(self, expr, loc: Loc, allow_labels: bool = True, order: int | None = None):
+        try:
+            return evaluate(expr, self._lookup(allow_labels), self._is_defined)
+        except ExprError as err:
+            self.st.error(err.message, err.loc or loc, order)
+            return None
+
+    # -- pass 2 --------------------------------------------------------------------------------
+
+    def _resolve(self) -> Program:
+        st = self.st
+        proc = PROCESSORS.get(st.proc or "")
+        bundles: list[tuple[Op, ...]] = []
+        smap: list[SourceLoc] = []
+        for pb in st.bundles:
+            ops = []
+            for instr in pb.instrs:
+                op = self._resolve_op(instr, proc, len(st.bundles), pb.order)
+                if op is not None:
+                    ops.append(op)
+            if proc is not None and len(ops) == len(pb.instrs):
+                for problem in check_bundle(proc, ops):
+                    st.error(problem, pb.loc, pb.order)
+            bundles.append(tuple(ops))
+            smap.append(SourceLoc(pb.loc.file, pb.loc.line, pb.text))
+        data: list[tuple[str, int | float]] = []
+        for kind, expr, loc, order in st.data:
+            v = self._eval(expr, loc, allow_labels=True, order=order)
+            if v is None:
+                data.append((kind, 0))
+            elif kind == "i":
+                if isinstance(v, float):
+                    st.error(f".word takes integers, got {v!r} (use .float)", loc, order)
+                    v = 0
+                elif not -(1 << 31) <= v < 1 << 32:
+                    st.error(f".word value {v} does not fit in 32 bits", loc, order)
+                data.append(("i", wrap32(v)))
+            else:
+                data.append(("f", float(v)))
+        labels = {n: (s.kind, int(s.value)) for n, s in st.symbols.items() if s.kind in ("text", "data")}
+        return Program(st.proc if proc else "os", bundles, data, labels, smap,
+                       {k: v for k, v in self.defines.items()})
+
+    def _resolve_op(self, instr: Instr, proc, n_bundles: int, order: int) -> Op | None:
+        st = self.st
+        opcode = OPCODES.get(instr.mnemonic)
+        if opcode is None:
+            close = difflib.get_close_matches(instr.mnemonic, list(OPCODES), n=1)
+            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            st.error(f"unknown mnemonic '{instr.mnemonic}'{hint}", instr.loc, order)
+            return None
+        if proc is not None and proc.name not in opcode.procs:
+            have = ", ".join(sorted(p.upper() for p in opcode.procs))
+            st.error(f"'{instr.mnemonic}' is not available on {proc.name.upper()} (only {have})",
+                     instr.loc, order)
+            return None
+        want = len(opcode.operands)
+        if len(instr.operands) != want:
+            st.error(f"'{instr.mnemonic}' takes {want} operand{'s' if want != 1 else ''} "
+                     f"({opcode.syntax}), got {len(instr.operands)}", instr.loc, order)
+            return None
+        args = []
+        ok = True
+        for i, (spec, operand) in enumerate(zip(opcode.operands, instr.operands), start=1):
+            value = self._operand(instr, i, spec, operand, proc, n_bundles, order)
+            if value is None:
+                ok = False
+            args.append(value)
+        return Op(instr.mnemonic, tuple(args)) if ok else None
+
+    def _operand(self, instr: Instr, i: int, spec, operand, proc, n_bundles: int, order: int):
+        st = self.st
+        where = f"operand {i} of '{instr.mnemonic}'"
+
+        def fail(msg: str, loc: Loc | None = None):
+            st.error(f"{where}: {msg}", loc or operand.loc, order)
+            return None
+
+        expr = operand.expr
+        if spec.kind in ("rd", "rs"):
+            if operand.kind != "expr" or expr[0] != "name" or register_index(expr[1], st.aliases) is None:
+                return fail("expected a register (r0..r63, zero, lr or a .reg alias)")
+            return register_index(expr[1], st.aliases)
+        if spec.kind == "mem":
+            if operand.kind != "mem":
+                return fail("expected a memory operand [reg + offset]")
+            return self._memref(expr, operand.loc, fail, order)
+        if operand.kind == "mem":
+            return fail("a memory operand [...] is not allowed here")
+        if spec.kind == "port":
+            if proc is None:
+                return None  # the missing processor is already reported
+            ports = proc.send_ports if instr.mnemonic == "send" else proc.recv_ports
+            if expr[0] != "name" or expr[1] not in ports:
+                return fail(f"expected a FIFO port of {proc.name.upper()}: {', '.join(ports)}")
+            return expr[1]
+        value = self._eval(expr, operand.loc, allow_labels=True, order=order)
+        if value is None:
+            return None
+        if spec.kind == "fimm":
+            return float(value)
+        if isinstance(value, float):
+            return fail(f"expected an integer, got {value!r}")
+        if spec.kind == "label":
+            if expr[0] == "name" and st.symbols.get(expr[1]) and st.symbols[expr[1]].kind == "data":
+                return fail(f"'{expr[1]}' is a data label, not a code label")
+            if not 0 <= value < n_bundles:
+                return fail(f"branch target {value} is outside the program (0..{n_bundles - 1})")
+            return value
+        if not -(1 << 31) <= value < 1 << 32:
+            return fail(f"immediate {value} does not fit in 32 bits")
+        return wrap32(value)
+
+    def _memref(self, expr, loc: Loc, fail, order: int):
+        st = self.st
+        regs = [(n, l) for n, l in names_in(expr) if register_index(n, st.aliases) is not None]
+        if len(regs) > 1:
+            return fail("a memory operand has one base register")
+        if not regs:
+            offset = self._eval(expr, loc, order=order)
+            base = 0
+        else:
+            reg_name = regs[0][0]
+            base = register_index(reg_name, st.aliases)
+            if expr[0] == "name":
+                offset = 0
+            elif expr[0] == "bin" and expr[1] == "add" and expr[2][0] == "name" and expr[2][1] == reg_name:
+                offset = self._eval(expr[3], loc, order=order)
+            elif expr[0] == "bin" and expr[1] == "add" and expr[3][0] == "name" and expr[3][1] == reg_name:
+                offset = self._eval(expr[2], loc, order=order)
+            elif expr[0] == "bin" and expr[1] == "sub" and expr[2][0] == "name" and expr[2][1] == reg_name:
+                offset = self._eval(expr[3], loc, order=order)
+                offset = -offset if offset is not None else None
+            else:
+                return fail("write a memory operand as [reg], [reg + offset], [reg - offset] or [offset]")
+        if offset is None:
+            return None
+        if isinstance(offset, float):
+            return fail(f"a memory offset must be an integer, got {offset!r}")
+        if not -(1 << 31) <= offset < 1 << 31:
+            return fail(f"memory offset {offset} does not fit in 32 bits")
+        return (base, offset)
+
+
+def assemble_file(path: str | Path, proc: str | None = None,
+                  defines: dict[str, int | float] | None = None,
+                  include_dirs: list[str | Path] | None = None) -> Program:
+    """Assemble a source file; raises AssemblyError listing every error."""
+    return Assembler(proc, defines, include_dirs).assemble_file(path)
+
+
+def assemble_text(text: str, proc: str | None = None, filename: str = "<string>",
+                  defines: dict[str, int | float] | None = None,
+                  include_dirs: list[str | Path] | None = None) -> Program:
+    """Assemble source text (tests, generated kernels); raises AssemblyError."""
+    return Assembler(proc, defines, include_dirs).assemble_text(text, filename)

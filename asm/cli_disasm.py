@@ -1,0 +1,25 @@
+"""Disassemble an object file: `netsushisen disasm FILE.o [-o OUT.s]`.
+
+The output reassembles to the identical program (bundles, data and labels)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from netsushisen.asm.disasm import disassemble
+from netsushisen.asm.objects import Program
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("object", help="object file written by `netsushisen asm`")
+    parser.add_argument("-o", dest="output", help="write the source here instead of stdout")
+
+
+def run(args: argparse.Namespace) -> int:
+    text = disassemble(Program.load(args.object))
+    if args.output:
+        Path(args.output).write_text(text)
+    else:
+        print(text, end="")
+    return 0

@@ -1,0 +1,39 @@
+"""The disassembler: a Program back to source that reassembles to the identical program.
+
+Labels come back from the symbol table (branch targets print as label names); constants and
+aliases do not survive assembly, so numbers and register names print as themselves. Floats print
+with `repr`, which round-trips every double exactly.
+"""
+
+from __future__ import annotations
+
+from netsushisen.asm.objects import Program, format_float
+
+
+def disassemble(program: Program) -> str:
+    labels = program.code_labels()
+    text_labels: dict[int, list[str]] = {}
+    data_labels: dict[int, list[str]] = {}
+    for name, (section, addr) in sorted(program.labels.items()):
+        (text_labels if section == "text" else data_labels).setdefault(addr, []).append(name)
+    out = [f".proc {program.proc}"]
+    if program.data or data_labels:
+        out.append(".data")
+        for addr, (kind, value) in enumerate(program.data):
+            for name in data_labels.get(addr, []):
+                out.append(f"{name}:")
+            shown = format_float(value) if kind == "f" else str(value)
+            out.append(f"    .{'float' if kind == 'f' else 'word'} {shown}")
+        for name in data_labels.get(len(program.data), []):  # a label at the end of data
+            out.append(f"{name}:")
+        out.append(".text")
+    for addr, bundle in enumerate(program.bundles):
+        for name in text_labels.get(addr, []):
+            out.append(f"{name}:")
+        if len(bundle) == 1:
+            out.append(f"    {bundle[0].format(labels)}")
+        else:
+            out.append("    { " + " ; ".join(op.format(labels) for op in bundle) + " }")
+    for name in text_labels.get(len(program.bundles), []):
+        out.append(f"{name}:")
+    return "\n".join(out) + "\n"

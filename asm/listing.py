@@ -1,0 +1,121 @@
+"""Listings and static ILP: what a kernel writer reads to judge a schedule.
+
+A listing shows every bundle with its address, the operations placed in their unit slots, and
+the source line. Static ILP counts what the schedule offers before any stall: operations per
+bundle, how full each unit class's slots are, and how much of the register-file ports it uses.
+(The emulator's statistics give the dynamic ILP, after stalls.)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from netsushisen.asm.checker import bundle_usage
+from netsushisen.asm.objects import Op, Program, format_float
+
+
+def slot_assignment(program: Program, bundle: tuple[Op, ...]) -> list[tuple[str, Op | None]]:
+    """The bundle's ops placed in unit slots (int0, int1, fp0, ... / gen0) in written order;
+    empty slots shown as None so a listing shows every slot."""
+    proc = program.processor
+    slots: dict[str, list[Op]] = {u: [] for u in proc.units}
+    for op in bundle:
+        if op.opcode.kind == "nop":
+            continue
+        slots[proc.unit(op.opcode.unit)].append(op)
+    out: list[tuple[str, Op | None]] = []
+    for unit, count in proc.units.items():
+        placed = slots[unit]
+        for i in range(count):
+            out.append((f"{unit}{i}", placed[i] if i < len(placed) else None))
+        for j, extra in enumerate(placed[count:], start=count):  # only in unchecked programs
+            out.append((f"{unit}{j}!", extra))
+    return out
+
+
+def listing(program: Program) -> str:
+    """Address, slots and source of every bundle; then the data words."""
+    labels = program.code_labels()
+    rows = [f"; listing of a {program.processor.title} program: "
+            f"{len(program.bundles)} bundles, {len(program.data)} data words"]
+    by_addr: dict[int, list[str]] = {}
+    for name, (section, addr) in sorted(program.labels.items()):
+        if section == "text":
+            by_addr.setdefault(addr, []).append(name)
+    for addr, bundle in enumerate(program.bundles):
+        for name in by_addr.get(addr, []):
+            rows.append(f"{name}:")
+        if program.processor.vliw:
+            cells = [op.format(labels) if op else "-" for _, op in slot_assignment(program, bundle)]
+            text = " | ".join(cells) if bundle else "(nop)"
+        else:
+            text = " ; ".join(op.format(labels) for op in bundle) or "nop"
+        loc = program.source_map[addr] if addr < len(program.source_map) else None
+        where = f"{loc.file}:{loc.line}" if loc else ""
+        rows.append(f"{addr:5d}  {text:<60s} ; {where}  {loc.text if loc else ''}".rstrip())
+    if program.data:
+        rows.append("; data (local memory)")
+        data_labels: dict[int, list[str]] = {}
+        for name, (section, addr) in sorted(program.labels.items()):
+            if section == "data":
+                data_labels.setdefault(addr, []).append(name)
+        for addr, (kind, value) in enumerate(program.data):
+            for name in data_labels.get(addr, []):
+                rows.append(f"{name}:")
+            shown = format_float(value) if kind == "f" else str(value)
+            rows.append(f"{addr:5d}  .{'float' if kind == 'f' else 'word'} {shown}")
+    return "\n".join(rows) + "\n"
+
+
+@dataclass
+class StaticIlp:
+    proc: str
+    bundles: int
+    ops: int
+    ops_per_bundle: float
+    slot_fill: dict[str, float]
+    """Share of each unit class's slots holding an op: ops of the class / (bundles × units)."""
+    reads_per_bundle: float
+    writes_per_bundle: float
+    read_port_use: float
+    """Mean distinct register reads per bundle / read ports."""
+    write_port_use: float
+    max_reads: int
+    max_writes: int
+
+    def as_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+def static_ilp(program: Program) -> StaticIlp:
+    proc = program.processor
+    n = len(program.bundles)
+    ops = 0
+    by_unit = {u: 0 for u in proc.units}
+    reads = writes = max_r = max_w = 0
+    for bundle in program.bundles:
+        u = bundle_usage(proc, bundle)
+        ops += u["ops"]
+        for unit, c in u["units"].items():
+            by_unit[unit] = by_unit.get(unit, 0) + c
+        reads += len(u["reads"])
+        writes += len(u["writes"])
+        max_r, max_w = max(max_r, len(u["reads"])), max(max_w, len(u["writes"]))
+    d = max(n, 1)
+    return StaticIlp(
+        proc=proc.name, bundles=n, ops=ops, ops_per_bundle=ops / d,
+        slot_fill={u: by_unit[u] / (d * proc.units[u]) for u in proc.units},
+        reads_per_bundle=reads / d, writes_per_bundle=writes / d,
+        read_port_use=reads / (d * proc.read_ports), write_port_use=writes / (d * proc.write_ports),
+        max_reads=max_r, max_writes=max_w,
+    )
+
+
+def format_static_ilp(s: StaticIlp, name: str = "") -> str:
+    fills = "  ".join(f"{u} {100 * f:5.1f}%" for u, f in s.slot_fill.items())
+    head = f"{name}: " if name else ""
+    return (f"{head}{s.proc.upper()}  {s.bundles} bundles, {s.ops} ops, "
+            f"{s.ops_per_bundle:.2f} ops/bundle\n"
+            f"  slot fill   {fills}\n"
+            f"  read ports  {s.reads_per_bundle:.2f}/bundle ({100 * s.read_port_use:.1f}%, max {s.max_reads})"
+            f"   write ports {s.writes_per_bundle:.2f}/bundle ({100 * s.write_port_use:.1f}%, max {s.max_writes})")

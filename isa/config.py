@@ -1,0 +1,361 @@
+"""The machine configuration: every number the paper leaves open, in one place.
+
+One dataclass tree (`MachineConfig`) holds every timing and size parameter — unit latencies,
+t_r / t_c / t_g, cache and resident sizes, FIFO depths, link latency, PE count, precision, grid
+and pre-pass settings. It loads from TOML, every field can be overridden on the command line as
+`--set path.to.field=value`, and it is written into every statistics file so that a run can be
+reproduced from its output alone. Defaults are the paper's where it fixes them (t_c = 2·t_r,
+t_g = 8·t_r, direct-mapped cache with 64-byte blocks) and documented choices elsewhere.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from netsushisen.errors import ConfigError, Diagnostic
+
+
+@dataclass
+class CoreConfig:
+    """Timing knobs of one stage processor (OS, IC or SC)."""
+
+    latency: dict[str, int] = field(default_factory=dict)
+    """Per-mnemonic overrides of the opcode table's default latencies (e.g. {"fdiv": 20})."""
+    taken_branch_penalty: int = 1
+    """Extra cycles lost when a branch or jump is taken (no delay slots, no prediction)."""
+    local_words: int = 1 << 16
+    """Private local memory, in words: OS keeps the voxel data here; IC/SC keep kernel tables."""
+
+
+@dataclass
+class MemoryConfig:
+    """IC's and SC's two-level memory (MACHINE.md §5): resident memory + direct-mapped cache in
+    front of the shared global memory (ICGM for IC, SCGM for SC)."""
+
+    t_r: int = 1
+    """Resident (and local) memory access time, cycles."""
+    t_c: int = 2
+    """Cache hit access time, cycles (paper: 2·t_r)."""
+    t_g: int = 8
+    """Global memory access time on a cache miss, cycles (paper: 8·t_r)."""
+    block_bytes: int = 64
+    """Cache block size (paper: 64 bytes)."""
+    cache_bytes: int = 8192
+    """Cache capacity in bytes; ignored when `cache_share` is set and a scene gives a database."""
+    resident_bytes: int = 8192
+    """Resident memory capacity in bytes; ignored when `resident_share` is set."""
+    cache_share: float | None = None
+    """Cache size as a share of the primitive database (0..1), as in the paper's sweeps."""
+    resident_share: float | None = None
+    """Resident size as a share of the primitive database (0..1)."""
+
+
+@dataclass
+class RingConfig:
+    """The CMU ring joining OS → IC → SC → OS inside a PE (MACHINE.md §2)."""
+
+    fifo_depth: int = 64
+    """Depth of every send and receive FIFO, in words."""
+    link_latency: int = 1
+    """Cycles for a word to cross one link between adjacent CMUs."""
+    buffer_pool: bool = True
+    """Structured buffer pool: separate buffer classes per message class so that no class can
+    block another (the CAP-II scheme the paper cites). Off: one shared FIFO per link, which can
+    deadlock under load."""
+    link_buffer_words: int = 4
+    """Words each link channel holds (the CMU's flit buffers, words in flight included). With the
+    buffer pool on, every buffer class has its own channel of this size on every link. A channel
+    streams one word per cycle only if it holds at least link_latency + 1 words."""
+    deadlock_cycles: int = 10000
+    """Cycles with no processor of a PE making progress, all waiting on FIFOs, before the run
+    stops with a deadlock report."""
+
+
+@dataclass
+class GridConfig:
+    """The two-level uniform space subdivision OS traverses (MACHINE.md §3)."""
+
+    top_resolution: int = 0
+    """Voxels per axis of the top level; 0 = choose from the primitive count and OS memory."""
+    sub_resolution: int = 0
+    """Voxels per axis inside a subdivided top-level voxel; 0 = choose automatically."""
+    subdivide_threshold: int = 8
+    """A top-level voxel with more primitives than this is subdivided."""
+
+
+@dataclass
+class PrepassConfig:
+    """The resident pre-pass (MACHINE.md §5): a coarse render counts references per primitive."""
+
+    share: float = 0.01
+    """Share of the main pass's eye rays the pre-pass shoots (paper: about 1 %)."""
+
+
+@dataclass
+class RenderConfig:
+    """Ray-tree rules (DESIGN.md, SPD rendering rules)."""
+
+    max_depth: int = 5
+    """Maximum ray-tree depth; the eye ray has depth 1."""
+    min_weight: float = 0.0
+    """Contribution cut-off: rays whose weight falls below this are not spawned (0 = none)."""
+    epsilon: float = 1e-4
+    """Self-intersection guard: reflection, refraction and shadow rays start at t_min = epsilon x
+    the largest extent of the scene's grid (rounded to the precision once)."""
+
+
+@dataclass
+class MachineConfig:
+    pes: int = 1
+    """Number of processing elements; they share ICGM and SCGM."""
+    precision: str = "fp32"
+    """Floating-point format of the machine: fp32 (the machine's) or fp64 (accuracy studies)."""
+    distribution: str = "static"
+    """How DIS hands primary rays to PEs: static (interleaved) or dynamic (load-aware)."""
+    os: CoreConfig = field(default_factory=CoreConfig)
+    ic: CoreConfig = field(default_factory=CoreConfig)
+    sc: CoreConfig = field(default_factory=CoreConfig)
+    ic_memory: MemoryConfig = field(default_factory=MemoryConfig)
+    sc_memory: MemoryConfig = field(default_factory=MemoryConfig)
+    ring: RingConfig = field(default_factory=RingConfig)
+    grid: GridConfig = field(default_factory=GridConfig)
+    prepass: PrepassConfig = field(default_factory=PrepassConfig)
+    render: RenderConfig = field(default_factory=RenderConfig)
+    max_cycles: int = 0
+    """Stop a run after this many cycles (0 = no limit)."""
+
+    @property
+    def word_bytes(self) -> int:
+        """Bytes per machine word: the FP format sets the word width (addresses count words)."""
+        return 4 if self.precision == "fp32" else 8
+
+    def validate(self, source: str = "config") -> None:
+        """Reject impossible configurations with one message per problem (named after `source`)."""
+        problems: list[str] = []
+        if self.pes < 1:
+            problems.append(f"pes must be at least 1, got {self.pes}")
+        if self.precision not in ("fp32", "fp64"):
+            problems.append(f"precision must be fp32 or fp64, got {self.precision!r}")
+        if self.distribution not in ("static", "dynamic"):
+            problems.append(f"distribution must be static or dynamic, got {self.distribution!r}")
+        for name in ("ic_memory", "sc_memory"):
+            mem: MemoryConfig = getattr(self, name)
+            for t in ("t_r", "t_c", "t_g"):
+                if getattr(mem, t) < 1:
+                    problems.append(f"{name}.{t} must be at least 1 cycle, got {getattr(mem, t)}")
+            b = mem.block_bytes
+            if b < self.word_bytes or b & (b - 1):
+                problems.append(f"{name}.block_bytes must be a power of two of at least one word, got {b}")
+            for size in ("cache_bytes", "resident_bytes"):
+                if getattr(mem, size) < 0:
+                    problems.append(f"{name}.{size} must not be negative")
+            if mem.cache_bytes % max(b, 1):
+                problems.append(f"{name}.cache_bytes ({mem.cache_bytes}) must be a multiple of block_bytes ({b})")
+            for share in ("cache_share", "resident_share"):
+                v = getattr(mem, share)
+                if v is not None and not 0.0 <= v <= 1.0:
+                    problems.append(f"{name}.{share} must lie in 0..1, got {v}")
+        for name in ("os", "ic", "sc"):
+            core: CoreConfig = getattr(self, name)
+            if core.taken_branch_penalty < 0:
+                problems.append(f"{name}.taken_branch_penalty must not be negative")
+            if core.local_words < 0:
+                problems.append(f"{name}.local_words must not be negative")
+            for op, lat in core.latency.items():
+                if not isinstance(lat, int) or lat < 1:
+                    problems.append(f"{name}.latency.{op} must be a whole number of cycles >= 1, got {lat!r}")
+                problem = _latency_override_problem(name, op)
+                if problem:
+                    problems.append(problem)
+        if self.ring.fifo_depth < 1:
+            problems.append(f"ring.fifo_depth must be at least 1, got {self.ring.fifo_depth}")
+        if self.ring.link_latency < 1:
+            problems.append(f"ring.link_latency must be at least 1, got {self.ring.link_latency}")
+        if self.ring.link_buffer_words < 1:
+            problems.append(f"ring.link_buffer_words must be at least 1, got {self.ring.link_buffer_words}")
+        if self.ring.deadlock_cycles < 1:
+            problems.append("ring.deadlock_cycles must be at least 1")
+        if not self.render.epsilon >= 0.0:
+            problems.append(f"render.epsilon must not be negative, got {self.render.epsilon}")
+        if self.render.max_depth < 1:
+            problems.append(f"render.max_depth must be at least 1, got {self.render.max_depth}")
+        if not 0.0 < self.prepass.share <= 1.0:
+            problems.append(f"prepass.share must lie in (0, 1], got {self.prepass.share}")
+        if problems:
+            raise ConfigError([Diagnostic(p, file=source) for p in problems])
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+def _latency_override_problem(proc: str, mnemonic: str) -> str | None:
+    """Why `<proc>.latency.<mnemonic>` cannot be overridden (None when it can).
+
+    Load access times of IC and SC come from their memory configuration (ld and ldr: t_r; ldg:
+    t_c on a hit, t_g on a miss), so a latency override there would be a second, conflicting
+    source of truth. OS's local `ld` has no memory configuration: its access time is the `ld`
+    latency (table default, overridable as os.latency.ld).
+    """
+    from netsushisen.isa.opcodes import OPCODES  # late: opcodes imports nothing from here
+
+    op = OPCODES.get(mnemonic)
+    if op is None:
+        return f"{proc}.latency.{mnemonic}: unknown mnemonic {mnemonic!r}"
+    if proc not in op.procs:
+        return f"{proc}.latency.{mnemonic}: {proc.upper()} has no {mnemonic!r} instruction"
+    if op.kind == "load" and proc in ("ic", "sc"):
+        return (f"{proc}.latency.{mnemonic}: {proc.upper()} load times come from {proc}_memory "
+                "(t_r for ld/ldr, t_c/t_g for ldg)")
+    return None
+
+
+# ---------------------------------------------------------------------------------------------
+# Loading, overriding, dumping
+
+
+def _convert(value: Any, tp: Any, path: str) -> Any:
+    """Coerce a TOML or command-line value to the field's declared type, or explain why not."""
+    origin = typing.get_origin(tp)
+    args = typing.get_args(tp)
+    if origin is typing.Union or str(origin) == "<class 'types.UnionType'>":
+        if value is None or (isinstance(value, str) and value.lower() in ("none", "")):
+            if type(None) in args:
+                return None
+        inner = [a for a in args if a is not type(None)]
+        return _convert(value, inner[0], path)
+    if tp is bool:
+        if isinstance(value, bool):
+            return value
+        if isinstance(value, str) and value.lower() in ("true", "1", "yes", "on"):
+            return True
+        if isinstance(value, str) and value.lower() in ("false", "0", "no", "off"):
+            return False
+        raise ConfigError(f"{path}: expected true or false, got {value!r}")
+    if tp is int:
+        if isinstance(value, bool):
+            raise ConfigError(f"{path}: expected a whole number, got {value!r}")
+        if isinstance(value, int):
+            return value
+        try:
+            return int(str(value), 0)
+        except ValueError:
+            raise ConfigError(f"{path}: expected a whole number, got {value!r}") from None
+    if tp is float:
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            return float(value)
+        try:
+            return float(str(value))
+        except ValueError:
+            raise ConfigError(f"{path}: expected a number, got {value!r}") from None
+    if tp is str:
+        return str(value)
+    if origin is dict:
+        if not isinstance(value, dict):
+            raise ConfigError(f"{path}: expected a table, got {value!r}")
+        return {str(k): _convert(v, args[1], f"{path}.{k}") for k, v in value.items()}
+    raise ConfigError(f"{path}: unsupported type {tp}")
+
+
+def _apply(obj: Any, data: dict[str, Any], prefix: str) -> None:
+    hints = typing.get_type_hints(type(obj))
+    names = {f.name for f in dataclasses.fields(obj)}
+    for key, value in data.items():
+        path = f"{prefix}{key}"
+        if key not in names:
+            raise ConfigError(f"unknown configuration field {path!r}; known: "
+                              + ", ".join(sorted(f"{prefix}{n}" for n in names)))
+        current = getattr(obj, key)
+        if dataclasses.is_dataclass(current):
+            if not isinstance(value, dict):
+                raise ConfigError(f"{path}: expected a table of fields, got {value!r}")
+            _apply(current, value, path + ".")
+        else:
+            setattr(obj, key, _convert(value, hints[key], path))
+
+
+def load_config(path: str | Path | None = None, overrides: list[str] | None = None) -> MachineConfig:
+    """Defaults, then a TOML file, then `field.path=value` overrides; validated."""
+    config = MachineConfig()
+    if path is not None:
+        p = Path(path)
+        try:
+            data = tomllib.loads(p.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise ConfigError(Diagnostic("no such configuration file", file=str(p))) from None
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
+            raise ConfigError(Diagnostic(f"not valid TOML: {err}", file=str(p))) from None
+        _apply(config, data, "")
+    for item in overrides or []:
+        apply_override(config, item)
+    config.validate(str(path) if path is not None else "config")
+    return config
+
+
+def apply_override(config: MachineConfig, item: str) -> None:
+    """Apply one `--set path.to.field=value` (dict fields take `ic.latency.fdiv=20`)."""
+    if "=" not in item:
+        raise ConfigError(f"--set {item!r}: expected path.to.field=value")
+    path, _, raw = item.partition("=")
+    parts = path.strip().split(".")
+    obj: Any = config
+    for i, part in enumerate(parts[:-1]):
+        if isinstance(obj, dict):
+            raise ConfigError(f"--set {item!r}: {'.'.join(parts[:i + 1])} is not a table")
+        if not dataclasses.is_dataclass(obj) or part not in {f.name for f in dataclasses.fields(obj)}:
+            raise ConfigError(f"--set {item!r}: unknown configuration field {'.'.join(parts[:i + 1])!r}")
+        nxt = getattr(obj, part)
+        if isinstance(nxt, dict):  # e.g. ic.latency.fdiv=20
+            if i != len(parts) - 2:
+                raise ConfigError(f"--set {item!r}: too many parts after {part!r}")
+            nxt[parts[-1]] = _convert(raw, int, path)
+            return
+        obj = nxt
+    data: Any = raw
+    try:  # accept TOML literals (true, 0.3, "x"); fall back to the raw string
+        data = tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        pass
+    _apply(obj, {parts[-1]: data}, ".".join(parts[:-1]) + "." if len(parts) > 1 else "")
+
+
+def dump_toml(config: MachineConfig) -> str:
+    """The configuration as TOML that `load_config` reads back to an equal config."""
+    lines: list[str] = []
+
+    def scalar(v: Any) -> str:
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, str):
+            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        return repr(v)
+
+    def emit(obj: Any, table: str) -> None:
+        subtables = []
+        doc_lines = []
+        for f in dataclasses.fields(obj):
+            v = getattr(obj, f.name)
+            if dataclasses.is_dataclass(v) or isinstance(v, dict):
+                subtables.append((f.name, v))
+            elif v is None:
+                doc_lines.append(f"# {f.name} = (unset)")
+            else:
+                doc_lines.append(f"{f.name} = {scalar(v)}")
+        if doc_lines:
+            if table:
+                lines.append(f"\n[{table}]")
+            lines.extend(doc_lines)
+        for name, v in subtables:
+            full = f"{table}.{name}" if table else name
+            if isinstance(v, dict):
+                lines.append(f"\n[{full}]")
+                lines.extend(f"{k} = {scalar(x)}" for k, x in sorted(v.items()))
+            else:
+                emit(v, full)
+
+    emit(config, "")
+    return "\n".join(lines).lstrip("\n") + "\n"

@@ -1,0 +1,125 @@
+"""assemble → disassemble → assemble gives the identical program (hypothesis), and no mutated
+source ever makes the assembler raise anything but its own located error (fuzz)."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from netsushisen.asm.assembler import AssemblyError, assemble_file, assemble_text, kernels_dir
+from netsushisen.asm.checker import check_bundle
+from netsushisen.asm.disasm import disassemble
+from netsushisen.asm.objects import Op, Program
+from netsushisen.errors import NetsushisenError
+from netsushisen.isa.opcodes import opcodes_for
+from netsushisen.isa.processors import PROCESSORS
+
+SOURCES = sorted(kernels_dir().rglob("*.s"))
+
+INTS = st.integers(-(2 ** 31), 2 ** 31 - 1)
+FLOATS = st.floats(allow_nan=True, allow_infinity=True)
+REGS = st.integers(0, 63)
+LABEL_NAMES = st.from_regex(r"L_[a-z0-9_]{1,6}", fullmatch=True)
+
+
+@st.composite
+def programs(draw, proc: str) -> Program:
+    p = PROCESSORS[proc]
+    available = [o for o in opcodes_for(proc).values() if o.kind != "nop"]
+    n = draw(st.integers(1, 10))
+
+    def arg(kind: str, mnemonic: str):
+        if kind in ("rd", "rs"):
+            return draw(REGS)
+        if kind == "imm":
+            return draw(INTS)
+        if kind == "fimm":
+            return draw(FLOATS)
+        if kind == "mem":
+            return (draw(REGS), draw(INTS))
+        if kind == "label":
+            return draw(st.integers(0, n - 1))
+        ports = p.send_ports if mnemonic == "send" else p.recv_ports
+        return draw(st.sampled_from(ports))
+
+    bundles = []
+    for _ in range(n):
+        ops: list[Op] = []
+        for _ in range(draw(st.integers(0, p.issue_width))):
+            oc = draw(st.sampled_from(available))
+            op = Op(oc.mnemonic, tuple(arg(o.kind, oc.mnemonic) for o in oc.operands))
+            if not check_bundle(p, ops + [op]):
+                ops.append(op)
+        bundles.append(tuple(ops) or (Op("halt"),))
+    data = draw(st.lists(st.one_of(INTS.map(lambda v: ("i", v)), FLOATS.map(lambda v: ("f", v))),
+                         max_size=6))
+    names = draw(st.lists(LABEL_NAMES, unique=True, max_size=5))
+    labels = {}
+    for name in names:
+        if data and draw(st.booleans()):
+            labels[name] = ("data", draw(st.integers(0, len(data))))
+        else:
+            labels[name] = ("text", draw(st.integers(0, n)))
+    return Program(proc, bundles, data, labels)
+
+
+@pytest.mark.parametrize("proc", ["os", "ic", "sc"])
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data())
+def test_disassembly_reassembles_identically(proc, data):
+    original = data.draw(programs(proc))
+    source = disassemble(original)
+    first = assemble_text(source, filename="gen.s")
+    assert first.same_program(original), source
+    second = assemble_text(disassemble(first), filename="gen2.s")
+    assert second.same_program(first)
+
+
+@pytest.mark.parametrize("path", SOURCES, ids=[p.name for p in SOURCES])
+def test_real_sources_round_trip(path):
+    program = assemble_file(path)
+    again = assemble_text(disassemble(program), filename="re.s")
+    assert again.same_program(program)
+
+
+MUTATION_ALPHABET = list("{}[]();:,.#\"+-*/<>=&|^!~ \n\t0123456789abcxyzr") + ["\x00", "é", "\\"]
+
+
+@st.composite
+def mutations(draw):
+    path = draw(st.sampled_from(SOURCES))
+    text = path.read_text()
+    for _ in range(draw(st.integers(1, 6))):
+        kind = draw(st.sampled_from(["delete", "insert", "replace", "dup_line", "drop_line", "truncate"]))
+        i = draw(st.integers(0, max(len(text) - 1, 0)))
+        if kind == "delete":
+            text = text[:i] + text[i + draw(st.integers(1, 8)):]
+        elif kind == "insert":
+            text = text[:i] + draw(st.sampled_from(MUTATION_ALPHABET)) + text[i:]
+        elif kind == "replace":
+            text = text[:i] + draw(st.sampled_from(MUTATION_ALPHABET)) + text[i + 1:]
+        else:
+            lines = text.split("\n")
+            j = draw(st.integers(0, len(lines) - 1))
+            if kind == "dup_line":
+                lines.insert(j, lines[j])
+            elif kind == "drop_line":
+                del lines[j]
+            else:
+                lines = lines[:j]
+            text = "\n".join(lines)
+    return path.name, text
+
+
+@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(case=mutations())
+def test_mutated_sources_never_escape_as_tracebacks(case):
+    name, text = case
+    try:
+        assemble_text(text, filename=name)
+    except AssemblyError as err:
+        assert err.diagnostics and all(d.message for d in err.diagnostics)
+        assert "Traceback" not in err.format()
+    except NetsushisenError:
+        pass

@@ -1,0 +1,206 @@
+"""The hard numerical cases, each in fp32 and fp64, on the tiny scenes in tests/scenes/ (kept for
+the kernel writers): grazing tangent rays, shared edges and vertices, a far tiny sphere,
+axis-parallel rays on voxel boundaries, self-intersection of secondary rays, total internal
+reflection. Also: fp32 stays fp32 (no silent float64 promotion)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from netsushisen.host.golden import render
+from netsushisen.host.grid import build_grid
+from netsushisen.host.nff import parse_nff, read_nff
+from netsushisen.host.rays import primary_rays
+from netsushisen.host.shapes import build_shape_data, ic_rays, intersect
+from netsushisen.host.traversal import OSGrid, trace
+from netsushisen.isa.config import load_config
+
+SCENES = Path(__file__).parent / "scenes"
+PRECISIONS = ["fp32", "fp64"]
+
+
+def config(precision, *extra):
+    return load_config(None, [f"precision={precision}", *extra])
+
+
+def trace_rays(scene, precision, o, d, t_min=0.0, cfg=None, **kw):
+    dt = np.float32 if precision == "fp32" else np.float64
+    grid = build_grid(scene, cfg or config(precision))
+    sd = build_shape_data(scene, precision)
+    o = np.ascontiguousarray(np.asarray(o, np.float64).T.astype(dt))
+    d = np.asarray(d, np.float64)
+    d = np.ascontiguousarray((d / np.linalg.norm(d, axis=1, keepdims=True)).T.astype(dt))
+    return trace(OSGrid.of(grid, dt), sd, ic_rays(o, d, np.full(o.shape[1], t_min, dt)), **kw), grid
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
+def test_grazing_ray_tangent_to_sphere(precision):
+    sc = read_nff(SCENES / "grazing_sphere.nff")  # sphere centre (1,0,0) r=1; x=0 is tangent
+    tr, _ = trace_rays(sc, precision, [[0, 0, -5], [-1e-3, 0, -5], [1e-3, 0, -5]], [[0, 0, 1]] * 3)
+    assert tr.prim[0] == 0 and tr.t[0] == 5.0  # disc = 0 exactly: a hit at the tangent point
+    assert tr.prim[1] == -1 and tr.prim[2] == 0
+    r = render(sc, config(precision), res=5)
+    assert r.hit_ids[2, 2] == 0 and r.hit_ids[2, 1] == -1
+    assert np.isfinite(r.image).all()
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
+def test_shared_edges_and_vertex_hit_exactly_one_triangle(precision):
+    sc = read_nff(SCENES / "shared_edge.nff")  # 8 triangles fanned around the origin
+    r = render(sc, config(precision), res=5)
+    inner = r.hit_ids[1:4, 1:4]
+    assert np.all(inner >= 0)  # no cracks: the central ray passes exactly through the shared vertex
+    # a fine set of rays along the spokes and through the vertex from many directions
+    s = np.linspace(-1.5, 1.5, 13)
+    pts = np.concatenate([np.column_stack([s, 0 * s]), np.column_stack([0 * s, s]),
+                          np.column_stack([s, s]), np.column_stack([s, -s])])
+    o = np.column_stack([pts, np.full(len(pts), -4.0)])
+    for d in ([0, 0, 1], [0.2, 0.1, 1], [-0.3, 0.25, 1]):
+        oo = o - 4.0 * np.array([d[0], d[1], 0.0])
+        tr, _ = trace_rays(sc, precision, oo, [d] * len(oo), keep_refs=True)
+        assert np.all(tr.prim >= 0), pts[tr.prim < 0]
+        # exactly one claimant per ray: test every primitive for every ray
+        sd = build_shape_data(sc, precision)
+        dt = sd.dtype
+        dd = np.tile(np.asarray(d, np.float64) / np.linalg.norm(d), (len(oo), 1))
+        rays = ic_rays(np.ascontiguousarray(oo.T.astype(dt)), np.ascontiguousarray(dd.T.astype(dt)),
+                       np.zeros(len(oo), dt))
+        ri = np.repeat(np.arange(len(oo)), 8)
+        h = intersect(sd, rays, ri, np.tile(np.arange(8), len(oo)))
+        assert np.all(np.isfinite(h.t).reshape(-1, 8).sum(axis=1) == 1)
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
+def test_far_tiny_sphere_is_hit_where_expected(precision):
+    sc = read_nff(SCENES / "far_tiny_sphere.nff")  # r = 1e-3 at distance 1e4
+    off = np.array([[0, 0], [9e-4, 0], [0, -9e-4], [6e-4, 6e-4], [1.1e-3, 0], [8e-4, 8e-4], [0, 1.2e-3]])
+    d = np.column_stack([off, np.full(len(off), 1e4)])
+    tr, _ = trace_rays(sc, precision, np.zeros((len(off), 3)), d)
+    assert list(tr.prim) == [0, 0, 0, 0, -1, -1, -1]
+    assert tr.t[0] == pytest.approx(1e4 - 1e-3, rel=1e-7)
+    r = render(sc, config(precision), res=5)
+    assert (r.hit_ids >= 0).sum() == 21  # all but the four corner samples (|offset| = 1.23e-3)
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
+def test_axis_parallel_rays_through_voxel_boundaries(precision):
+    sc = read_nff(SCENES / "axis_parallel.nff")  # 3x3 spheres on integer points, a back wall
+    cfg = config(precision, "grid.top_resolution=6", "grid.subdivide_threshold=1", "grid.sub_resolution=2")
+    grid = build_grid(sc, cfg)
+    b = grid.lo + np.arange(7)[:, None] * grid.cell  # boundary coordinates per axis
+    o, d = [], []
+    for x in b[:, 0]:
+        for y in b[:, 1]:
+            o.append([x, y, -10.0])
+            d.append([0.0, 0.0, 1.0])
+            o.append([x, -10.0, 0.0])
+            d.append([-0.0, 1.0, -0.0])
+    tr, _ = trace_rays(sc, precision, o, d, cfg=cfg, keep_visits=True)
+    hit = tr.prim >= 0
+    assert np.isfinite(tr.t[hit]).all() and not np.isnan(tr.t).any()
+    # a ray down the z axis through x=y=0 must hit sphere 4 (centre 0,0,0) at t = 9.5
+    zero = np.flatnonzero((np.abs(np.asarray(o)[:, 0]) < 1e-12) & (np.abs(np.asarray(o)[:, 1]) < 1e-12))
+    for i in zero:
+        assert tr.prim[i] == 4 and tr.t[i] == pytest.approx(9.5)
+    assert np.all(tr.visits[:, 1] >= 0) and np.all(tr.visits[:, 1] < 216)
+    r = render(sc, config(precision), res=9)
+    assert r.hit_ids[4, 4] == 4 and np.isfinite(r.image).all()
+
+
+MIRRORS = """v
+from 0 0 -5
+at 0 0 0
+up 0 1 0
+angle 50
+hither 0
+resolution 8 8
+l 3 4 -6
+l -3 2 -6
+"""
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
+@pytest.mark.parametrize("body", [
+    "f 1 1 1 0.5 0.5 20 0 1\ns 0 0 0 1.5\n",  # mirror sphere alone
+    "f 1 1 1 0.5 0.5 20 0 1\np 4\n-3 -3 0\n-3 3 0\n3 3 0\n3 -3 0\n",  # mirror square alone
+    "f 1 1 1 0.5 0.5 20 0 1\np 4\n-3 -3 0.3\n-3 3 0.3\n3 3 0.3\n3 -3 0.3\nc 0 -1 -1 0.4 0 1 -1 0.4\n",
+])
+def test_no_self_intersection_of_secondary_rays(precision, body):
+    sc = parse_nff(MIRRORS + body, filename="mirrors.nff")
+    r = render(sc, config(precision), res=24, keep_trace=True)
+    # every reflection ray leaves the convex mirror it starts on: a second bounce would need another
+    # object in front; alone, each mirror hit spawns exactly one reflection ray that escapes
+    if sc.n_primitives == 1:
+        assert r.rays["reflection"] == r.rays["eye_hits"]
+    # no shadow ray is blocked by the surface it starts on: nothing lies between a lone mirror
+    # and the lights, so every surface point facing a light is lit
+    kinds = r.trace_kind
+    assert (kinds == 1).sum() == r.rays["reflection"]
+    assert np.isfinite(r.image).all()
+    # shadow rays from the hit points toward every light the surface faces are never blocked by
+    # the surface they start on (t_min = epsilon x scene size, as SC sets it)
+    dt = np.float32 if precision == "fp32" else np.float64
+    pr = primary_rays(sc.camera, 24, precision=precision)
+    n = pr.direction.shape[1]
+    o = np.repeat(pr.origin[:, None].astype(np.float64), n, 1).T
+    tr, grid = trace_rays(sc, precision, o, pr.direction.T.astype(np.float64))
+    hit = np.flatnonzero(tr.prim >= 0)
+    p = (pr.origin[:, None] + tr.t[hit] * pr.direction[:, hit]).T.astype(np.float64)
+    eps = float(dt(1e-4 * float(np.max(grid.hi - grid.lo))))
+    for light in sc.light_position:
+        to = light - p
+        dist = np.linalg.norm(to, axis=1)
+        st, _ = trace_rays(sc, precision, p, to, t_min=eps, t_max=dist.astype(dt))
+        if sc.n_primitives == 1:  # a lone convex mirror: its points facing a light see it
+            faces = _faces(sc, p, to)
+            assert faces.sum() > 10 and not st.occluded[faces].any()
+
+
+def _faces(sc, p, to):
+    """Surface points whose outward normal has a positive component toward the light."""
+    if sc.kind[0] == 1:
+        n = p - sc.spheres.center[0]
+    else:
+        n = np.tile([0.0, 0.0, -1.0], (len(p), 1))
+    return np.einsum("ij,ij->i", n, to) > 0
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
+def test_glass_sphere_refraction_rays_reach_the_far_wall(precision):
+    sc = parse_nff(MIRRORS + "f 1 1 1 0.1 0.1 20 0.9 1.5\ns 0 0 0 1.5\n", filename="glass.nff")
+    r = render(sc, config(precision, "render.max_depth=2"), res=16)
+    # depth 2 rays: one reflection (escapes) and one refraction (hits the far wall) per eye hit
+    assert r.rays["reflection"] == r.rays["eye_hits"] == r.rays["refraction"]
+    r3 = render(sc, config(precision, "render.max_depth=3"), res=16)
+    # at depth 3 every internal refraction ray hit the far wall, and spawned both kinds again
+    # (unless total internal reflection cut the refraction ray)
+    assert r3.rays["reflection"] == 2 * r.rays["eye_hits"]
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
+def test_total_internal_reflection_spawns_reflection_but_no_refraction(precision):
+    sc = read_nff(SCENES / "total_internal_reflection.nff")  # eye inside a glass sphere, 64 deg incidence
+    r = render(sc, config(precision), res=1)
+    assert r.rays["eye_hits"] == 1
+    assert r.rays["refraction"] == 0 and r.rays["reflection"] == 4  # depths 2..5, all TIR
+    # from the centre every incidence is normal: no TIR, both rays at every depth
+    sc2 = parse_nff(MIRRORS.replace("from 0 0 -5", "from 0 0 0").replace("at 0 0 0", "at 0 0 1")
+                    .replace("resolution 8 8", "resolution 1 1") + "f 1 1 1 0.1 0.1 100 0.9 1.5\ns 0 0 0 1\n",
+                    filename="centre.nff")
+    r2 = render(sc2, config(precision), res=1)
+    assert r2.rays["refraction"] == 4 and r2.rays["reflection"] == 4
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
+def test_precision_is_kept_end_to_end(precision):
+    dt = np.float32 if precision == "fp32" else np.float64
+    sc = parse_nff(MIRRORS + "f 1 1 1 0.1 0.1 20 0.9 1.5\ns 0 0 0 1.5\n", filename="glass.nff")
+    pr = primary_rays(sc.camera, 4, corners=True, precision=precision)
+    assert pr.direction.dtype == dt and pr.origin.dtype == dt and pr.direction.shape == (3, 25)
+    sd = build_shape_data(sc, precision)
+    assert sd.sph_r2.dtype == dt and sd.poly_vertices.dtype == dt
+    r = render(sc, config(precision), res=4, corners=True)
+    assert r.image.dtype == dt and r.hit_ids.shape == (5, 5)

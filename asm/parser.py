@@ -90,8 +90,8 @@ class Chunk:
 # Splitting
 
 
-def _code_part(line: str) -> str:
-    """The line without its comment (`#` or `//` to end of line, outside strings)."""
+def _outside_strings(line: str):
+    """(index, character) of every character of a line outside string literals."""
     in_string = False
     i = 0
     while i < len(line):
@@ -103,27 +103,21 @@ def _code_part(line: str) -> str:
                 in_string = False
         elif c == '"':
             in_string = True
-        elif c == "#" or (c == "/" and line.startswith("//", i)):
-            return line[:i]
+        else:
+            yield i, c
         i += 1
+
+
+def _code_part(line: str) -> str:
+    """The line without its comment (`#` or `//` to end of line, outside strings)."""
+    for i, c in _outside_strings(line):
+        if c == "#" or (c == "/" and line.startswith("//", i)):
+            return line[:i]
     return line
 
 
 def _brace_positions(code: str) -> list[tuple[int, str]]:
-    out, in_string, i = [], False, 0
-    while i < len(code):
-        c = code[i]
-        if in_string:
-            if c == "\\":
-                i += 1
-            elif c == '"':
-                in_string = False
-        elif c == '"':
-            in_string = True
-        elif c in "{}":
-            out.append((i, c))
-        i += 1
-    return out
+    return [(i, c) for i, c in _outside_strings(code) if c in "{}"]
 
 
 def split_statements(text: str, file: str) -> tuple[list[Chunk], list[Diagnostic]]:

@@ -180,8 +180,6 @@ class MachineConfig:
             problems.append(f"ring.link_buffer_words must be at least 1, got {self.ring.link_buffer_words}")
         if self.ring.deadlock_cycles < 1:
             problems.append("ring.deadlock_cycles must be at least 1")
-        if not self.render.epsilon >= 0.0:
-            problems.append(f"render.epsilon must not be negative, got {self.render.epsilon}")
         if self.render.max_depth < 1:
             problems.append(f"render.max_depth must be at least 1, got {self.render.max_depth}")
         if not 0.0 < self.prepass.share <= 1.0:

@@ -1,0 +1,308 @@
+"""Memories of a PE (MACHINE.md §4–5): local, resident, direct-mapped cache, global.
+
+Every memory is a numpy array of raw machine words (uint32 in fp32 mode, uint64 in fp64 mode);
+addresses count words. What each processor reaches:
+
+| processor | `ld`/`st`        | `ldr`                  | `ldg`                                  |
+| OS        | local (voxel data + kernel data) | —      | —                                      |
+| IC        | local (kernel data) | resident (read-only) | ICGM through IC's direct-mapped cache |
+| SC        | local (kernel data) | resident (read-only) | SCGM through SC's direct-mapped cache |
+
+A program's `.data` words are loaded at local address 0; a memory image may add more words.
+Resident memory and the global memories are written only by the host (the memory image); the
+PEs only read them. All PEs share one ICGM and one SCGM (no contention is modelled: every PE's
+cache miss costs t_g, however many PEs miss at once).
+
+Access times (cycles from issue until the result is readable; the issuing processor is held
+for the whole access, see core.py):
+
+    OS ld          the `ld` latency (opcode table, overridable as os.latency.ld)
+    IC/SC ld, ldr  t_r
+    ldg, cache hit t_c
+    ldg, miss      t_g          (the block is filled at once: a later access to it hits)
+    st             writes at issue; no hold
+
+The cache is direct-mapped with `block_bytes` blocks and `cache_bytes` capacity: for word
+address a, byte address b = a × word_bytes, block = b // block_bytes, set = block % sets, tag =
+block // sets. Since every database is read-only, the cache keeps only tags (its data would be
+a copy of global memory). A cache of 0 bytes makes every `ldg` a miss. When `cache_share` /
+`resident_share` is set, the size is that share of the global memory image (the primitive
+database), rounded down to whole blocks (cache) or words (resident).
+
+Counters: local {reads, writes}; resident {accesses}; cache {accesses, hits, misses}; global
+{accesses} (= cache misses). An optional `RegionMap` per memory names address ranges (voxel_data,
+primitive_list, shape_data, luminance_data, ...) and optionally a primitive id per range; every
+load that falls in a range counts towards that region (and, for a cache, its hits/misses) and
+towards the range's primitive (give one word per primitive, e.g. the head of its shape record,
+to count intersection tests).
+
+An access outside a memory raises `MemoryFault`; the core turns it into a run-time fault that
+names processor, PC and cycle.
+"""
+
+from __future__ import annotations
+
+import bisect
+from dataclasses import dataclass, field
+from typing import Iterable
+
+import numpy as np
+
+from netsushisen.isa.config import MachineConfig, MemoryConfig
+from netsushisen.isa.opcodes import OPCODES
+
+REGION_NAMES = ("voxel_data", "primitive_list", "shape_data", "luminance_data")
+"""The databases' names (MACHINE.md §4); a region map may use others too."""
+
+
+class MemoryFault(Exception):
+    """An access outside a memory (the core adds processor, PC and cycle)."""
+
+
+# ---------------------------------------------------------------------------------------------
+# Region maps
+
+
+@dataclass(frozen=True)
+class Region:
+    start: int
+    end: int  # exclusive
+    name: str
+    primitive: int | None = None
+
+
+class RegionMap:
+    """Named, non-overlapping address ranges of one memory, looked up by bisection."""
+
+    def __init__(self, regions: Iterable[Region] = ()):
+        regs = sorted(regions, key=lambda r: r.start)
+        for a, b in zip(regs, regs[1:]):
+            if b.start < a.end:
+                raise ValueError(f"regions {a.name} [{a.start}, {a.end}) and {b.name} "
+                                 f"[{b.start}, {b.end}) overlap")
+        for r in regs:
+            if r.end <= r.start:
+                raise ValueError(f"region {r.name} [{r.start}, {r.end}) is empty")
+        self.regions = regs
+        self.starts = [r.start for r in regs]
+        self.names = sorted({r.name for r in regs})
+
+    def lookup(self, address: int) -> Region | None:
+        i = bisect.bisect_right(self.starts, address) - 1
+        if i >= 0 and address < self.regions[i].end:
+            return self.regions[i]
+        return None
+
+    def __len__(self) -> int:
+        return len(self.regions)
+
+
+@dataclass
+class RegionCounters:
+    """Loads per region name (+ cache hits/misses) and per primitive id."""
+
+    regions: dict[str, list[int]] = field(default_factory=dict)  # name -> [accesses, hits, misses]
+    primitives: dict[int, int] = field(default_factory=dict)
+
+    def count(self, region: Region, hit: bool | None) -> None:
+        c = self.regions.setdefault(region.name, [0, 0, 0])
+        c[0] += 1
+        if hit is True:
+            c[1] += 1
+        elif hit is False:
+            c[2] += 1
+        if region.primitive is not None:
+            self.primitives[region.primitive] = self.primitives.get(region.primitive, 0) + 1
+
+
+# ---------------------------------------------------------------------------------------------
+# Memories
+
+
+class Memory:
+    """A word-addressed array with counters; `name` appears in fault messages."""
+
+    def __init__(self, name: str, words: np.ndarray, regions: RegionMap | None = None):
+        self.name = name
+        self.words = words
+        self.regions = regions
+        self.region_counts = RegionCounters()
+        self.reads = 0
+        self.writes = 0
+
+    @property
+    def size(self) -> int:
+        return len(self.words)
+
+    def check(self, address: int) -> None:
+        if not 0 <= address < len(self.words):
+            raise MemoryFault(f"{self.name} address {address} is outside 0..{len(self.words) - 1}"
+                              if len(self.words) else f"{self.name} address {address}: "
+                              f"{self.name} is empty (size 0)")
+
+    def read(self, address: int) -> int:
+        self.check(address)
+        self.reads += 1
+        if self.regions is not None:
+            r = self.regions.lookup(address)
+            if r is not None:
+                self.region_counts.count(r, None)
+        return int(self.words[address])
+
+    def write(self, address: int, word: int) -> None:
+        self.check(address)
+        self.writes += 1
+        self.words[address] = word
+
+
+class Cache:
+    """Direct-mapped, tags only (the databases are read-only), in front of a global memory."""
+
+    def __init__(self, name: str, cache_bytes: int, block_bytes: int, word_bytes: int):
+        self.name = name
+        self.block_bytes = block_bytes
+        self.word_bytes = word_bytes
+        self.sets = cache_bytes // block_bytes
+        self.tags = np.full(self.sets, -1, dtype=np.int64)  # -1: invalid line
+        self.accesses = 0
+        self.hits = 0
+        self.misses = 0
+
+    def locate(self, address: int) -> tuple[int, int]:
+        """(set, tag) of a word address (sets = 0: no cache, every access misses)."""
+        block = (address * self.word_bytes) // self.block_bytes
+        if self.sets == 0:
+            return -1, block
+        return block % self.sets, block // self.sets
+
+    def probe(self, address: int) -> bool:
+        """Would this access hit? (No side effects: the core asks before it decides to issue.)"""
+        s, tag = self.locate(address)
+        return s >= 0 and int(self.tags[s]) == tag
+
+    def access(self, address: int) -> tuple[bool, int]:
+        """Count one access, fill the line on a miss; (hit, set touched or -1)."""
+        s, tag = self.locate(address)
+        self.accesses += 1
+        if s >= 0 and int(self.tags[s]) == tag:
+            self.hits += 1
+            return True, s
+        self.misses += 1
+        if s >= 0:
+            self.tags[s] = tag
+        return False, s
+
+
+class MemorySystem:
+    """One processor's memories and their timing (see the module docstring)."""
+
+    def __init__(self, proc: str, pe: int, config: MachineConfig, local: np.ndarray,
+                 resident: np.ndarray | None = None, global_memory: Memory | None = None,
+                 regions: dict[str, RegionMap] | None = None):
+        regions = regions or {}
+        self.proc = proc
+        self.local = Memory("local memory", local, regions.get("local"))
+        self.resident = Memory("resident memory", resident, regions.get("resident")) \
+            if resident is not None else None
+        self.global_memory = global_memory
+        self.cache: Cache | None = None
+        self.global_regions = regions.get("global")
+        self.global_counts = RegionCounters()
+        self.global_accesses = 0
+        if proc == "os":
+            latency = config.os.latency.get("ld")
+            self.t_local = latency if latency is not None else OPCODES["ld"].latency
+            self.t_r = self.t_c = self.t_g = 0
+        else:
+            mc: MemoryConfig = config.ic_memory if proc == "ic" else config.sc_memory
+            self.t_local = self.t_r = mc.t_r
+            self.t_c, self.t_g = mc.t_c, mc.t_g
+            gwords = global_memory.size if global_memory is not None else 0
+            self.cache = Cache(f"{proc} cache", cache_bytes(mc, gwords, config.word_bytes),
+                               mc.block_bytes, config.word_bytes)
+
+    # -- timing, without side effects (the core decides whether to issue first) --------------
+
+    def access_time(self, space: str, address: int) -> tuple[int, str]:
+        """(cycles, stall cause) of a load from `space` at `address`."""
+        if space == "local":
+            return self.t_local, "local"
+        if space == "resident":
+            return self.t_r, "resident"
+        if self.cache is not None and self.cache.probe(address):
+            return self.t_c, "cache_hit"
+        return self.t_g, "cache_miss"
+
+    # -- the accesses themselves --------------------------------------------------------------
+
+    def load(self, space: str, address: int) -> tuple[int, int]:
+        """The word at `address` of `space`; (word, cache set touched or -1)."""
+        if space == "local":
+            return self.local.read(address), -1
+        if space == "resident":
+            if self.resident is None:
+                raise MemoryFault("this processor has no resident memory")
+            return self.resident.read(address), -1
+        gm = self.global_memory
+        if gm is None or self.cache is None:
+            raise MemoryFault("this processor has no global memory")
+        gm.check(address)
+        hit, s = self.cache.access(address)
+        if not hit:
+            self.global_accesses += 1
+        if self.global_regions is not None:
+            r = self.global_regions.lookup(address)
+            if r is not None:
+                self.global_counts.count(r, hit)
+        return int(gm.words[address]), s
+
+    def store(self, address: int, word: int) -> None:
+        self.local.write(address, word)
+
+    # -- statistics ---------------------------------------------------------------------------
+
+    def stats(self) -> dict:
+        out: dict = {"local": {"reads": self.local.reads, "writes": self.local.writes,
+                               "words": self.local.size}}
+        regions: dict[str, dict] = {}
+        primitives: dict[int, int] = {}
+
+        def merge(counts: RegionCounters, space: str) -> None:
+            for name, (a, h, m) in counts.regions.items():
+                entry = {"accesses": a}
+                if space == "global":
+                    entry.update(hits=h, misses=m)
+                regions[f"{space}.{name}"] = entry
+            for p, n in counts.primitives.items():
+                primitives[p] = primitives.get(p, 0) + n
+
+        merge(self.local.region_counts, "local")
+        if self.resident is not None:
+            out["resident"] = {"accesses": self.resident.reads, "words": self.resident.size}
+            merge(self.resident.region_counts, "resident")
+        if self.cache is not None:
+            c = self.cache
+            out["cache"] = {"accesses": c.accesses, "hits": c.hits, "misses": c.misses,
+                            "sets": c.sets, "block_bytes": c.block_bytes}
+            out["global"] = {"accesses": self.global_accesses}
+            merge(self.global_counts, "global")
+        if regions:
+            out["regions"] = regions
+        if primitives:
+            out["primitives"] = {str(p): n for p, n in sorted(primitives.items())}
+        return out
+
+
+def cache_bytes(mc: MemoryConfig, global_words: int, word_bytes: int) -> int:
+    """The cache capacity in bytes: `cache_bytes`, or `cache_share` of the global image."""
+    if mc.cache_share is None:
+        return mc.cache_bytes
+    size = int(mc.cache_share * global_words * word_bytes)
+    return size - size % mc.block_bytes
+
+
+def resident_words(mc: MemoryConfig, global_words: int, word_bytes: int) -> int:
+    """Resident capacity in words: `resident_bytes`, or `resident_share` of the global image."""
+    if mc.resident_share is None:
+        return mc.resident_bytes // word_bytes
+    return int(mc.resident_share * global_words)

@@ -1,0 +1,77 @@
+"""Run statistics: one JSON object per run, deterministic (no wall time; sorted keys).
+
+Schema `netsushisen-stats` version 1:
+
+    schema       {"name": "netsushisen-stats", "version": 1}
+    config       the full MachineConfig (a run is reproducible from its statistics)
+    programs     per stage: bundles, data words, source file (or null when absent)
+    run          status (halted/finished/deadlock/fault/max_cycles), cycles, message,
+                 left_in_flight (words still in FIFOs at the end)
+    processors   keyed "pe0.os", "pe0.ic", "pe0.sc", "pe1.os", ...: present, halted, pc,
+                 cycles, bundles, ops, ops_by_unit, ops_by_mnemonic, stalls {cause: cycles},
+                 stall_cycles, stalls_by_pc {"pc": {label, stalls {cause: cycles}}}
+                 (invariant: cycles == bundles + stall_cycles)
+    memory       keyed the same way: local {reads, writes, words}; IC/SC also resident
+                 {accesses, words}, cache {accesses, hits, misses, sets, block_bytes}, global
+                 {accesses}; `regions` {"<space>.<name>": {accesses[, hits, misses]}} and
+                 `primitives` {id: references} when the image gives region maps
+    global_memory  ICGM/SCGM sizes in words
+    fifos        keyed by FIFO name ("pe0.send.os", "pe0.link.os-ic.3", ...): capacity, peak,
+                 words (ever pushed), left (at the end); buffer-pool channels never used are
+                 omitted
+    dis          messages, words, per-PE messages; col: pixel messages, words
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from netsushisen.emulator.machine import Machine
+
+SCHEMA = {"name": "netsushisen-stats", "version": 1}
+
+
+def collect(machine: Machine) -> dict:
+    programs = {}
+    for stage, p in machine.programs.items():
+        programs[stage] = None if p is None else {
+            "bundles": len(p.bundles), "data_words": len(p.data),
+            "source": p.source_map[0].file if p.source_map else None,
+            "defines": {k: v for k, v in sorted(p.defines.items())}}
+    processors, memory, fifos = {}, {}, {}
+    left = 0
+    for pe in machine.pes:
+        for stage, core in pe.cores.items():
+            processors[core.name] = core.stats()
+            memory[core.name] = pe.memories[stage].stats()
+        for f in pe.ring.fifos():
+            left += len(f)
+            if f.total == 0 and machine.config.ring.buffer_pool and ".link." in f.name:
+                continue
+            fifos[f.name] = {"capacity": f.capacity, "peak": f.peak, "words": f.total,
+                             "left": len(f)}
+    err = machine.error
+    return {
+        "schema": SCHEMA,
+        "config": machine.config.to_dict(),
+        "programs": programs,
+        "run": {"status": machine.status, "cycles": machine.cycle,
+                "message": err.format() if err is not None else None,
+                "left_in_flight": left},
+        "processors": processors,
+        "memory": memory,
+        "global_memory": {g.name.lower(): {"words": g.size} for g in machine.globals.values()},
+        "fifos": fifos,
+        "dis": {"messages": len(machine.dis.messages), "words": machine.dis.words_sent,
+                "messages_per_pe": list(machine.dis.assigned)},
+        "col": {"pixel_messages": machine.col.messages, "words": machine.col.words},
+    }
+
+
+def dumps(stats: dict) -> str:
+    return json.dumps(stats, sort_keys=True, indent=1, allow_nan=False) + "\n"
+
+
+def write(machine: Machine, path: str | Path) -> None:
+    Path(path).write_text(dumps(collect(machine)), encoding="utf-8")

@@ -1,0 +1,233 @@
+"""The whole machine: DIS, COL and the frame buffer, several PEs, statistics, determinism,
+snapshot/restore and per-cycle events."""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+
+from netsushisen.asm.assembler import assemble_text
+from netsushisen.emulator import stats
+from netsushisen.emulator.images import image_from_json
+from netsushisen.emulator.machine import Machine
+from netsushisen.emulator.trace import Tracer
+from netsushisen.isa.config import load_config
+
+# OS takes (header, pixel) messages from the host and passes the pixel to SC; SC sends COL the
+# pixel message (pixel, R = pixel, G = B = 0.5). Neither halts: the run ends by quiescence.
+OS_SRC = """
+loop:   recv r1, host
+        recv r2, host
+        li r3, (DEST_SC << HDR_DEST_SHIFT) | 1
+        send ring, r3
+        send ring, r2
+        j loop
+"""
+SC_SRC = """
+        lf r4, 0.5
+        li r5, (DEST_COL << HDR_DEST_SHIFT) | 4
+loop:   recv r1, ring
+        recv r2, ring
+        itof r3, r2
+        send col, r5
+        send col, r2
+        send col, r3
+        send col, r4
+        send col, r4
+        j loop
+"""
+N_PIXELS = 6
+
+
+def image(n=N_PIXELS):
+    host = []
+    for i in range(n):
+        host += [{"header": {"length": 1, "dest": "os"}}, i]
+    return image_from_json({"host": host, "frame": {"width": 3, "height": 2}})
+
+
+def machine(sets=()):
+    return Machine(load_config(None, list(sets)),
+                   {"os": assemble_text(OS_SRC, proc="os"), "sc": assemble_text(SC_SRC, proc="sc")},
+                   image())
+
+
+def expected_frame():
+    f = np.zeros((2, 3, 3))
+    for i in range(N_PIXELS):
+        f[i // 3, i % 3] = (i, 0.5, 0.5)
+    return f
+
+
+def test_dis_col_frame_buffer_one_pe():
+    m = machine()
+    r = m.run(max_cycles=5000)
+    assert r.status == "finished" and r.exit_code == 0
+    assert np.array_equal(m.col.frame, expected_frame())
+    assert m.col.messages == N_PIXELS and m.dis.assigned == [N_PIXELS]
+
+
+def test_static_distribution_interleaves_over_pes():
+    m = machine(["pes=2"])
+    assert m.run(max_cycles=5000).status == "finished"
+    assert m.dis.assigned == [3, 3]
+    assert m.pes[0].cores["sc"].ops_by_mnemonic["itof"] == 3
+    assert np.array_equal(m.col.frame, expected_frame())
+
+
+def test_dynamic_distribution_hands_out_every_message():
+    m = machine(["pes=3", "distribution=dynamic"])
+    assert m.run(max_cycles=5000).status == "finished"
+    assert sum(m.dis.assigned) == N_PIXELS and min(m.dis.assigned) >= 1
+    assert np.array_equal(m.col.frame, expected_frame())
+
+
+# OS spins `work` iterations per ray; even rays are heavy (40), odd ones free. Static
+# interleaving gives PE0 every heavy ray; dynamic hands a ray only to a PE whose host FIFO is
+# empty, so PE1 (finishing its light rays fast) takes more of them and the run is shorter.
+OS_WORK = """
+loop:   recv r1, host
+        recv r2, host
+        recv r6, host
+spin:   beqz r6, done
+        addi r6, r6, -1
+        j spin
+done:   li r3, (DEST_SC << HDR_DEST_SHIFT) | 1
+        send ring, r3
+        send ring, r2
+        j loop
+"""
+
+
+def test_dynamic_distribution_balances_uneven_work():
+    host = []
+    for i in range(8):
+        host += [{"header": {"length": 2, "dest": "os"}}, i, 40 if i % 2 == 0 else 0]
+    img = {"host": host, "frame": {"width": 4, "height": 2}}
+    runs = {}
+    for mode in ("static", "dynamic"):
+        m = Machine(load_config(None, ["pes=2", f"distribution={mode}"]),
+                    {"os": assemble_text(OS_WORK, proc="os"), "sc": assemble_text(SC_SRC, proc="sc")},
+                    image_from_json(img))
+        r = m.run(max_cycles=20_000)
+        assert r.status == "finished" and m.col.messages == 8
+        runs[mode] = (r.cycles, m.dis.assigned)
+    assert runs["static"][1] == [4, 4]
+    assert runs["dynamic"][1][1] > runs["dynamic"][1][0]
+    assert runs["dynamic"][0] < runs["static"][0]
+
+
+def test_statistics_are_deterministic_and_complete():
+    a = stats.dumps(stats.collect(_ran(machine(["pes=2"]))))
+    b = stats.dumps(stats.collect(_ran(machine(["pes=2"]))))
+    assert a == b
+    s = stats.collect(_ran(machine(["pes=2"])))
+    assert s["schema"] == {"name": "netsushisen-stats", "version": 1}
+    assert s["config"]["pes"] == 2 and s["config"]["ring"]["buffer_pool"] is True
+    assert set(s["processors"]) == {f"pe{i}.{p}" for i in range(2) for p in ("os", "ic", "sc")}
+    for name, p in s["processors"].items():
+        assert p["cycles"] == p["bundles"] + p["stall_cycles"], name
+    assert s["processors"]["pe1.ic"]["present"] is False
+    assert s["memory"]["pe0.sc"]["cache"]["accesses"] == 0
+    assert s["fifos"]["pe0.col"]["words"] == 15 and s["fifos"]["pe0.col"]["peak"] >= 1
+    assert s["run"]["status"] == "finished" and s["col"]["pixel_messages"] == N_PIXELS
+    assert s["processors"]["pe0.os"]["stalls_by_pc"]["0"] == {
+        "label": "loop", "stalls": {"fifo_empty:host": s["processors"]["pe0.os"]["stalls"]["fifo_empty:host"]}}
+
+
+def _ran(m):
+    m.run(max_cycles=5000)
+    return m
+
+
+def test_snapshot_restore_reproduces_the_run_exactly():
+    m = machine(["pes=2"])
+    for _ in range(25):
+        m.step()
+    snap = m.snapshot()
+    out1 = io.StringIO()
+    m.tracer = Tracer(out1)
+    m.run(max_cycles=5000)
+    first = stats.dumps(stats.collect(m))
+    frame = m.col.frame.copy()
+    m.restore(snap)
+    assert m.cycle == 25 and m.status is None
+    out2 = io.StringIO()
+    m.tracer = Tracer(out2)
+    m.run(max_cycles=5000)
+    assert stats.dumps(stats.collect(m)) == first
+    assert out1.getvalue() == out2.getvalue() and out1.getvalue()
+    assert np.array_equal(m.col.frame, frame)
+    # the snapshot is still usable (restore copies it)
+    m.restore(snap)
+    assert m.cycle == 25
+
+
+def test_events_record_register_writes_and_cache_sets():
+    prog = assemble_text("""
+        li r1, 7
+        ldg r2, [r1]
+        halt
+    """, proc="ic")
+    m = Machine(load_config(None, ["ic_memory.cache_bytes=256"]), {"ic": prog},
+                image_from_json({"icgm": list(range(64))}))
+    m.record_events()
+    ic = m.pes[0].cores["ic"]
+    seen = []
+    while m.step() is None:
+        seen.append((m.cycle - 1, list(ic.events)))
+        ic.events.clear()
+    assert (1, [("reg", "pe0.ic", 1, 7), ("load", "pe0.ic", "global", 7, 0)]) in seen
+
+
+def test_trace_filter_and_cycle_range():
+    m = machine(["pes=2"])
+    out = io.StringIO()
+    m.tracer = Tracer(out, "pe1.sc", "5:8")
+    m.run(max_cycles=5000)
+    lines = out.getvalue().splitlines()
+    assert len(lines) == 3
+    assert all(" pe1.sc " in line for line in lines)
+    assert [int(line.split()[0]) for line in lines] == [5, 6, 7]
+
+
+def test_col_rejects_a_malformed_pixel_message():
+    sc = assemble_text("""
+        li r1, (DEST_COL << HDR_DEST_SHIFT) | 3
+        send col, r1
+        halt
+    """, proc="sc")
+    m = Machine(load_config(), {"sc": sc}, image())
+    r = m.run(max_cycles=100)
+    assert r.status == "fault" and "COL takes pixel messages" in r.error.format()
+
+
+def test_incomplete_pixel_message_at_quiescence_is_reported():
+    sc = assemble_text("""
+        li r1, (DEST_COL << HDR_DEST_SHIFT) | 4
+        send col, r1
+        send col, r0
+        recv r2, ring       # waits forever; nothing else can ever arrive
+    """, proc="sc")
+    m = Machine(load_config(), {"sc": sc}, image(0))
+    r = m.run(max_cycles=1000)
+    assert r.status == "deadlock" and r.exit_code == 3
+    assert "COL holds an incomplete pixel message" in r.error.format()
+    assert "from pe0: 2 of 5 words received" in r.error.format()
+
+
+def test_pixel_outside_the_frame_is_a_fault():
+    sc = assemble_text("""
+        li r1, (DEST_COL << HDR_DEST_SHIFT) | 4
+        li r2, 6
+        send col, r1
+        send col, r2
+        send col, r0
+        send col, r0
+        send col, r0
+        halt
+    """, proc="sc")
+    m = Machine(load_config(), {"sc": sc}, image(0))
+    r = m.run(max_cycles=100)
+    assert r.status == "fault" and "pixel 6 outside the 3x2 frame" in r.error.format()

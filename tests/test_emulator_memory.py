@@ -1,0 +1,200 @@
+"""Memories: resident vs cache vs global timing, the direct-mapped cache, counters, faults.
+
+Timing rule T6 (core.py): a load with access time T issued in c holds issue until c + T and its
+result is readable then; the T − 1 held cycles are charged to local / resident / cache_hit /
+cache_miss. Default t_r = 1, t_c = 2, t_g = 8; blocks of 64 bytes = 16 words in fp32.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from netsushisen.asm.assembler import assemble_text
+from netsushisen.emulator.images import image_from_json
+from netsushisen.emulator.machine import Machine
+from netsushisen.emulator.memories import Cache, Region, RegionMap
+from netsushisen.isa.config import load_config
+
+ICGM = [float(i) + 0.5 for i in range(64)]
+
+
+def run(sets=(), image=None, **sources):
+    programs = {proc: assemble_text(src, proc=proc) for proc, src in sources.items()}
+    m = Machine(load_config(None, list(sets)), programs, image_from_json(image or {}))
+    return m, m.run(max_cycles=10_000)
+
+
+CACHE_PROGRAM = """
+    ldg r1, [r0 + 0]     # c0 miss: held c1..c7 (7 cache_miss), r1 ready at 8
+    fadd r7, r1, r1      # c8: the loaded value is ready, no operand stall
+    ldg r2, [r0 + 1]     # c9 hit (same 64-byte block): held c10 (1 cache_hit)
+    ldg r3, [r0 + 32]    # c11: byte 128 -> block 2 -> set 0 of 2, tag 1: miss, held c12..c18
+    ldg r4, [r0 + 2]     # c19: block 0 was evicted from set 0: miss again, held c20..c26
+    ldg r5, [r0 + 16]    # c27: block 1 -> set 1: miss, held c28..c34
+    ldr r6, [r0 + 0]     # c35: resident, t_r = 1: no stall
+    halt                 # c36
+"""
+
+
+def test_cache_hit_miss_and_conflict_in_a_direct_mapped_set():
+    m, r = run(sets=["ic_memory.cache_bytes=128"],  # 2 sets of 64 bytes
+               image={"icgm": ICGM, "ic.resident": [7.25]}, ic=CACHE_PROGRAM)
+    ic = m.pes[0].cores["ic"]
+    assert r.status == "halted"
+    assert ic.cycles == 37
+    assert ic.stalls == {"cache_miss": 28, "cache_hit": 1}
+    assert ic.stalls_by_pc[0] == {"cache_miss": 7} and ic.stalls_by_pc[2] == {"cache_hit": 1}
+    assert [ic.value(ic.regs[i], "f") for i in (1, 2, 3, 4, 5, 6, 7)] == \
+        [0.5, 1.5, 32.5, 2.5, 16.5, 7.25, 1.0]
+    st = m.pes[0].memories["ic"].stats()
+    assert st["cache"]["accesses"] == 5 and st["cache"]["hits"] == 1 and st["cache"]["misses"] == 4
+    assert st["global"]["accesses"] == 4 and st["resident"]["accesses"] == 1
+
+
+def test_resident_cache_global_scale_with_t_r():
+    # t_r = 3, t_c = 6, t_g = 24: ldr holds 2, a miss 23, a hit 5, local ld 2.
+    m, _ = run(sets=["ic_memory.t_r=3", "ic_memory.t_c=6", "ic_memory.t_g=24"],
+               image={"icgm": ICGM, "ic.resident": [1.0]}, ic="""
+        ldr r1, [r0]        # c0, held c1..c2
+        ldg r2, [r0]        # c3, held c4..c26
+        ldg r3, [r0 + 1]    # c27, held c28..c32
+        ld r4, [r0]         # c33, held c34..c35 (IC local memory: t_r)
+        halt                # c36
+    """)
+    ic = m.pes[0].cores["ic"]
+    assert ic.stalls == {"resident": 2, "cache_miss": 23, "cache_hit": 5, "local": 2}
+    assert ic.cycles == 37
+
+
+def test_os_local_load_time_is_the_ld_latency():
+    m, _ = run(sets=["os.latency.ld=4"], image={"os.local": [5, 6]}, os="""
+        ld r1, [r0 + 1]     # c0, held c1..c3 (local)
+        addi r2, r1, 1      # c4
+        halt                # c5
+    """)
+    os_ = m.pes[0].cores["os"]
+    assert os_.stalls == {"local": 3} and os_.cycles == 6 and os_.regs[2] == 7
+
+
+def test_block_size_counts_bytes_so_precision_changes_hits():
+    # word 8 is byte 32 in fp32 (block 0: hit) but byte 64 in fp64 (block 1: miss)
+    src = """
+        ldg r1, [r0]
+        ldg r2, [r0 + 8]
+        halt
+    """
+    m32, _ = run(image={"icgm": ICGM}, ic=src)
+    m64, _ = run(sets=["precision=fp64"], image={"icgm": ICGM}, ic=src)
+    assert m32.pes[0].memories["ic"].cache.hits == 1
+    assert m64.pes[0].memories["ic"].cache.hits == 0
+    assert m64.pes[0].cores["ic"].value(m64.pes[0].cores["ic"].regs[2], "f") == 8.5
+
+
+def test_no_cache_means_every_access_misses():
+    m, _ = run(sets=["ic_memory.cache_bytes=0"], image={"icgm": ICGM}, ic="""
+        ldg r1, [r0]
+        ldg r2, [r0]
+        halt
+    """)
+    assert m.pes[0].memories["ic"].cache.misses == 2
+    assert m.pes[0].cores["ic"].stalls == {"cache_miss": 14}
+
+
+def test_store_then_load_and_same_bundle_reads_old_value():
+    m, _ = run(os="""
+        li r1, 9                            # c0
+        { st r1, [r0 + 3] ; ld r2, [r0 + 3] }   # c1: the load reads before the store writes
+        ld r3, [r0 + 3]                     # c2
+        halt
+    """)
+    os_ = m.pes[0].cores["os"]
+    assert (os_.regs[2], os_.regs[3]) == (0, 9)
+    assert int(m.pes[0].memories["os"].local.words[3]) == 9
+
+
+def test_program_data_loaded_at_local_zero_and_image_overrides():
+    prog = assemble_text("""
+        ld r1, [r0 + 0]
+        ld r2, [r0 + 1]
+        halt
+        .data
+        .word 11, 22
+    """, proc="sc")
+    m = Machine(load_config(), {"sc": prog}, image_from_json({"sc.local": {"at": 1, "words": [33]}}))
+    m.run()
+    sc = m.pes[0].cores["sc"]
+    assert (sc.regs[1], sc.regs[2]) == (11, 33)
+
+
+def test_region_and_primitive_counters():
+    image = {"icgm": ICGM, "ic.resident": [0.0] * 8,
+             "regions": {"ic.global": [[0, 16, "primitive_list", None], [16, 17, "shape_data", 5],
+                                       [32, 33, "shape_data", 7]],
+                         "ic.resident": [[0, 1, "shape_data", 5]]}}
+    m, _ = run(image=image, ic="""
+        ldg r1, [r0 + 0]
+        ldg r1, [r0 + 1]
+        ldg r2, [r0 + 16]
+        ldg r2, [r0 + 32]
+        ldg r2, [r0 + 32]
+        ldr r3, [r0 + 0]
+        ldr r3, [r0 + 1]
+        halt
+    """)
+    st = m.pes[0].memories["ic"].stats()
+    assert st["regions"]["global.primitive_list"] == {"accesses": 2, "hits": 1, "misses": 1}
+    assert st["regions"]["global.shape_data"] == {"accesses": 3, "hits": 1, "misses": 2}
+    assert st["regions"]["resident.shape_data"] == {"accesses": 1}
+    assert st["primitives"] == {"5": 2, "7": 2}
+
+
+def test_region_map_interface():
+    rm = RegionMap([Region(10, 20, "shape_data", 3), Region(0, 10, "primitive_list")])
+    assert rm.lookup(0).name == "primitive_list" and rm.lookup(19).primitive == 3
+    assert rm.lookup(20) is None and rm.lookup(-1) is None
+    with pytest.raises(ValueError):
+        RegionMap([Region(0, 10, "a"), Region(5, 12, "b")])
+
+
+def test_cache_locate():
+    c = Cache("t", cache_bytes=256, block_bytes=64, word_bytes=4)  # 4 sets
+    assert c.locate(0) == (0, 0) and c.locate(16) == (1, 0) and c.locate(64) == (0, 1)
+    assert c.access(64) == (False, 0) and c.access(65) == (True, 0) and c.access(0) == (False, 0)
+    assert c.probe(1) and not c.probe(64)
+
+
+def test_cache_share_sizes_from_the_global_image():
+    m = Machine(load_config(None, ["ic_memory.cache_share=0.5", "ic_memory.resident_share=0.25"]),
+                {"ic": assemble_text("halt", proc="ic")}, image_from_json({"icgm": [0] * 256}))
+    mem = m.pes[0].memories["ic"]
+    assert mem.cache.sets == 8  # 0.5 * 256 words * 4 bytes = 512 bytes = 8 blocks
+    assert mem.resident.size == 64
+
+
+@pytest.mark.parametrize("src, what", [
+    ("ldg r1, [r0 + 64]\nhalt", "ICGM address 64 is outside 0..63"),
+    ("li r2, -1\nldr r1, [r2]\nhalt", "resident memory address -1"),
+    ("li r2, 70000\nst r2, [r2]\nhalt", "local memory address 70000"),
+])
+def test_access_outside_a_memory_is_a_located_fault(src, what):
+    m, r = run(image={"icgm": ICGM}, ic=src)
+    assert r.status == "fault" and r.exit_code == 2
+    text = r.error.format()
+    assert what in text and "pe0.ic" in text and "cycle" in text
+
+
+def test_fault_names_label_and_offset():
+    m, r = run(image={"icgm": ICGM}, ic="""
+    start:
+        nop
+        ldg r1, [r0 + 100]
+        halt
+    """)
+    assert "pe0.ic pc 1 (start+1) cycle 1" in r.error.format()
+
+
+def test_running_off_the_program_is_a_fault():
+    m, r = run(ic="nop")
+    assert r.status == "fault" and "pc 1 is outside the program" in r.error.format()
+    assert isinstance(m.pes[0].memories["ic"].local.words, np.ndarray)

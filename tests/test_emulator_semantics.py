@@ -1,0 +1,202 @@
+"""Operation semantics as executed by the reference engine: they come from the opcode table
+(isa/opcodes.py), applied to raw words of the machine's precision (fp32 or fp64)."""
+
+from __future__ import annotations
+
+import math
+import struct
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from netsushisen.asm.assembler import assemble_text
+from netsushisen.emulator.images import image_from_json
+from netsushisen.emulator.machine import Machine
+from netsushisen.isa.config import load_config
+from netsushisen.isa.opcodes import OPCODES
+from netsushisen.isa.words import INT_MAX, INT_MIN, word_format, wrap32
+
+
+class Regs:
+    def __init__(self, core):
+        self.core = core
+
+    def raw(self, r):
+        return self.core.regs[r]
+
+    def int(self, r):
+        return self.core.value(self.core.regs[r], "i")
+
+    def float(self, r):
+        return float(self.core.value(self.core.regs[r], "f"))
+
+
+def run_sc(src, precision="fp32", image=None):
+    m = Machine(load_config(None, [f"precision={precision}"]),
+                {"sc": assemble_text(src, proc="sc")}, image_from_json(image or {}))
+    r = m.run(max_cycles=10_000)
+    assert r.status == "halted", r.error
+    return Regs(m.pes[0].cores["sc"])
+
+
+def test_integer_wrap_and_shifts():
+    r = run_sc("""
+        li r1, 0x7fffffff
+        addi r2, r1, 1          # INT_MAX + 1 wraps to INT_MIN
+        li r3, 0x10000
+        mul r4, r3, r3          # 2^32 wraps to 0
+        sub r5, r2, r3
+        li r6, 33
+        li r7, 1
+        sll r8, r7, r6          # shift amount uses its low 5 bits: 1 << 1
+        li r9, -1
+        srli r10, r9, 28        # logical: 15
+        li r11, -16
+        srai r12, r11, 2        # arithmetic: -4
+        sltu r13, r7, r9        # 1 < 0xffffffff unsigned
+        slt r14, r7, r9         # 1 < -1 signed: no
+        halt
+    """)
+    assert r.int(2) == INT_MIN and r.int(4) == 0
+    assert r.int(5) == wrap32(INT_MIN - 0x10000)
+    assert r.int(8) == 2 and r.int(10) == 15 and r.int(12) == -4
+    assert (r.int(13), r.int(14)) == (1, 0)
+
+
+def test_division_corner_cases():
+    r = run_sc("""
+        li r1, 7
+        div r2, r1, r0          # x / 0 = -1
+        rem r3, r1, r0          # x % 0 = x
+        li r4, 0x80000000
+        li r5, -1
+        div r6, r4, r5          # INT_MIN / -1 = INT_MIN
+        rem r7, r4, r5          # INT_MIN % -1 = 0
+        li r8, -7
+        li r9, 2
+        div r10, r8, r9         # truncates toward zero: -3
+        rem r11, r8, r9         # sign of the dividend: -1
+        halt
+    """)
+    assert (r.int(2), r.int(3), r.int(6), r.int(7), r.int(10), r.int(11)) == \
+        (-1, 7, INT_MIN, 0, -3, -1)
+
+
+def _bits(x, precision):
+    return word_format(precision).from_float(x)
+
+
+@pytest.mark.parametrize("precision", ["fp32", "fp64"])
+def test_fp_corner_cases(precision):
+    r = run_sc("""
+        lf r1, 1.0
+        lf r2, 0.0
+        lf r3, -0.0
+        lf r4, -1.0
+        fdiv r5, r1, r2         # +inf
+        fdiv r6, r4, r2         # -inf
+        fdiv r7, r2, r2         # NaN
+        fsqrt r8, r4            # NaN
+        fsqrt r9, r3            # -0
+        fmin r10, r3, r2        # -0
+        fmax r11, r3, r2        # +0
+        flt r12, r7, r1         # NaN compares false
+        ftoi r13, r7            # NaN -> 0
+        lf r14, 1e10
+        ftoi r15, r14           # saturates
+        lf r16, -1.5
+        floor r17, r16          # -2
+        ftoi r18, r16           # -1 (truncates)
+        li r19, 16777217
+        itof r20, r19           # fp32 rounds to 16777216
+        lf r21, 0.1
+        lf r22, 3e38
+        fadd r23, r22, r22      # fp32 overflows to inf
+        fmin r24, r7, r1        # NaN if either is NaN
+        halt
+    """, precision)
+    assert r.float(5) == math.inf and r.float(6) == -math.inf
+    assert math.isnan(r.float(7)) and math.isnan(r.float(8)) and math.isnan(r.float(24))
+    assert r.raw(9) == _bits(-0.0, precision) and r.raw(10) == _bits(-0.0, precision)
+    assert r.raw(11) == _bits(0.0, precision)
+    assert (r.int(12), r.int(13), r.int(15), r.int(17), r.int(18)) == (0, 0, INT_MAX, -2, -1)
+    if precision == "fp32":
+        assert r.float(20) == 16777216.0 and r.raw(21) == 0x3DCCCCCD
+        assert r.float(23) == math.inf
+    else:
+        assert r.float(20) == 16777217.0 and r.raw(21) == 0x3FB999999999999A
+        assert r.float(23) == 6e38
+
+
+@pytest.mark.parametrize("precision, word, width", [("fp32", "0x7fc00123", 32),
+                                                    ("fp64", "0x7ff0000000000123", 64)])
+def test_raw_word_moves_keep_every_bit(precision, word, width):
+    r = run_sc("""
+        ld r1, [r0]             # a NaN with a payload
+        mov r2, r1
+        fmov r3, r1
+        li r5, 1
+        sel r4, r5, r1, r0
+        fsel r6, r0, r0, r1
+        st r1, [r0 + 1]
+        ld r7, [r0 + 1]
+        halt
+    """, precision, {"sc.local": [word]})
+    expected = int(word, 16)
+    assert all(r.raw(i) == expected for i in (1, 2, 3, 4, 6, 7))
+    assert expected < (1 << width)
+
+
+@pytest.mark.parametrize("precision, raw", [("fp32", 0xFFFFFFFF), ("fp64", 0xFFFFFFFFFFFFFFFF)])
+def test_integers_are_sign_extended_words(precision, raw):
+    r = run_sc("li r1, -1\nhalt", precision)
+    assert r.raw(1) == raw and r.int(1) == -1
+
+
+def test_fpow_and_conversions_follow_the_table():
+    r = run_sc("""
+        lf r1, 2.0
+        lf r2, 10.0
+        fpow r3, r1, r2
+        halt
+    """)
+    assert r.float(3) == 1024.0
+
+
+INT3 = [m for m, o in OPCODES.items()
+        if o.kind == "alu" and [x.kind for x in o.operands] == ["rd", "rs", "rs"]
+        and o.source_types == ("i", "i") and "sc" in o.procs]
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(INT_MIN, INT_MAX), st.integers(INT_MIN, INT_MAX))
+def test_every_integer_op_matches_the_table(a, b):
+    lines = [f"li r1, {a}", f"li r2, {b}"]
+    lines += [f"{m} r{3 + i}, r1, r2" for i, m in enumerate(INT3)]
+    r = run_sc("\n".join(lines + ["halt"]))
+    for i, m in enumerate(INT3):
+        assert r.int(3 + i) == wrap32(int(OPCODES[m].semantics(None, a, b))), m
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.floats(width=32), st.floats(width=32))
+def test_fp32_arithmetic_matches_numpy_float32(x, y):
+    import numpy as np
+
+    fx = struct.unpack("<I", struct.pack("<f", x))[0]
+    fy = struct.unpack("<I", struct.pack("<f", y))[0]
+    r = run_sc("""
+        ld r1, [r0]
+        ld r2, [r0 + 1]
+        fadd r3, r1, r2
+        fmul r4, r1, r2
+        fsub r5, r1, r2
+        halt
+    """, "fp32", {"sc.local": [hex(fx), hex(fy)]})
+    with np.errstate(all="ignore"):
+        want = [np.float32(x) + np.float32(y), np.float32(x) * np.float32(y),
+                np.float32(x) - np.float32(y)]
+    for reg, w in zip((3, 4, 5), want):
+        got = r.float(reg)
+        assert (math.isnan(got) and math.isnan(w)) or got == w

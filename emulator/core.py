@@ -33,7 +33,8 @@ T8  FIFOs. `recv` pops a word that is visible in its receive FIFO (cmu.py: pushe
     FIFO's delay earlier); `send` pushes into a send FIFO with a free slot (counted from the
     occupancy at the start of the cycle). A bundle that needs more words, or more slots, than
     available does not issue. `poll` gives the words visible at issue (before the bundle's own
-    pops).
+    pops). `wait` issues only when some receive FIFO has a visible word (`fifo_empty:any`
+    otherwise): a processor that serves two FIFOs sleeps there and counts as idle.
 T9  halt stops the processor after its bundle issues. Its `cycles` = halt cycle + 1; a
     processor that never halts counts every cycle of the run. For every processor
     cycles == bundles + sum(stalls).
@@ -46,7 +47,7 @@ applies in this order:
     3. `waw:<m>`       a destination pending (first in bundle order)
     4. `unit_busy:<m>` not enough free units of a class; m = the op occupying the first busy one
     5. `write_port`    the bundle's results would oversubscribe the write ports in some cycle
-    6. `fifo_empty:<port>` then `fifo_full:<port>` (ports in bundle order)
+    6. `fifo_empty:<port>` (then `fifo_empty:any` for `wait`), then `fifo_full:<port>`
 Causes 2–6 are charged to the PC of the waiting bundle.
 """
 
@@ -122,7 +123,7 @@ class DBundle:
     """A bundle decoded once: its ops and what the issue checks need."""
 
     __slots__ = ("ops", "reads", "writes", "units", "loads", "recvs", "sends", "writers",
-                 "text", "n_ops", "alu")
+                 "text", "n_ops", "alu", "waits")
 
     def __init__(self, ops: tuple[Op, ...], proc: Processor, config: MachineConfig):
         self.ops = [DOp(op, proc, config) for op in ops]
@@ -132,6 +133,7 @@ class DBundle:
         self.loads = [d for d in self.ops if d.kind == "load"]
         self.recvs = tuple(Counter(d.port for d in self.ops if d.kind == "recv").items())
         self.sends = tuple(Counter(d.port for d in self.ops if d.kind == "send").items())
+        self.waits = any(d.kind == "wait" for d in self.ops)
         self.writers = [d for d in self.ops if d.nwrites]
         self.n_ops = sum(1 for d in self.ops if d.kind != "nop")
         self.text = " ; ".join(op.format() for op in ops) or "(empty)"
@@ -328,6 +330,8 @@ class Core:
             f = self.recv_ports[port]
             if (f.visible(c) if n > 1 else int(f.ready(c))) < n:
                 return self._stall("fifo_empty:" + port, pc)
+        if b.waits and not any(f.ready(c) for f in self.recv_ports.values()):
+            return self._stall("fifo_empty:any", pc)
         for port, n in b.sends:
             if self.send_ports[port].free(c) < n:
                 return self._stall("fifo_full:" + port, pc)
@@ -382,7 +386,7 @@ class Core:
                 self._schedule(d.rd, self.word(n, "i"), c + d.lat, d.m)
             elif kind == "halt":
                 self.halted = True
-            elif kind != "nop":
+            elif kind not in ("nop", "wait"):
                 late.append(d)
         for d in late:
             if d.kind == "recv":

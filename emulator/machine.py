@@ -16,8 +16,10 @@ state at the start of the cycle.
 COL. Pops at most one word per cycle from each PE's `col` FIFO (SC's `send col`). A pixel
 message is a header (dest COL, length 4; cls and tag free) and 4 words: pixel index (integer),
 then R, G, B (floats of the machine's precision), added into a float64 frame buffer
-(height × width × 3, pixel index = y × width + x). Any other length, or a pixel outside the frame
-(image key `frame`), is a run-time fault.
+(height × width × 3, pixel index = y × width + x). An ID message (dest COL, length 2) is a pixel
+index and a primitive id, written into the hit-id buffer (int32, −1 where none came; the eye
+ray's hit, docs/kernels.md). Any other length, or a pixel outside the frame (image key `frame`),
+is a run-time fault.
 
 End of a run (checked after every cycle, first match wins):
   fault     a processor or CMU faulted (exit 2)
@@ -127,6 +129,7 @@ class Col:
     def __init__(self, n_pes: int, frame: tuple[int, int] | None, precision: str):
         self.width, self.height = frame or (0, 0)
         self.frame = np.zeros((self.height, self.width, 3), dtype=np.float64)
+        self.ids = np.full((self.height, self.width), -1, dtype=np.int32)
         self.partial: list[list[int]] = [[] for _ in range(n_pes)]  # words of a message so far
         self.wf = word_format(precision)
         self.messages = 0
@@ -147,17 +150,21 @@ class Col:
             part = self.partial[i]
             part.append(w)
             h = parse_header(part[0])
-            if h.dest != DESTS["col"] or h.length != 4:
-                raise RunFault(f"{pe.name} COL", c, f"COL takes pixel messages (dest COL, length 4), "
-                               f"got header {part[0]:#x} (dest {h.dest}, length {h.length})")
-            if len(part) == 5:
+            if h.dest != DESTS["col"] or h.length not in (2, 4):
+                raise RunFault(f"{pe.name} COL", c, f"COL takes pixel messages (dest COL, length 4) "
+                               f"and ID messages (length 2), got header {part[0]:#x} "
+                               f"(dest {h.dest}, length {h.length})")
+            if len(part) == h.length + 1:
                 pixel = wrap32(part[1])
                 if not 0 <= pixel < self.width * self.height:
                     raise RunFault(f"{pe.name} COL", c, f"pixel {pixel} outside the "
                                    f"{self.width}x{self.height} frame (image key `frame`)")
                 y, x = divmod(pixel, self.width)
-                for k in range(3):
-                    self.frame[y, x, k] += float(self.wf.to_float(part[2 + k]))
+                if h.length == 2:
+                    self.ids[y, x] = wrap32(part[2])
+                else:
+                    for k in range(3):
+                        self.frame[y, x, k] += float(self.wf.to_float(part[2 + k]))
                 self.messages += 1
                 part.clear()
 

@@ -133,7 +133,7 @@ class Opcode:
     pipelined: bool
     procs: frozenset[str]
     kind: str
-    """alu, load, store, branch, jump, jumpr, call, ret, send, recv, poll, halt, nop"""
+    """alu, load, store, branch, jump, jumpr, call, ret, send, recv, poll, wait, halt, nop"""
     semantics: Callable | None
     doc: str
     space: str | None = None
@@ -255,6 +255,8 @@ _op("recv", "int", "rd:w port:", 1, "pop a word of receive FIFO `port` into rd (
     kind="recv")
 _op("poll", "int", "rd:i port:", 1, "rd = number of words waiting in receive FIFO `port`",
     kind="poll")
+_op("wait", "int", "", 1, "stall until some receive FIFO of this processor holds a word "
+    "(so a processor serving two FIFOs sleeps instead of spinning on poll)", kind="wait")
 
 # Control (at most one per bundle; the integer unit)
 for _m, _doc, _sem in (

@@ -231,3 +231,53 @@ def test_pixel_outside_the_frame_is_a_fault():
     m = Machine(load_config(), {"sc": sc}, image(0))
     r = m.run(max_cycles=100)
     assert r.status == "fault" and "pixel 6 outside the 3x2 frame" in r.error.format()
+
+
+ID_SC_SRC = """
+        li r5, (DEST_COL << HDR_DEST_SHIFT) | 2
+loop:   recv r1, ring
+        recv r2, ring
+        addi r3, r2, 100
+        send col, r5
+        send col, r2
+        send col, r3
+        j loop
+"""
+
+
+def test_col_id_messages_fill_the_hit_id_buffer():
+    # SC sends (pixel, 100 + pixel) as ID messages for pixels 0..3 of a 3x2 frame; the rest stay -1
+    m = Machine(load_config(None, []),
+                {"os": assemble_text(OS_SRC, proc="os"), "sc": assemble_text(ID_SC_SRC, proc="sc")},
+                image(4))
+    assert m.run(max_cycles=5000).status == "finished"
+    assert m.col.ids.tolist() == [[100, 101, 102], [103, -1, -1]]
+    assert not m.col.frame.any()
+
+
+WAIT_OS_SRC = """
+# OS serves two FIFOs: it sleeps in `wait` until the host or the ring has a word
+loop:   wait
+        poll r6, host
+        bnez r6, host_msg
+        recv r1, ring            # never reached here: only host words arrive
+        j loop
+host_msg:
+        recv r1, host
+        recv r2, host
+        li r3, (DEST_SC << HDR_DEST_SHIFT) | 1
+        send ring, r3
+        send ring, r2
+        j loop
+"""
+
+
+def test_wait_sleeps_until_a_fifo_has_a_word_and_counts_as_idle():
+    m = Machine(load_config(None, []),
+                {"os": assemble_text(WAIT_OS_SRC, proc="os"), "sc": assemble_text(SC_SRC, proc="sc")},
+                image())
+    r = m.run(max_cycles=5000)
+    assert r.status == "finished"  # quiescence is reached with OS asleep in `wait`
+    assert np.array_equal(m.col.frame, expected_frame())
+    stalls = m.pes[0].cores["os"].stats()["stalls"]
+    assert stalls.get("fifo_empty:any", 0) > 0

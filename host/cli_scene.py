@@ -9,8 +9,6 @@ scene; `nff` writes the scene as NFF text (the way to get a built-in scene into 
 from __future__ import annotations
 
 import argparse
-import importlib
-import importlib.util
 import json
 import sys
 from typing import Any
@@ -24,7 +22,6 @@ from netsushisen.host.scenes import Kind, Scene
 
 _SCENE_HELP = (f"built-in scene ({', '.join(BUILTIN_SCENES)}; NAME:SIZE picks the SPD size "
                "factor, e.g. balls:2) or path of an .nff file")
-DATABASE_KEYS = ("voxel_data", "primitive_list", "shape_data", "luminance_data")
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -61,8 +58,8 @@ def run(args: argparse.Namespace) -> int:
 def scene_counts(scene: Scene) -> dict[str, Any]:
     """The paper's Table 1 columns for `scene`. `polygons` counts `p` and `pp` records alike.
 
-    `database_bytes` (sizes of voxel_data, primitive_list, shape_data, luminance_data) is present
-    only when the database layout (`netsushisen.host.databases.database_bytes`) is available.
+    `database_bytes`: bytes of voxel_data, primitive_list, shape_data and luminance_data laid out
+    for the default configuration (fp32 words).
     """
     counts: dict[str, Any] = {
         "primitives": scene.n_primitives,
@@ -74,26 +71,16 @@ def scene_counts(scene: Scene) -> dict[str, Any]:
         "reflective": scene.reflective,
         "transparent": scene.transparent,
     }
-    sizes = database_bytes(scene)
-    if sizes is not None:
-        counts["database_bytes"] = sizes
+    counts["database_bytes"] = database_bytes(scene)
     return counts
 
 
-def database_bytes(scene: Scene) -> dict[str, int] | None:
-    """Byte sizes of the four databases, or None while `netsushisen.host.databases` (built by
-    another part of issue 4) does not exist yet.
+def database_bytes(scene: Scene) -> dict[str, int]:
+    """Byte sizes of the four databases for the default machine configuration
+    (`netsushisen.host.databases`; docs/databases.md)."""
+    from netsushisen.host.databases import database_bytes as sizes
 
-    TODO(issue 4): once `netsushisen.host.databases.database_bytes(scene)` lands, this returns
-    its figures; nothing is estimated here in the meantime.
-    """
-    if importlib.util.find_spec("netsushisen.host.databases") is None:
-        return None
-    module = importlib.import_module("netsushisen.host.databases")
-    function = getattr(module, "database_bytes", None)
-    if function is None:
-        return None
-    return {str(k): int(v) for k, v in dict(function(scene)).items()}
+    return {str(k): int(v) for k, v in sizes(scene).items()}
 
 
 def _yes_no(flag: bool) -> str:
@@ -117,12 +104,8 @@ def _print_table(scene: Scene, counts: dict[str, Any]) -> None:
     table.add_row("reflective", _yes_no(counts["reflective"]), "some material has Ks > 0")
     table.add_row("transparent", _yes_no(counts["transparent"]), "some material has T > 0")
     table.add_row("materials", str(len(scene.materials)), "distinct f records")
-    sizes = counts.get("database_bytes")
-    if sizes is None:
-        table.add_row("database bytes", "-", "database layout not available yet")
-    else:
-        for key, value in sizes.items():
-            table.add_row(key, f"{value:,}", "bytes")
+    for key, value in counts["database_bytes"].items():
+        table.add_row(key, f"{value:,}", "bytes (fp32 words)")
     console = Console(file=sys.stdout, width=min(Console(file=sys.stdout).width, 100))
     console.print(table)
     for note in scene.notes:

@@ -98,6 +98,9 @@ class GoldenResult:
     trace_kind: np.ndarray | None = None  # (R,) int8 EYE/REFLECTION/REFRACTION/SHADOW
     trace_depth: np.ndarray | None = None  # (R,) int8
     trace_pixel: np.ndarray | None = None  # (R,) int32 eye sample index
+    trace_leaves: np.ndarray | None = None  # aligned with trace_prims: int32 grid leaf (list) tested
+    trace_hit: np.ndarray | None = None  # (R,) int32 surface ray's hit primitive (-1 miss; shadow -1)
+    trace_hit_fan: np.ndarray | None = None  # (R,) int32 fan triangle of a polygon hit (0 otherwise)
     stats: dict[str, float] = field(default_factory=dict)
 
     @property
@@ -124,6 +127,9 @@ class _Recorder:
         self.path: list[np.ndarray] = []
         self.ref_ray: list[np.ndarray] = []
         self.ref_prim: list[np.ndarray] = []
+        self.ref_leaf: list[np.ndarray] = []
+        self.hit: list[np.ndarray] = []
+        self.hit_fan: list[np.ndarray] = []
 
     def new_ids(self, n: int) -> np.ndarray:
         ids = np.arange(self.next_gid, self.next_gid + n, dtype=np.int64)
@@ -139,6 +145,9 @@ class _Recorder:
             self.path.append(batch.path)
             self.ref_ray.append(result.ref_ray)
             self.ref_prim.append(result.ref_prim)
+            self.ref_leaf.append(result.ref_leaf if result.ref_leaf is not None else np.zeros(0, np.int32))
+            self.hit.append(result.prim)
+            self.hit_fan.append(np.where(result.prim >= 0, result.fan, 0))
 
     def finish(self, out: GoldenResult) -> None:
         if not self.keep:
@@ -152,10 +161,20 @@ class _Recorder:
         r = rank[ref_ray]
         sort = np.argsort(r, kind="stable")
         out.trace_prims = ref_prim[sort].astype(np.int32)
+        ref_leaf = np.concatenate(self.ref_leaf) if self.ref_leaf else np.zeros(0, np.int32)
+        out.trace_leaves = ref_leaf[sort].astype(np.int32)
         out.trace_ray_offsets = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=len(order)))]).astype(np.int64)
         out.trace_kind = np.concatenate(self.kind)[order].astype(np.int8)
         out.trace_depth = np.concatenate(self.depth)[order]
         out.trace_pixel = np.concatenate(self.pixel)[order]
+        out.trace_hit = np.concatenate(self.hit)[order].astype(np.int32)
+        out.trace_hit_fan = np.concatenate(self.hit_fan)[order].astype(np.int32)
+
+
+def scene_epsilon(grid: Grid, config: MachineConfig, dt: type):
+    """t_min of secondary and shadow rays: render.epsilon x the grid's largest extent, rounded
+    once to the precision (SC's scene block holds this value)."""
+    return dt(config.render.epsilon * float(np.max(grid.hi - grid.lo)))
 
 
 def _child_path(path: np.ndarray, level: int, slot: int) -> np.ndarray:
@@ -180,7 +199,7 @@ def render(scene: Scene, config: MachineConfig | None = None, res: int = 64, cor
     osg = OSGrid.of(grid, dt)
     sd = build_shape_data(scene, precision)
     lum = Luminance.of(scene, dt)
-    eps = dt(config.render.epsilon * float(np.max(grid.hi - grid.lo)))
+    eps = scene_epsilon(grid, config, dt)
     max_depth = config.render.max_depth
     min_weight = dt(config.render.min_weight)
     nl = len(lum.light_pos)

@@ -64,6 +64,7 @@ class TraceResult:
     ref_ray: np.ndarray  # (R,) int64
     ref_prim: np.ndarray  # (R,) int32
     ref_counts: np.ndarray  # (N,) int64
+    ref_leaf: np.ndarray | None = None  # (R,) int32 leaf (grid list) of each kept reference
     visits: np.ndarray | None = None  # (V, 3) int64 rows (ray, top voxel, sub voxel or -1), if kept
 
 
@@ -137,6 +138,7 @@ def trace(osg: OSGrid, sd: ShapeData, rays: ICRays, t_max: np.ndarray | None = N
                       ref_counts=np.zeros(len(sd.kind), np.int64))
     refs_r: list[np.ndarray] = []
     refs_p: list[np.ndarray] = []
+    refs_l: list[np.ndarray] = []
     visits: list[np.ndarray] = []
     nx, ny = osg.res[0], osg.res[1]
     while True:
@@ -195,13 +197,14 @@ def trace(osg: OSGrid, sd: ShapeData, rays: ICRays, t_max: np.ndarray | None = N
             pr = np.repeat(rays_b, length)
             within = np.arange(int(length.sum())) - np.repeat(seg, length)
             prim = grid.leaf_prims[np.repeat(start, length) + within]
+            pl = np.repeat(lf, length)
             h = intersect(sd, rays, pr, prim)
             if shadow:
                 occl = h.t < t_max[pr]
                 before = np.cumsum(occl) - occl
                 before = before - np.repeat(before[seg], length)
                 tested = before == 0
-                pr, prim = pr[tested], prim[tested]
+                pr, prim, pl = pr[tested], prim[tested], pl[tested]
                 hit_any = np.logical_or.reduceat(occl, seg)
                 res.occluded[rays_b[hit_any]] = True
                 alive[rays_b[hit_any]] = False
@@ -221,6 +224,7 @@ def trace(osg: OSGrid, sd: ShapeData, rays: ICRays, t_max: np.ndarray | None = N
             if keep_refs:
                 refs_r.append(pr if ray_ids is None else ray_ids[pr])
                 refs_p.append(prim)
+                refs_l.append(pl)
         # advance every ray still alive by one leaf
         if shadow:
             done = t_cur >= t_max[act]
@@ -249,4 +253,5 @@ def trace(osg: OSGrid, sd: ShapeData, rays: ICRays, t_max: np.ndarray | None = N
     if keep_refs and refs_r:
         res.ref_ray = np.concatenate(refs_r).astype(np.int64)
         res.ref_prim = np.concatenate(refs_p).astype(np.int32)
+        res.ref_leaf = np.concatenate(refs_l).astype(np.int32)
     return res

@@ -185,3 +185,19 @@ def test_golden_command_bad_input(argv, needle, capsys):
     assert main(argv) == 1
     err = capsys.readouterr().err
     assert needle in err and "Traceback" not in err
+
+
+SHARED_FILES = ["balls", "gears", "jacks", "lattice", "mount", "nurbtst", "rings", "sample", "shells",
+                "sombrero", "teapot", "tetra", "tree"]
+
+
+@pytest.mark.parametrize("name", SHARED_FILES)
+def test_every_shared_file_renders(shared_spd, name):
+    """Concave gears, teapot's patches, tree's cones, ...: each file renders to a finite image in
+    which eye rays hit primitives of the kinds the file has."""
+    sc = load_scene(str(shared_spd / f"{name}.nff"))
+    r = render(sc, load_config(None, []), res=12)
+    assert np.isfinite(r.image).all() and r.rays["eye"] == 144
+    hit = r.hit_ids[r.hit_ids >= 0]
+    assert 0 < len(hit) and hit.max() < sc.n_primitives
+    assert r.visible_primitives == len(np.unique(hit))

@@ -563,3 +563,18 @@ def assemble_text(text: str, proc: str | None = None, filename: str = "<string>"
                   include_dirs: list[str | Path] | None = None) -> Program:
     """Assemble source text (tests, generated kernels); raises AssemblyError."""
     return Assembler(proc, defines, include_dirs).assemble_text(text, filename)
+
+
+def read_constants(path: str | Path, defines: dict[str, int | float] | None = None) -> dict[str, int | float]:
+    """The `.equ` constants an include file defines (so Python code shares a kernel include's
+    numbers instead of typing them again); raises AssemblyError on a bad file."""
+    asm = Assembler(None, defines)
+    p = Path(path)
+    display = os.path.normpath(str(path))
+    if not p.is_file():
+        raise AssemblyError(Diagnostic("no such include file", display))
+    asm._walk(_read_source(p, display), display, p.parent, [])
+    if asm.st.diags:
+        asm.st.diags.sort(key=lambda d: (d[0], d[1]))
+        raise AssemblyError([d for _, _, d in asm.st.diags])
+    return {n: s.value for n, s in asm.st.symbols.items() if s.kind == "equ"}

@@ -1,0 +1,43 @@
+"""The kernels' message protocol, read from kernels/protocol.inc (defined once, used by the
+kernels and by Python)."""
+
+from __future__ import annotations
+
+import pytest
+
+from netsushisen.asm.assembler import AssemblyError, read_constants
+from netsushisen.host.golden import EYE, REFLECTION, REFRACTION, SHADOW
+from netsushisen.isa.ring import DESTS, parse_header
+from netsushisen.kernels import protocol
+
+
+def test_headers_decode_to_their_tag_destination_length_and_class():
+    p = protocol()
+    expect = {  # header: (tag, dest, length, class)
+        "HDR_RAY_TO_OS": (p["TAG_RAY"], "os", 13, 0), "HDR_VISIT_FIRST": (p["TAG_VISIT_FIRST"], "ic", 16, 0),
+        "HDR_VISIT": (p["TAG_VISIT"], "ic", 3, 0), "HDR_NEXT": (p["TAG_NEXT"], "os", 1, 1),
+        "HDR_DONE": (p["TAG_DONE"], "os", 1, 1), "HDR_HIT": (p["TAG_HIT"], "sc", 19, 0),
+        "HDR_COLOR": (p["TAG_COLOR"], "sc", 4, 0), "HDR_PIXEL": (0, "col", 4, 0),
+        "HDR_ID": (p["TAG_ID"], "col", 2, 0),
+    }
+    for name, (tag, dest, length, cls) in expect.items():
+        h = parse_header(p[name])
+        assert (h.tag, h.dest, h.length, h.cls) == (tag, DESTS[dest], length, cls), name
+    assert len({p[k] for k in p if k.startswith("TAG_")}) == 8
+
+
+def test_ray_kinds_match_the_golden_model():
+    p = protocol()
+    assert (p["KIND_EYE"], p["KIND_REFLECTION"], p["KIND_REFRACTION"], p["KIND_SHADOW"]) == \
+        (EYE, REFLECTION, REFRACTION, SHADOW)
+
+
+def test_read_constants_reports_errors(tmp_path):
+    bad = tmp_path / "bad.inc"
+    bad.write_text(".equ A, 1\n.equ B, A +\n")
+    with pytest.raises(AssemblyError) as exc:
+        read_constants(bad)
+    assert "bad.inc:2" in exc.value.format()
+    ok = tmp_path / "ok.inc"
+    ok.write_text(".equ A, 2\n.if X\n.equ B, A * 3\n.endif\n")
+    assert read_constants(ok, {"X": 1}) == {"A": 2, "B": 6}

@@ -18,12 +18,12 @@ def test_headers_decode_to_their_tag_destination_length_and_class():
         "HDR_VISIT": (p["TAG_VISIT"], "ic", 3, 0), "HDR_NEXT": (p["TAG_NEXT"], "os", 1, 1),
         "HDR_DONE": (p["TAG_DONE"], "os", 1, 1), "HDR_HIT": (p["TAG_HIT"], "sc", 19, 0),
         "HDR_COLOR": (p["TAG_COLOR"], "sc", 4, 0), "HDR_PIXEL": (0, "col", 4, 0),
-        "HDR_ID": (p["TAG_ID"], "col", 2, 0),
+        "HDR_ID": (p["TAG_ID"], "col", 2, 0), "HDR_MISS": (p["TAG_MISS"], "sc", 4, 0),
     }
     for name, (tag, dest, length, cls) in expect.items():
         h = parse_header(p[name])
         assert (h.tag, h.dest, h.length, h.cls) == (tag, DESTS[dest], length, cls), name
-    assert len({p[k] for k in p if k.startswith("TAG_")}) == 8
+    assert len({p[k] for k in p if k.startswith("TAG_")}) == 9
 
 
 def test_ray_kinds_match_the_golden_model():

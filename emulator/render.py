@@ -1,0 +1,210 @@
+"""Render a scene on the emulated machine: the whole pipeline, host to frame buffer.
+
+    scene ─► grid ─► pre-pass (priorities, M) ─► memory images + kernel symbols
+          ─► kernels assembled for this scene's needs ─► Machine ─► run
+          ─► frame buffer, hit ids, ray counts, statistics
+
+The host's side is the golden model's (same grid, same eye rays, same records); the machine's
+side is the three hand-written kernels (docs/kernels.md). `generic=True` assembles every feature
+(`HAS_* = 1`) instead of only what the scene calls for; the two must give identical images.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from netsushisen.asm.assembler import assemble_file
+from netsushisen.asm.objects import Program
+from netsushisen.emulator import stats as run_stats
+from netsushisen.emulator.images import Segment
+from netsushisen.emulator.machine import EXIT_CODES, Machine, RunResult
+from netsushisen.host.catalog import load_scene
+from netsushisen.host.databases import MachineImages, build_images
+from netsushisen.host.golden import to_u8
+from netsushisen.host.grid import build_grid
+from netsushisen.host.prepass import PrepassResult, run_prepass
+from netsushisen.host.rays import dtype_of, primary_rays
+from netsushisen.host.scenes import Scene
+from netsushisen.isa.config import MachineConfig
+from netsushisen.isa.processors import STAGES
+from netsushisen.isa.words import WordFormat, word_format
+from netsushisen.kernels import KERNELS, protocol
+
+RAY_COUNTERS = ("eye_hits", "reflection", "refraction", "shadow")
+"""SC's ray counters, at data labels `count_<name>` of kernels/sc.s."""
+
+DEFAULT_SLOTS = 8
+"""Rays OS keeps in flight (`-D SLOTS`)."""
+
+
+@dataclass
+class RenderSetup:
+    """Everything a run needs, built once: a debugger or a benchmark can build the Machine from it."""
+
+    scene: Scene
+    config: MachineConfig
+    res: int
+    corners: bool
+    generic: bool
+    images: MachineImages
+    prepass: PrepassResult
+    programs: dict[str, Program]
+    defines: dict[str, int | float]
+    host_words: np.ndarray
+
+    @property
+    def side(self) -> int:
+        """Samples per axis: the frame COL fills (res, or res + 1 SPD corners)."""
+        return self.res + 1 if self.corners else self.res
+
+    def machine(self) -> Machine:
+        image = self.images.memory_image()
+        image.host = [Segment(0, [("w", self.host_words)])]
+        image.frame = (self.side, self.side)
+        return Machine(self.images.config, self.programs, image)
+
+
+@dataclass
+class RenderResult:
+    setup: RenderSetup
+    machine: Machine
+    run: RunResult
+    image: np.ndarray  # (res, res, 3) in the machine's precision
+    image_u8: np.ndarray
+    hit_ids: np.ndarray  # (side, side) int32, -1 background
+    rays: dict[str, int]
+    visible_primitives: int
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def exit_code(self) -> int:
+        return EXIT_CODES.get(self.run.status, 1)
+
+
+def kernel_defines(images: MachineImages, generic: bool = False, slots: int = DEFAULT_SLOTS,
+                   extra: dict[str, int | float] | None = None) -> dict[str, int | float]:
+    """The `-D` symbols of a scene's kernels: its databases, its needs (`HAS_*`, all 1 when
+    generic) and the pipeline's knobs."""
+    defines: dict[str, int | float] = dict(images.symbols)
+    if generic:
+        for k in defines:
+            if k.startswith("HAS_"):
+                defines[k] = 1
+    defines["SLOTS"] = slots
+    defines["MAX_DEPTH"] = images.config.render.max_depth
+    defines.update(extra or {})
+    return defines
+
+
+def assemble_kernels(defines: dict[str, int | float], kernel_dir: str | Path | None = None,
+                     overrides: dict[str, str | Path] | None = None) -> dict[str, Program]:
+    """os.s, ic.s and sc.s from `kernel_dir` (default: the bundled kernels), or the files
+    `overrides` names per stage; an error in any is the assembler's located error."""
+    folder = Path(kernel_dir) if kernel_dir else KERNELS
+    programs = {}
+    for stage in STAGES:
+        path = Path((overrides or {}).get(stage) or folder / f"{stage}.s")
+        programs[stage] = assemble_file(path, proc=stage, defines=defines, include_dirs=[KERNELS])
+    return programs
+
+
+def eye_ray_messages(scene: Scene, res: int, corners: bool, wf: WordFormat) -> np.ndarray:
+    """The host stream: one RAY message (header + 13-word ray record) per eye sample, in sample
+    order, with the golden model's eye rays (host/rays.py)."""
+    p = protocol()
+    eye = primary_rays(scene.camera, res, corners, wf.precision)
+    n = eye.direction.shape[1]
+    ft = wf.float_type
+    floats = np.zeros((n, p["RAY_WORDS"]), ft)
+    floats[:, p["RAY_OX"]:p["RAY_OZ"] + 1] = np.asarray(eye.origin, ft)[None, :]
+    floats[:, p["RAY_DX"]:p["RAY_DZ"] + 1] = eye.direction.T
+    floats[:, p["RAY_TMIN"]] = eye.t_min
+    floats[:, p["RAY_TMAX"]] = np.inf
+    floats[:, p["RAY_WR"]:p["RAY_WB"] + 1] = 1
+    words = np.empty((n, 1 + p["RAY_WORDS"]), wf.word_dtype)
+    words[:, 1:] = floats.view(wf.word_dtype)
+    words[:, 0] = wf.from_int(p["HDR_RAY_TO_OS"])
+    words[:, 1 + p["RAY_PIXEL"]] = [wf.from_int(i) for i in range(n)]
+    words[:, 1 + p["RAY_INFO"]] = wf.from_int(p["KIND_EYE"] + (1 << p["INFO_DEPTH_SHIFT"]))
+    return words.ravel()
+
+
+def prepare(scene: Scene | str, config: MachineConfig, res: int = 32, corners: bool = False,
+            generic: bool = False, slots: int = DEFAULT_SLOTS, kernel_dir: str | Path | None = None,
+            kernels: dict[str, str | Path] | None = None) -> RenderSetup:
+    """Host work before a run: grid, pre-pass, images, kernels, eye rays."""
+    if isinstance(scene, str):
+        scene = load_scene(scene)
+    config.validate()
+    grid = build_grid(scene, config)
+    prepass = run_prepass(scene, config, res=res, corners=corners, grid=grid)
+    images = build_images(scene, config, priorities=prepass.priorities, grid=grid)
+    defines = kernel_defines(images, generic, slots)
+    programs = assemble_kernels(defines, kernel_dir, kernels)
+    images.check_programs(programs)
+    wf = word_format(config.precision)
+    return RenderSetup(scene, config, res, corners, generic, images, prepass, programs, defines,
+                       eye_ray_messages(scene, res, corners, wf))
+
+
+def finish(setup: RenderSetup, machine: Machine, run: RunResult) -> RenderResult:
+    """Read the results out of a machine that has run (whatever its end: nothing computed is lost)."""
+    dt = dtype_of(setup.config.precision)
+    frame = machine.col.frame.astype(dt)
+    if setup.corners:
+        c = frame
+        image = (((c[:-1, :-1] + c[:-1, 1:]) + c[1:, :-1]) + c[1:, 1:]) * dt(0.25)
+    else:
+        image = frame
+    wf = word_format(setup.config.precision)
+    sc = setup.programs["sc"]
+    rays = {"eye": int(setup.side * setup.side)}
+    for name in RAY_COUNTERS:
+        label = f"count_{name}"
+        section, addr = sc.labels.get(label, ("", -1))
+        if section != "data":
+            rays[name] = 0
+            continue
+        rays[name] = sum(wf.to_int(pe.memories["sc"].local.words[addr]) for pe in machine.pes)
+    ids = machine.col.ids.copy()
+    visible = int(len(np.unique(ids[ids >= 0])))
+    u8 = to_u8(image)
+    result = RenderResult(setup, machine, run, image, u8, ids, rays, visible)
+    s = run_stats.collect(machine)
+    s["render"] = {"scene": setup.scene.name, "resolution": setup.res, "corners": setup.corners,
+                   "generic": setup.generic, "slots": setup.defines.get("SLOTS"),
+                   "prepass": setup.prepass.summary() | {"seconds": None}}
+    s["rays"] = {k: rays[k] for k in ("eye", *RAY_COUNTERS)}
+    s["visible_primitives"] = visible
+    s["image_sha256"] = hashlib.sha256(u8.tobytes()).hexdigest()
+    result.stats = s
+    return result
+
+
+def render(scene: Scene | str, config: MachineConfig, res: int = 32, corners: bool = False,
+           generic: bool = False, slots: int = DEFAULT_SLOTS, kernel_dir: str | Path | None = None,
+           kernels: dict[str, str | Path] | None = None, progress=None) -> RenderResult:
+    """Render on the emulated machine. `progress(cycle)` is called now and then if given."""
+    setup = prepare(scene, config, res, corners, generic, slots, kernel_dir, kernels)
+    machine = setup.machine()
+    if progress is None:
+        run = machine.run()
+    else:
+        run = _run_with_progress(machine, progress)
+    return finish(setup, machine, run)
+
+
+def _run_with_progress(machine: Machine, progress, every: int = 20000) -> RunResult:
+    limit = machine.config.max_cycles
+    while machine.status is None:
+        if limit and machine.cycle >= limit:
+            return machine.run()  # records the cycle-limit end
+        machine.step()
+        if machine.cycle % every == 0:
+            progress(machine.cycle)
+    progress(machine.cycle)
+    return RunResult(machine.status, machine.cycle, machine.error)

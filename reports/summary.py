@@ -1,0 +1,84 @@
+"""The short report `render` prints: where the cycles went, per processor, and how IC's memory did.
+
+Dynamic ILP is operations per cycle (stalls included); static ILP is operations per bundle of the
+kernel as scheduled. The memory line gives the paper's quantities for IC's shape-data references
+(MACHINE.md §5): ρ = the share served by resident memory, μ = the cache hit rate, and the mean
+access time measured next to the paper's model t = t_r·{ρ + (1 − ρ)(8 − 6μ)} (which assumes
+t_c = 2·t_r and t_g = 8·t_r).
+"""
+
+from __future__ import annotations
+
+from rich.console import Console
+from rich.table import Table
+
+
+
+def memory_figures(stats: dict, proc: str = "pe0.ic", region: str = "shape_data") -> dict | None:
+    """ρ, μ and access times for one processor's references to one database region."""
+    mem = stats["memory"].get(proc, {})
+    regions = mem.get("regions", {})
+    res = regions.get(f"resident.{region}", {}).get("accesses", 0)
+    glob = regions.get(f"global.{region}", {})
+    acc, hits = glob.get("accesses", 0), glob.get("hits", 0)
+    total = res + acc
+    if not total:
+        return None
+    cfg = stats["config"]["ic_memory" if proc.endswith("ic") else "sc_memory"]
+    rho = res / total
+    mu = hits / acc if acc else 1.0
+    measured = (res * cfg["t_r"] + hits * cfg["t_c"] + (acc - hits) * cfg["t_g"]) / total
+    model = cfg["t_r"] * (rho + (1 - rho) * (8 - 6 * mu))
+    return {"references": total, "rho": rho, "mu": mu, "measured": measured, "model": model}
+
+
+def _top_stalls(p: dict, n: int = 3) -> str:
+    cycles = max(p["cycles"], 1)
+    items = sorted(p["stalls"].items(), key=lambda kv: (-kv[1], kv[0]))[:n]
+    return ", ".join(f"{cause} {100 * c / cycles:.0f}%" for cause, c in items) or "-"
+
+
+def processor_table(stats: dict, static_ilp: dict[str, float] | None = None) -> Table:
+    t = Table(title="ILP and stalls", title_justify="left")
+    for col in ("processor", "cycles", "ops", "ops/cycle", "ops/bundle", "stalled", "top stalls"):
+        t.add_column(col, justify="left" if col in ("processor", "top stalls") else "right",
+                     overflow="fold")
+    for name, p in stats["processors"].items():
+        if not p.get("present", True):
+            continue
+        stage = name.rsplit(".", 1)[-1]
+        cycles = max(p["cycles"], 1)
+        static = (static_ilp or {}).get(stage)
+        t.add_row(name, f"{p['cycles']:,}", f"{p['ops']:,}", f"{p['ops'] / cycles:.2f}",
+                  f"{static:.2f}" if static is not None else "-",
+                  f"{100 * p['stall_cycles'] / cycles:.0f}%", _top_stalls(p))
+    return t
+
+
+def memory_table(stats: dict) -> Table | None:
+    rows = []
+    for name in stats["memory"]:
+        if not name.endswith(".ic"):
+            continue
+        for region in ("shape_data", "primitive_list"):
+            f = memory_figures(stats, name, region)
+            if f:
+                rows.append((name, region, f))
+    if not rows:
+        return None
+    t = Table(title="IC memory (paper §5: resident ρ, cache hit rate μ, access time in t_r)",
+              title_justify="left")
+    for col in ("processor", "region", "references", "ρ", "μ", "t measured", "t model"):
+        t.add_column(col, justify="left" if col in ("processor", "region") else "right")
+    for name, region, f in rows:
+        t.add_row(name, region, f"{f['references']:,}", f"{f['rho']:.3f}", f"{f['mu']:.3f}",
+                  f"{f['measured']:.2f}", f"{f['model']:.2f}" if region == "shape_data" else "-")
+    return t
+
+
+def print_summary(stats: dict, static_ilp: dict[str, float] | None = None, console: Console | None = None) -> None:
+    console = console or Console(width=100)
+    console.print(processor_table(stats, static_ilp))
+    mt = memory_table(stats)
+    if mt is not None:
+        console.print(mt)

@@ -20,7 +20,7 @@ from netsushisen.asm.checker import check_bundle
 from netsushisen.asm.expressions import BUILTIN_CONSTANTS, ExprError, evaluate, names_in
 from netsushisen.asm.objects import Op, Program, SourceLoc
 from netsushisen.asm.parser import (CONDITIONAL_RE, Bundle, Chunk, Directive, Instr, Loc,
-                                    Statement, parse_chunk, split_statements)
+                                    parse_chunk, split_statements)
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.opcodes import OPCODES
 from netsushisen.isa.processors import N_REGISTERS, PROCESSORS, REGISTER_ALIASES

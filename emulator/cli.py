@@ -24,8 +24,9 @@ from netsushisen.isa.config import load_config
 from netsushisen.isa.processors import STAGES
 
 
-def configure(parser: argparse.ArgumentParser) -> None:
-    parser.formatter_class = argparse.RawDescriptionHelpFormatter
+def add_machine_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options that say what machine to build: programs, memory image, configuration.
+    Shared by `run` and `debug` (see `machine_inputs`)."""
     for stage in STAGES:
         parser.add_argument(f"--{stage}", metavar="PROGRAM",
                             help=f"{stage.upper()} program: object file or .s source")
@@ -38,6 +39,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="stop after N cycles (same as --set max_cycles=N)")
     parser.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
                         help="define a symbol when assembling .s sources")
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
+    add_machine_arguments(parser)
     parser.add_argument("--json", metavar="FILE", help="write the statistics as JSON")
     parser.add_argument("--frame", metavar="FILE", help="write the frame buffer (.npy, H x W x 3)")
     parser.add_argument("--trace", action="store_true", help="print a line trace, one line per "
@@ -68,7 +74,9 @@ def _defines(items: list[str]) -> dict[str, int | float]:
     return out
 
 
-def load_program(path: str, stage: str, defines: dict[str, int | float]):
+def load_program(path: str, stage: str | None, defines: dict[str, int | float]):
+    """An object file or `.s` source for `stage`; with `stage` None the program says which
+    processor it is for (the object's `proc`, the source's `.proc`)."""
     from netsushisen.asm.assembler import assemble_file
     from netsushisen.asm.objects import Program
 
@@ -79,17 +87,16 @@ def load_program(path: str, stage: str, defines: dict[str, int | float]):
         prog = assemble_file(p, proc=stage, defines=defines)
     else:
         prog = Program.load(p)
-    if prog.proc != stage:
+    if stage is not None and prog.proc != stage:
         raise NetsushisenError(Diagnostic(
             f"this is a {prog.proc.upper()} program, given as --{stage}", file=path))
     return prog
 
 
-def run(args: argparse.Namespace) -> int:
-    from netsushisen.emulator import stats
+def machine_inputs(args: argparse.Namespace, extra_programs: list[str] = ()):
+    """(config, programs by stage, memory image or None) from the `add_machine_arguments`
+    options; `extra_programs` are files whose processor the program itself names."""
     from netsushisen.emulator.images import load_image
-    from netsushisen.emulator.machine import Machine
-    from netsushisen.emulator.trace import Tracer, parse_cycles
 
     overrides = list(args.overrides)
     if args.pes is not None:
@@ -100,9 +107,24 @@ def run(args: argparse.Namespace) -> int:
     defines = _defines(args.defines)
     programs = {s: load_program(getattr(args, s), s, defines) if getattr(args, s) else None
                 for s in STAGES}
+    for path in extra_programs:
+        prog = load_program(path, None, defines)
+        if programs[prog.proc] is not None:
+            raise NetsushisenError(Diagnostic(
+                f"a second {prog.proc.upper()} program (one program per processor)", file=path))
+        programs[prog.proc] = prog
     if not any(programs.values()):
         raise NetsushisenError("nothing to run: give at least one of --os, --ic, --sc")
     image = load_image(args.image) if args.image else None
+    return config, programs, image
+
+
+def run(args: argparse.Namespace) -> int:
+    from netsushisen.emulator import stats
+    from netsushisen.emulator.machine import Machine
+    from netsushisen.emulator.trace import Tracer, parse_cycles
+
+    config, programs, image = machine_inputs(args)
     try:
         parse_cycles(args.cycles)
     except ValueError:

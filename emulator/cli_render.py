@@ -14,7 +14,6 @@ is the run's (0 done, 2 fault, 3 deadlock, 4 cycle limit).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 

@@ -21,7 +21,7 @@ from netsushisen.emulator.machine import Machine, RunResult
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.processors import STAGES
 from netsushisen.isa.ring import DESTS, make_header, parse_header
-from netsushisen.isa.words import WordFormat, word_format, wrap32
+from netsushisen.isa.words import WordFormat, wrap32
 
 SINK_REGISTER = 60  # the stubs count stored words here
 

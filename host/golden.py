@@ -202,7 +202,6 @@ def render(scene: Scene, config: MachineConfig | None = None, res: int = 64, cor
     eps = scene_epsilon(grid, config, dt)
     max_depth = config.render.max_depth
     min_weight = dt(config.render.min_weight)
-    nl = len(lum.light_pos)
     eye: PrimaryRays = primary_rays(scene.camera, res, corners, precision)
     ns = eye.direction.shape[1]
     acc = np.zeros((3, ns), dt)

@@ -56,6 +56,18 @@ class NetsushisenError(Exception):
     def format(self) -> str:
         return "\n".join(d.format() for d in self.diagnostics)
 
+    def __reduce__(self):
+        """Copy and pickle by state: subclasses take other constructor arguments (a run fault
+        takes a processor, a cycle and a message), so rebuilding through __init__ is wrong."""
+        return _rebuild_error, (type(self), self.args, self.__dict__.copy())
+
+
+def _rebuild_error(cls: type, args: tuple, state: dict) -> NetsushisenError:
+    err = cls.__new__(cls)
+    Exception.__init__(err, *args)
+    err.__dict__.update(state)
+    return err
+
 
 class ConfigError(NetsushisenError):
     """An impossible or malformed machine configuration."""

@@ -3,6 +3,8 @@ source ever makes the assembler raise anything but its own located error (fuzz).
 
 from __future__ import annotations
 
+import functools
+
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -16,6 +18,17 @@ from netsushisen.isa.opcodes import opcodes_for
 from netsushisen.isa.processors import PROCESSORS
 
 SOURCES = sorted(kernels_dir().rglob("*.s"))
+
+
+@functools.lru_cache(maxsize=1)
+def scene_defines() -> dict:
+    """The stage kernels are assembled per scene: the symbols of a small scene, every feature on."""
+    from netsushisen.emulator.render import kernel_defines
+    from netsushisen.host.catalog import load_scene
+    from netsushisen.host.databases import build_images
+    from netsushisen.isa.config import MachineConfig
+
+    return kernel_defines(build_images(load_scene("tetra:1"), MachineConfig()), generic=True)
 
 INTS = st.integers(-(2 ** 31), 2 ** 31 - 1)
 FLOATS = st.floats(allow_nan=True, allow_infinity=True)
@@ -78,7 +91,7 @@ def test_disassembly_reassembles_identically(proc, data):
 
 @pytest.mark.parametrize("path", SOURCES, ids=[p.name for p in SOURCES])
 def test_real_sources_round_trip(path):
-    program = assemble_file(path)
+    program = assemble_file(path, defines=scene_defines())
     again = assemble_text(disassemble(program), filename="re.s")
     assert again.same_program(program)
 
@@ -109,15 +122,15 @@ def mutations(draw):
             else:
                 lines = lines[:j]
             text = "\n".join(lines)
-    return path.name, text
+    return path, text
 
 
 @settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(case=mutations())
 def test_mutated_sources_never_escape_as_tracebacks(case):
-    name, text = case
+    path, text = case
     try:
-        assemble_text(text, filename=name)
+        assemble_text(text, filename=path.name, defines=scene_defines(), include_dirs=[path.parent])
     except AssemblyError as err:
         assert err.diagnostics and all(d.message for d in err.diagnostics)
         assert "Traceback" not in err.format()

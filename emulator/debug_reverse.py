@@ -1,0 +1,182 @@
+"""Reverse execution for the debugger session: checkpoints, exact replay, going back.
+
+A checkpoint (debug_state.freeze) is taken whenever the machine reaches a cycle that is a
+multiple of the interval K, and at cycle 0; it also keeps the session's per-core notes (last
+loads, register origins). Going back to cycle T thaws the last checkpoint at or before T and
+replays the cycles after it (breakpoint hit counts do not change during a replay): the engine is
+deterministic, so the state is exactly the one the machine had.
+
+Edits. `set` changes the state at cycle C: the checkpoints after C are dropped (that future is
+gone) and a *pinned* checkpoint of the edited state is kept at C. Whenever a replay or a forward
+step arrives at C again, the machine continues from that checkpoint, so the edit is re-applied:
+an edit is part of the history, undone by going back before it and redone by stepping over it.
+
+Memory. Beyond `max_checkpoints` unpinned checkpoints the interval doubles and the checkpoints
+off the new grid go: memory stays bounded and a step back replays at most K cycles. Backward
+searches (reverse-continue, reverse-stepi) replay one checkpoint interval at a time, latest
+first, until they find the match.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+from typing import Callable
+
+from netsushisen.emulator.debug_expr import DebugError
+from netsushisen.emulator.debug_state import Frozen, freeze, thaw
+
+
+@dataclass
+class Hit:
+    """Something that stops a run: a breakpoint or a watchpoint firing in a cycle."""
+
+    cycle: int
+    pe: int
+    stage: str
+    message: str
+    number: int
+
+
+@dataclass
+class Stop:
+    """How a movement ended: messages to show, and whether the run has ended."""
+
+    messages: list[str] = field(default_factory=list)
+    hits: list[Hit] = field(default_factory=list)
+    ended: bool = False
+    moved: bool = False
+
+
+@dataclass
+class Checkpoint:
+    frozen: Frozen
+    aux: dict
+    pinned: bool = False
+
+
+class ReverseExecution:
+    """Mixed into `debugger.Session`, which provides machine, aux, checkpoints, interval,
+    max_checkpoints, _cycle, _index and set_view."""
+
+    def _take_checkpoint(self, pinned: bool = False) -> None:
+        c = self.machine.cycle
+        self.checkpoints[c] = Checkpoint(freeze(self.machine), copy.deepcopy(self.aux), pinned)
+        unpinned = [k for k, v in self.checkpoints.items() if not v.pinned]
+        while len(unpinned) > self.max_checkpoints:
+            self.interval *= 2
+            for k in unpinned:
+                if k % self.interval:
+                    del self.checkpoints[k]
+            unpinned = [k for k, v in self.checkpoints.items() if not v.pinned]
+
+    def edited(self) -> None:
+        """The user changed the state (`set`): the future after this cycle is a new one. The
+        pinned checkpoint *is* the edit: whenever a replay or a forward step reaches this
+        cycle again, the machine continues from it (`_cycle`), so the edit is re-applied."""
+        c = self.machine.cycle
+        for k in [k for k in self.checkpoints if k > c]:
+            del self.checkpoints[k]
+        self._take_checkpoint(pinned=True)
+
+    def _restore_before(self, target: int) -> int:
+        """Thaw the last checkpoint at or before `target`; its cycle."""
+        k = max(k for k in self.checkpoints if k <= target)
+        cp = self.checkpoints[k]
+        thaw(self.machine, cp.frozen)
+        self.aux = copy.deepcopy(cp.aux)
+        return k
+
+    def goto_cycle(self, target: int) -> None:
+        """Put the machine exactly in its state after `target` cycles (target ≤ now, or on the
+        recorded future after a reverse step)."""
+        target = max(0, target)
+        self._restore_before(target)
+        m = self.machine
+        index = self._index()
+        while m.cycle < target and m.status is None:
+            self._cycle(index, replay=True)
+
+    def reverse_step(self, n: int = 1) -> Stop:
+        if n < 1:
+            raise DebugError("reverse-step takes a positive number of cycles")
+        now = self.machine.cycle
+        if now == 0:
+            return Stop(["already at cycle 0, the start of the run"])
+        target = max(0, now - n)
+        self.goto_cycle(target)
+        msg = [] if target == now - n else ["reached the start of the run (cycle 0)"]
+        return Stop(msg, moved=True)
+
+    def _search_back(self, matches: Callable[[int, list[Hit]], int], count: int = 1) -> int | None:
+        """The cycle c (< the last cycle) of the count-th latest match going back; `matches`
+        returns how many matches cycle c holds. Replays one checkpoint interval at a time,
+        latest first; leaves the machine anywhere."""
+        hi = self.machine.cycle - 1  # cycles strictly before the last one
+        found: list[int] = []
+        index = self._index()
+        while hi > 0:
+            start = self._restore_before(hi - 1)
+            m = self.machine
+            seen: list[int] = []
+            while m.cycle < hi and m.status is None:
+                c = m.cycle
+                hits = self._cycle(index, replay=True)
+                seen += [c] * matches(c, hits)
+            found = seen + found
+            if len(found) >= count:
+                return found[-count]
+            hi = start
+        return None
+
+    def reverse_continue(self) -> Stop:
+        now = self.machine.cycle
+        if now == 0:
+            return Stop(["already at cycle 0, the start of the run"])
+        hits_at: dict[int, list[Hit]] = {}
+
+        def matches(c: int, hits: list[Hit]) -> int:
+            if hits:
+                hits_at[c] = hits
+            return 1 if hits else 0
+
+        c = self._search_back(matches)
+        if c is None:
+            self.goto_cycle(0)
+            return Stop(["no breakpoint or watchpoint fired earlier: back at cycle 0"], moved=True)
+        self.goto_cycle(c + 1)
+        hits = hits_at[c]
+        h = hits[0]
+        self.set_view(h.pe, h.stage)
+        return Stop([h.message for h in hits], hits=hits, moved=True)
+
+    def reverse_stepi(self, n: int = 1) -> Stop:
+        """Back to the stop after the n-th previous bundle the viewed processor issued."""
+        if n < 1:
+            raise DebugError("reverse-stepi takes a positive number of bundles")
+        now = self.machine.cycle
+        if now == 0:
+            return Stop(["already at cycle 0, the start of the run"])
+        pe, stage = self.pe, self.stage
+
+        def matches(c: int, hits) -> int:
+            return int(self.machine.pes[pe].cores[stage].last_issued)
+
+        c = self._search_back(matches, n)
+        if c is None:
+            self.goto_cycle(0)
+            return Stop([f"pe{pe}.{stage} issued fewer than {n} bundles before: back at cycle 0"],
+                        moved=True)
+        self.goto_cycle(c + 1)
+        return Stop(moved=True)
+
+    def checkpoint_info(self) -> list[str]:
+        cps = self.checkpoints
+        size = sum(cp.frozen.size for cp in cps.values())
+        pinned = sorted(k for k, v in cps.items() if v.pinned)
+        return [f"{len(cps)} checkpoints, every {self.interval} cycles "
+                f"(at most {self.max_checkpoints} before the interval doubles), "
+                f"{size / 1024:.1f} KiB compressed",
+                f"cycles: {', '.join(str(k) for k in sorted(cps)[:12])}"
+                + (" ..." if len(cps) > 12 else ""),
+                f"pinned by edits or the start: {', '.join(map(str, pinned))}"]

@@ -1,0 +1,466 @@
+"""The debugger's engine side: a session over one machine — stepping by cycles or bundles,
+breakpoints, watchpoints, checkpoints and exact reverse execution.
+
+The machine comes from a *factory* (`build() -> Machine`): `ProgramsFactory` for raw programs
+(`netsushisen debug --os ... --ic ...`); scene mode will be one more factory.
+
+Time. The session always stands between two cycles: `machine.cycle` cycles have run, and "the
+last cycle" is `machine.cycle - 1`. Every stop describes what happened in the last cycle: which
+bundle each processor issued, or why it stalled.
+
+Stops. Moving forward always stops at the end of the run (halt, quiescence, deadlock, fault,
+cycle limit), at a breakpoint (the cycle in which the bundle at its address *issues* on a
+matching processor, and its condition, evaluated after that cycle, is true), at a watchpoint
+(a cycle in which the watched register is written back or the watched local word is stored —
+every write, even of the same value), or on an interrupt (Ctrl-C), and otherwise when its own
+count is done.
+
+Reverse execution (debug_reverse.py): checkpoints every K cycles (default 2048) and exact
+deterministic replay; `set` edits are pinned checkpoints, so they stay part of the history that
+replays and forward steps go through.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Protocol
+
+from netsushisen.emulator.debug_expr import Context, DebugError, Place, short_word
+from netsushisen.emulator.debug_reverse import Checkpoint, Hit, ReverseExecution, Stop
+from netsushisen.emulator.machine import CycleLimit, Machine
+from netsushisen.isa.processors import STAGES
+
+
+class MachineFactory(Protocol):
+    description: str
+
+    def build(self) -> Machine: ...
+
+
+@dataclass
+class ProgramsFactory:
+    """A machine from programs, an optional memory image and a configuration."""
+
+    config: object
+    programs: dict
+    image: object = None
+    description: str = "programs"
+
+    def build(self) -> Machine:
+        return Machine(self.config, self.programs, self.image)
+
+
+@dataclass
+class Breakpoint:
+    number: int
+    pe: int | None  # None: every PE
+    stage: str
+    address: int
+    label: str
+    condition: str | None = None
+    temporary: bool = False
+    hits: int = 0
+
+    def describe(self) -> str:
+        where = (f"pe{self.pe}." if self.pe is not None else "") + f"{self.stage} pc {self.address}"
+        if self.label != str(self.address):
+            where += f" ({self.label})"
+        cond = f" if {self.condition}" if self.condition else ""
+        return f"breakpoint {self.number} at {where}{cond}, hit {self.hits} time" \
+               f"{'' if self.hits == 1 else 's'}"
+
+
+@dataclass
+class Watchpoint:
+    number: int
+    place: Place
+    hits: int = 0
+
+    def describe(self) -> str:
+        return (f"watchpoint {self.number} on {self.place.name(qualify=True)}, hit {self.hits} "
+                f"time{'' if self.hits == 1 else 's'}")
+
+
+END_TEXT = {"halted": "every processor halted", "finished": "quiescent: nothing left to do",
+            "deadlock": "no progress: see the report", "fault": "run-time fault",
+            "max_cycles": "cycle limit reached"}
+
+
+class Session(ReverseExecution):
+    def __init__(self, factory: MachineFactory, *, pe: int = 0, stage: str | None = None,
+                 checkpoint_interval: int = 2048, max_checkpoints: int = 256):
+        if checkpoint_interval < 1:
+            raise DebugError("the checkpoint interval must be at least 1 cycle")
+        self.factory = factory
+        self.base_interval = checkpoint_interval
+        self.max_checkpoints = max(2, max_checkpoints)
+        self.breakpoints: dict[int, Breakpoint] = {}
+        self.watchpoints: dict[int, Watchpoint] = {}
+        self._next_number = 1
+        self.interrupt = False  # set by a signal handler: stop between cycles
+        self.trace_out: Callable[[str], None] | None = None  # `trace on`: one line per cycle
+        self._build(pe, stage)
+
+    # -- the machine and the view --------------------------------------------------------------
+
+    def _build(self, pe: int = 0, stage: str | None = None) -> None:
+        self.machine = self.factory.build()
+        self.machine.record_events(True)
+        if not 0 <= pe < len(self.machine.pes):
+            raise DebugError(f"no PE {pe} (the machine has {len(self.machine.pes)})")
+        self.pe = pe
+        present = [s for s in STAGES if self.machine.programs.get(s) is not None]
+        self.stage = stage or (present[0] if present else "os")
+        self.interval = self.base_interval
+        self.checkpoints: dict[int, Checkpoint] = {}
+        # per core: last ldg (addr, set, hit, cycle), last ldr (addr, cycle), and, per register,
+        # the (pc, cycle) of the bundle whose result it waits for or last received
+        self.aux: dict = {c.name: {"ldg": None, "ldr": None, "origin": {}}
+                          for c in self.machine.cores}
+        self.previous_regs: dict[str, list[int]] = {}
+        self.mark_stop()
+        self._take_checkpoint(pinned=True)
+
+    def restart(self) -> None:
+        """A fresh machine from the factory (breakpoints and watchpoints stay)."""
+        self._build(self.pe, self.stage)
+
+    def context(self, pe: int | None = None, stage: str | None = None) -> Context:
+        return Context(self.machine, self.pe if pe is None else pe, stage or self.stage)
+
+    @property
+    def core(self):
+        return self.machine.pes[self.pe].cores[self.stage]
+
+    def set_view(self, pe: int | None = None, stage: str | None = None) -> None:
+        if pe is not None:
+            if not 0 <= pe < len(self.machine.pes):
+                raise DebugError(f"no PE {pe} (the machine has {len(self.machine.pes)}: "
+                                 f"0..{len(self.machine.pes) - 1})")
+            self.pe = pe
+        if stage is not None:
+            if stage not in STAGES:
+                raise DebugError(f"no processor {stage!r}: choose os, ic or sc")
+            self.stage = stage
+
+    def mark_stop(self) -> None:
+        """Remember the registers now, so the next screen highlights what changed."""
+        self.previous_regs = {c.name: list(c.regs) for c in self.machine.cores}
+
+    @property
+    def ended(self) -> bool:
+        return self.machine.status is not None
+
+    def end_message(self) -> str:
+        m = self.machine
+        text = f"run ended at cycle {m.cycle}: {m.status} ({END_TEXT.get(m.status, m.status)})"
+        return text
+
+    def end_report(self) -> list[str]:
+        lines = [self.end_message()]
+        if self.machine.error is not None:
+            lines += self.machine.error.format().splitlines()
+        return lines
+
+    # -- breakpoints and watchpoints -----------------------------------------------------------
+
+    def _number(self) -> int:
+        n = self._next_number
+        self._next_number += 1
+        return n
+
+    def add_breakpoint(self, location: str, condition: str | None = None,
+                       temporary: bool = False) -> Breakpoint:
+        ctx = self.context()
+        pe, stage, addr = ctx.location(location)
+        if condition:
+            Context(self.machine, self.pe if pe is None else pe, stage).value(condition)
+        label = self.machine.programs[stage].label_at(addr)
+        bp = Breakpoint(0 if temporary else self._number(), pe, stage, addr, label,
+                        condition or None, temporary)
+        if not temporary:
+            self.breakpoints[bp.number] = bp
+        return bp
+
+    def add_watchpoint(self, text: str) -> Watchpoint:
+        ctx = self.context()
+        place = ctx.place(text)
+        if place is None:
+            try:
+                place = ctx.memory_ref(text)
+            except DebugError:
+                place = None
+        if place is None or place.kind == "pc":
+            raise DebugError(f"watch takes a register or a local memory word, not {text!r}")
+        if place.kind == "reg" and place.index == 0:
+            raise DebugError("r0 is never written")
+        if place.kind == "mem" and place.region != "local":
+            raise DebugError(f"{place.region} memory is read-only during a run: nothing writes it")
+        wp = Watchpoint(self._number(), place)
+        self.watchpoints[wp.number] = wp
+        return wp
+
+    def delete(self, number: int | None = None) -> int:
+        if number is None:
+            n = len(self.breakpoints) + len(self.watchpoints)
+            self.breakpoints.clear()
+            self.watchpoints.clear()
+            return n
+        if number in self.breakpoints:
+            del self.breakpoints[number]
+        elif number in self.watchpoints:
+            del self.watchpoints[number]
+        else:
+            raise DebugError(f"no breakpoint or watchpoint {number}")
+        return 1
+
+    # -- one cycle ---------------------------------------------------------------------------
+
+    def _index(self, temp: list[Breakpoint] = ()) -> dict[tuple[str, int], list[Breakpoint]]:
+        """Breakpoints by (stage, address), for the per-cycle check."""
+        index: dict[tuple[str, int], list[Breakpoint]] = {}
+        for bp in [*self.breakpoints.values(), *temp]:
+            index.setdefault((bp.stage, bp.address), []).append(bp)
+        return index
+
+    def _cycle(self, index: dict | None = None, replay: bool = False) -> list[Hit]:
+        """Run one cycle (taking a checkpoint first when due); the breakpoints and watchpoints
+        it fires."""
+        m = self.machine
+        c = m.cycle
+        if c % self.interval == 0 and c not in self.checkpoints:
+            self._take_checkpoint()
+        limit = m.config.max_cycles
+        if limit and c >= limit:
+            m.status = "max_cycles"
+            m.error = CycleLimit(f"cycle limit reached: {limit} cycles (max_cycles); the run did "
+                                 "not end")
+            return []
+        watches = list(self.watchpoints.values())
+        old = {}
+        if watches:
+            ctx = self.context()
+            for w in watches:
+                old[w.number] = ctx.read_word(w.place)
+        m.step()
+        hits: list[Hit] = []
+        written: dict[tuple, int] = {}
+        for pe in m.pes:
+            for core in pe.active:
+                aux = self.aux[core.name]
+                ev = core.events
+                if ev:
+                    for e in ev:
+                        kind = e[0]
+                        if kind == "reg":  # ("reg", core, register, word)
+                            written[("reg", core.name, e[2])] = e[3]
+                        elif kind == "store":  # ("store", core, "local", address, word)
+                            written[("mem", core.name, e[3])] = e[4]
+                        elif e[2] == "global":  # ("load", core, space, address, cache set)
+                            misses = pe.memories[core.proc.name].cache.misses
+                            aux["ldg"] = (e[3], e[4], misses == aux.get("misses", 0), c)
+                            aux["misses"] = misses
+                        elif e[2] == "resident":
+                            aux["ldr"] = (e[3], c)
+                    ev.clear()
+                if core.last_issued:
+                    pc = core.last_pc
+                    origin = aux["origin"]
+                    for r in core.bundles[pc].writes:
+                        origin[r] = (pc, c)
+                    if index:
+                        for bp in index.get((core.proc.name, pc), ()):
+                            hit = self._check_breakpoint(bp, pe.index, core, c, replay)
+                            if hit is not None:
+                                hits.append(hit)
+        if watches:
+            hits += self._check_watches(watches, old, written, c, replay)
+        edit = self.checkpoints.get(m.cycle)
+        if edit is not None and edit.pinned:  # an edit made at this point of the history
+            self._restore_before(m.cycle)
+        if self.trace_out is not None and not replay:
+            self._trace(c)
+        return hits
+
+    def _check_breakpoint(self, bp: Breakpoint, pe: int, core, c: int, replay: bool) -> Hit | None:
+        if bp.pe is not None and bp.pe != pe:
+            return None
+        if bp.condition:
+            try:
+                ok = Context(self.machine, pe, bp.stage).value(bp.condition)
+            except DebugError as err:
+                return Hit(c, pe, bp.stage, f"breakpoint {bp.number}: error in condition "
+                           f"{bp.condition!r}: {err}", bp.number)
+            if not ok:
+                return None
+        if not replay:
+            bp.hits += 1
+        what = "until" if bp.temporary else f"breakpoint {bp.number}"
+        cond = f" [{bp.condition}]" if bp.condition else ""
+        return Hit(c, pe, bp.stage, f"{what}: pe{pe}.{bp.stage} issued pc {bp.address} "
+                   f"({core.label(bp.address)}) in cycle {c}{cond}", bp.number)
+
+    def _check_watches(self, watches, old, written, c: int, replay: bool) -> list[Hit]:
+        m = self.machine
+        hits = []
+        ctx = self.context()
+        for w in watches:
+            p = w.place
+            core = m.pes[p.pe].cores[p.stage]
+            key = (p.kind, core.name, p.index)
+            if key in written:
+                new = written[key]
+                how = self._write_origin(core, p, c)
+            elif m.status is not None and ctx.read_word(p) != old[w.number]:
+                new = ctx.read_word(p)  # a result in flight written when the run ended
+                how = "a result in flight, written when the run ended"
+            else:
+                continue
+            if not replay:
+                w.hits += 1
+            before = self._show(core, p, old[w.number])
+            after = self._show(core, p, new)
+            hits.append(Hit(c, p.pe, p.stage, f"watchpoint {w.number}: {p.name(qualify=True)}: "
+                            f"{before} -> {after} in cycle {c} ({how})", w.number))
+        return hits
+
+    @staticmethod
+    def _show(core, place: Place, word: int) -> str:
+        if place.view == "f":
+            return str(core.value(word, "f"))
+        if place.view in ("x", "u"):
+            return f"0x{word & core.mask:x}" if place.view == "x" else str(word & core.mask)
+        return short_word(core, word)
+
+    def _write_origin(self, core, place: Place, c: int) -> str:
+        if place.kind == "mem":
+            pc = core.last_pc
+            return f"st at pc {pc} ({core.label(pc)})"
+        origin = self.aux[core.name]["origin"].get(place.index)
+        if origin is None:
+            return "written back"
+        pc, issued = origin
+        ops = [op for op in core.program.bundles[pc] if place.index in op.writes()]
+        what = ops[0].mnemonic if ops else "result"
+        return f"{what} at pc {pc} ({core.label(pc)}), issued in cycle {issued}"
+
+    def _trace(self, c: int) -> None:
+        for core in self.machine.pes[self.pe].cores.values():
+            if not core.present:
+                continue
+            if core.last_issued:
+                labels = core.program.code_labels()
+                what = " ; ".join(op.format(labels) for op in core.program.bundles[core.last_pc])
+            elif core.halted:
+                continue
+            else:
+                what = "stall " + core.cause
+            pc = core.last_pc
+            self.trace_out(f"{c:>8}  {core.name:<7} {pc:>5}  {core.label(pc):<20.20} {what}")
+
+    # -- moving forward ------------------------------------------------------------------------
+
+    def advance(self, done: Callable[[int], bool] | None = None, *, max_cycles: int | None = None,
+                temp: list[Breakpoint] = ()) -> Stop:
+        """Run cycles until `done(cycle)` after some cycle, `max_cycles` cycles, a breakpoint or
+        watchpoint, an interrupt or the end of the run."""
+        m = self.machine
+        if m.status is not None:
+            return Stop([self.end_message() + "; nothing more to run (reverse-step, restart "
+                         "or inspect)"], ended=True)
+        self.interrupt = False
+        n = 0
+        stop = Stop(moved=True)
+        index = self._index(temp)
+        while True:
+            hits = self._cycle(index)
+            n += 1
+            c = m.cycle - 1
+            if m.status is not None:
+                stop.hits = hits
+                stop.messages = [h.message for h in hits] + self.end_report()
+                stop.ended = True
+                return stop
+            if hits:
+                stop.hits = hits
+                stop.messages = [h.message for h in hits]
+                h = hits[0]
+                self.set_view(h.pe, h.stage)
+                return stop
+            if done is not None and done(c):
+                return stop
+            if max_cycles is not None and n >= max_cycles:
+                return stop
+            if self.interrupt:
+                self.interrupt = False
+                stop.messages = [f"interrupted after cycle {c}"]
+                return stop
+
+    def step(self, n: int = 1) -> Stop:
+        if n < 1:
+            raise DebugError("step takes a positive number of cycles")
+        return self.advance(max_cycles=n)
+
+    def stepi(self, n: int = 1, over_calls: bool = False) -> Stop:
+        """Run until the viewed processor has issued n bundles (`next`: a `call` counts as one
+        bundle with everything up to its return)."""
+        if n < 1:
+            raise DebugError("stepi takes a positive number of bundles")
+        pe, stage = self.pe, self.stage
+        if not self.core.present:
+            raise DebugError(f"pe{pe}.{stage} has no program")
+        if self.core.halted and not self.ended:
+            raise DebugError(f"pe{pe}.{stage} has halted; use step (cycles) or continue")
+        count = [0]
+        ret_to = [None]
+
+        def done(c: int) -> bool:
+            core = self.machine.pes[pe].cores[stage]
+            if not core.last_issued:
+                return False
+            pc = core.last_pc
+            if ret_to[0] is not None:
+                if pc != ret_to[0]:
+                    return False
+                ret_to[0] = None
+            elif over_calls and any(op.mnemonic == "call" for op in core.program.bundles[pc]):
+                ret_to[0] = pc + 1
+                return False
+            count[0] += 1
+            return count[0] >= n or core.halted
+
+        stop = self.advance(done)
+        if not stop.hits and not stop.ended and self.core.halted:
+            stop.messages.append(f"pe{pe}.{stage} halted")
+        return stop
+
+    def cont(self) -> Stop:
+        return self.advance()
+
+    def until(self, location: str | None = None) -> Stop:
+        """Run until the viewed processor issues the bundle at `location` (a temporary
+        breakpoint); without one, until it issues a bundle past the current one (out of a loop)."""
+        if location:
+            bp = self.add_breakpoint(location, temporary=True)
+            return self.advance(temp=[bp])
+        pe, stage = self.pe, self.stage
+        here = self.core.last_pc
+
+        def done(c: int) -> bool:
+            core = self.machine.pes[pe].cores[stage]
+            return core.last_issued and core.last_pc > here
+
+        return self.advance(done)
+
+    # -- edits --------------------------------------------------------------------------------
+
+    def set_place(self, place: Place, value) -> tuple[int, int]:
+        """Write a value; (old word, new word). Pins a checkpoint (debug_reverse.py: edits)."""
+        if self.ended:
+            raise DebugError(self.end_message() + ": the state can no longer change")
+        ctx = self.context()
+        word = ctx.word_of(place, value)
+        old = ctx.read_word(place)
+        ctx.write_word(place, word)
+        self.edited()
+        return old, word

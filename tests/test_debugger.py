@@ -1,0 +1,589 @@
+"""`netsushisen debug`: driven with --batch (what a user sees), and the session's exact reverse
+execution (full canonical state dumps compared).
+
+Expected cycles are worked out from docs/timing.md in the comments (`cN` = the cycle a bundle
+issues in; default timing: int ALU 1, fadd 2, fmul 3, taken-branch penalty 1, IC local t_r 1).
+A breakpoint stops after the cycle in which its bundle issues.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import random
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from netsushisen.asm.assembler import assemble_text
+from netsushisen.emulator.debug_state import STATE_KEYS, dump_differences, state_dump
+from netsushisen.emulator.debugger import ProgramsFactory, Session
+from netsushisen.emulator.images import image_from_json
+from netsushisen.emulator.machine import Machine
+from netsushisen.isa.config import load_config
+
+PROJECT = Path(__file__).resolve().parents[1]
+
+# The timing.md example (section 1, T10), with a label on the fourth bundle.
+CHAIN = """
+.proc ic
+start:  lf r1, 2.0          # c0
+        fmul r2, r1, r1     # c1        r2 ready at 4
+        fadd r3, r2, r1     # c2, c3 stall operand:fmul; c4 issue, r3 ready at 6
+target: fadd r4, r3, r3     # c5 stall operand:fadd; c6 issue
+        halt                # c7 -> 8 cycles
+"""
+
+# A counted loop: li c0, lf c1; per iteration: loop cK, st cK+1, bnez cK+2 (taken: cK+3 is a
+# branch stall), so loop issues in c2, c6, c10; then st c11, bnez c12 (not taken), done c13
+# (ld t_r = 1), halt c14 -> the run ends after 15 cycles.
+LOOP = """
+.proc ic
+.data
+counter: .word 0
+table:   .float 1.5, 2.5, 3.5
+.text
+start:  li r9, 3
+        lf r1, 1.5
+loop:   { addi r9, r9, -1 ; fadd r2, r2, r1 }
+        st r9, [counter]
+        bnez r9, loop
+done:   { ld r3, [table + 1] ; fmul r4, r1, r1 }
+        halt
+"""
+
+# A three-stage pipeline: DIS -> OS -> IC (ldg through the cache, ldr resident) -> SC -> COL.
+OS_PIPE = """
+.proc os
+loop:   recv r1, host
+        recv r2, host
+        li r3, (DEST_IC << HDR_DEST_SHIFT) | 1
+        send ring, r3
+        send ring, r2
+        j loop
+"""
+IC_PIPE = """
+.proc ic
+loop:   recv r1, ring
+        recv r2, ring
+        slli r3, r2, 2
+        ldg r4, [r3 + 1]
+        ldr r5, [r2]
+        fadd r6, r4, r5
+        li r7, (DEST_SC << HDR_DEST_SHIFT) | (1 << HDR_CLS_SHIFT) | 2
+        send ring, r7
+        send ring, r2
+        send ring, r6
+        j loop
+"""
+SC_PIPE = """
+.proc sc
+        li r5, (DEST_COL << HDR_DEST_SHIFT) | 4
+        lf r8, 0.5
+loop:   recv r1, ring
+        recv r2, ring
+        recv r3, ring
+        itof r4, r2
+        send col, r5
+        send col, r2
+        send col, r3
+        send col, r4
+        send col, r8
+        j loop
+"""
+
+
+def pipe_image() -> dict:
+    host = []
+    for i in range(6):
+        host += [{"header": {"length": 1, "dest": "os"}}, i]
+    return {"host": host, "frame": {"width": 3, "height": 2},
+            "icgm": [float(i) for i in range(32)], "ic.resident": [0.25 * i for i in range(6)]}
+
+
+@pytest.fixture
+def files(tmp_path):
+    for name, src in (("chain", CHAIN), ("loop", LOOP), ("os", OS_PIPE), ("ic", IC_PIPE),
+                      ("sc", SC_PIPE)):
+        (tmp_path / f"{name}.s").write_text(src)
+    (tmp_path / "image.json").write_text(json.dumps(pipe_image()))
+    return tmp_path
+
+
+@pytest.fixture
+def debug(cli, files):
+    """Run `netsushisen debug ARGS --batch` on a list of commands: (exit code, stdout)."""
+
+    def run(commands: list[str], *args, screen: bool = False):
+        script = files / "commands.txt"
+        script.write_text("\n".join(commands) + "\n")
+        extra = [] if screen else ["--no-screen"]
+        code, out, err = cli("debug", *[str(a) for a in args], "--batch", str(script), *extra)
+        assert "Traceback" not in out + err
+        return code, out
+
+    return run
+
+
+def pipe_session(pes: int = 2, **kw) -> Session:
+    programs = {s: assemble_text(src, proc=s) for s, src in
+                (("os", OS_PIPE), ("ic", IC_PIPE), ("sc", SC_PIPE))}
+    factory = ProgramsFactory(load_config(None, [f"pes={pes}"]), programs,
+                              image_from_json(pipe_image()))
+    return Session(factory, **kw)
+
+
+def loop_session(**kw) -> Session:
+    factory = ProgramsFactory(load_config(None, []), {"ic": assemble_text(LOOP)})
+    return Session(factory, **kw)
+
+
+def lines_with(out: str, text: str) -> list[str]:
+    return [line for line in out.splitlines() if text in line]
+
+
+def listing_rows(out: str, mark: str) -> list[list[str]]:
+    """Rows of the listing panel whose marker column starts with `mark` (=>, !>, ->)."""
+    rows = []
+    for line in out.splitlines():
+        cells = line.strip("│ ").split()
+        if cells and cells[0].startswith(mark) and "│" in line:
+            rows.append(cells)
+    return rows
+
+
+# ---------------------------------------------------------------------------------------------
+# Breakpoints, watchpoints, until, set
+
+
+def test_breakpoint_on_a_label_stops_in_the_cycle_the_bundle_issues(debug, files):
+    code, out = debug(["break target", "continue", "print r3", "print f:r3"],
+                      "--program", files / "chain.s", screen=True)
+    assert code == 0
+    assert "breakpoint 1: pe0.ic issued pc 3 (target) in cycle 6" in out
+    assert "last cycle 6 (7 cycles run)" in out  # the screen's header
+    # the listing marks the issuing bundle, with every slot of the IC VLIW shown
+    row = listing_rows(out, "=>")[0]
+    assert row[:3] == ["=>B1", "3", "target"] and "fadd r4, r3, r3" in " ".join(row)
+    assert all(slot in out for slot in ("int0", "fp0", "fp1", "fp2"))
+    assert "f:r3 = 6.0" in out  # fadd r3 = 4.0 + 2.0, written at the start of cycle 6
+    assert "\x1b[" not in out  # no colour codes when not a terminal
+
+
+def test_the_screen_shows_the_stall_reason_and_the_scoreboard(debug, files):
+    # after c3: fadd r3 (pc 2) waits for fmul's r2 (ready at 4)
+    code, out = debug(["step 4"], "--program", files / "chain.s", screen=True)
+    assert "last cycle 3 (4 cycles run)" in out
+    assert "stall operand:fmul at pc 2 (start+2)" in out
+    assert listing_rows(out, "!>")[0][:2] == ["!>", "2"]
+    pending = lines_with(out, "fmul pc 1")[0]
+    assert "r2" in pending and " 4 " in pending and "4.0" in pending
+
+
+def test_conditional_breakpoint(debug, files):
+    # loop issues in c2 (r9 = 3), c6 (2), c10 (1); the condition sees the registers the bundle read
+    code, out = debug(["break loop if r9 == 1", "continue", "print r9", "info break"],
+                      "--program", files / "loop.s")
+    assert "breakpoint 1: pe0.ic issued pc 2 (loop) in cycle 10 [r9 == 1]" in out
+    assert "r9 = 1  (0x00000001" in out
+    assert "hit 1 time" in out
+    # a float condition, true from the second iteration (r2 = 1.5 written at c4)
+    code, out = debug(["break loop if f:r2 > 1.0", "continue"], "--program", files / "loop.s")
+    assert "in cycle 6 [f:r2 > 1.0]" in out
+
+
+def test_watchpoint_fires_on_the_write_with_old_and_new_values(debug, files):
+    code, out = debug(["watch r9", "watch local[counter]", "continue", "continue", "delete 1",
+                       "continue"], "--program", files / "loop.s")
+    # li r9 issued c0, written at the start of c1; addi issued c2 (latency 1), written in c3
+    assert "watchpoint 1: pe0.ic.r9: 0 -> 3 in cycle 1 (li at pc 0 (start), issued in cycle 0)" in out
+    assert "watchpoint 1: pe0.ic.r9: 3 -> 2 in cycle 3 (addi at pc 2 (loop), issued in cycle 2)" in out
+    # st issues in c3 too (stores write at issue): the same stop reports both; then c7
+    assert "watchpoint 2: pe0.ic.local[0]: 0 -> 2 in cycle 3 (st at pc 3 (loop+1))" in out
+    assert "watchpoint 2: pe0.ic.local[0]: 2 -> 1 in cycle 7 (st at pc 3 (loop+1))" in out
+    assert "r9: 2 -> 1" not in out  # deleted before c7
+
+
+def test_set_changes_what_follows(debug, files):
+    code, out = debug(["continue"], "--program", files / "loop.s")
+    assert "run ended at cycle 15: halted" in out
+    # after c1 r9 = 3 is in the register; set it to 1: one iteration: loop c2, st c3, bnez c4
+    # (not taken), done c5, halt c6 -> 7 cycles
+    code, out = debug(["step 2", "set r9 = 1", "continue", "print local[counter]",
+                       "print f:r2"], "--program", files / "loop.s")
+    assert "r9 = 1 (was 3)" in out
+    assert "run ended at cycle 7: halted" in out
+    assert "local[0] = 0  (0x00000000" in out
+    assert "f:r2 = 1.5" in out
+    # a result in flight overwrites a set register: li (c0) writes r9 in c1
+    code, out = debug(["step", "set r9 = 7", "step", "print r9"], "--program", files / "loop.s")
+    assert "note: r9 has a li result in flight (written in cycle 1)" in out
+    assert "r9 = 3  (" in out
+
+
+def test_set_floats_memory_and_pc(debug, files):
+    code, out = debug(["step 2", "set r6 = 1.5f", "print f:r6", "set f:r7 = 2", "print f:r7",
+                       "set x:r8 = 0x40490fdb", "print f:r8", "set *local[10] = 7",
+                       "print local[10]", "set *table = 0.25", "print f:local[table]",
+                       "set pc = done", "stepi", "print r3"],
+                      "--program", files / "loop.s")
+    assert code == 0
+    assert "f:r6 = 1.5" in out and "f:r7 = 2.0" in out and "f:r8 = 3.1415927" in out
+    assert "local[10] = 7  (0x00000007" in out
+    assert "f:local[1] = 0.25" in out
+    assert "issued pc 5 (done)" in out  # stepi after `set pc = done`
+
+
+def test_until_a_label_and_until_out_of_a_loop(debug, files):
+    code, out = debug(["until done", "print cycle"], "--program", files / "loop.s")
+    assert "until: pe0.ic issued pc 5 (done) in cycle 13" in out
+    assert "cycle = 14" in out
+    # `until` without a location leaves the loop: stopped after bnez (pc 4, c4), it runs to
+    # the first bundle issued past pc 4: loop c6, st c7, bnez c8, loop c10, ... done c13
+    code, out = debug(["break loop", "continue", "delete", "stepi 2", "until"],
+                      "--program", files / "loop.s")
+    assert "[cycle 4] pe0.ic issued pc 4 (loop+2): bnez r9, loop" in out
+    assert "[cycle 13] pe0.ic issued pc 5 (done)" in out
+
+
+def test_stepi_and_next_count_bundles_of_the_viewed_processor(debug, files):
+    src = """
+.proc sc
+        li r1, 1        # c0
+        call sub        # c1 (taken: c2 is a branch stall)
+        li r3, 3        # c6
+        halt            # c7
+sub:    addi r2, r1, 1  # c3
+        ret             # c4 (taken: c5 stall)
+"""
+    (files / "call.s").write_text(src)
+    code, out = debug(["stepi", "next", "stepi", "reverse-stepi 2", "stepi 2"],
+                      "--program", files / "call.s")
+    assert "[cycle 0] pe0.sc issued pc 0: li r1, 1" in out
+    assert "[cycle 6] pe0.sc issued pc 2: li r3, 3" in out  # next: call with its subroutine
+    assert "[cycle 7] pe0.sc issued pc 3, halted: halt" in out
+    assert "run ended at cycle 8: halted" in out
+    # back two bundles of SC: before halt (c7) and li (c6) is ret, issued in c4
+    assert "[cycle 4] pe0.sc issued pc 5 (sub+1): ret" in out
+    assert out.count("run ended at cycle 8: halted") == 2  # stepi 2: li (c6), halt (c7)
+
+
+def test_print_and_x(debug, files):
+    img = files / "img.json"
+    img.write_text(json.dumps({"icgm": [float(i) / 4 for i in range(8)]}))
+    code, out = debug(["step 3", "print r9", "print r9 * 2 + 1", "print loop", "print/x 255",
+                       "print f:r1 + 0.25", "print table", "print icgm[table + 2]",
+                       "print f:icgm[table + 2]", "x/3f local[table]", "x/4 icgm 4",
+                       "x/2d local 1", "print/x r1"],
+                      "--program", files / "loop.s", "--image", img)
+    assert code == 0
+    assert "r9 = 3  (0x00000003, float 4e-45)" in out
+    assert "r9 * 2 + 1 = 7" in out
+    assert "loop = 2  (code address: loop)" in out
+    assert "255 = 0xff" in out
+    assert "f:r1 + 0.25 = 1.75" in out
+    assert "table = 1" in out
+    assert "icgm[3] = 1061158912  (0x3f400000, float 0.75)" in out
+    assert "f:icgm[3] = 0.75" in out
+    rows = [line.split() for line in out.splitlines()]
+    assert ["local[1]:", "1.5", "2.5", "3.5"] in rows
+    assert ["icgm[4]:", "0x3f800000", "0x3fa00000", "0x3fc00000", "0x3fe00000"] in rows
+    assert ["local[1]:", "1069547520", "1075838976"] in rows
+    assert "r1 = 0x3fc00000" in out
+
+
+def test_bad_commands_give_one_line_errors_and_the_session_goes_on(debug, files):
+    bad = ["bogus", "print r99", "print (1 +", "print nosuch", "break nowhere", "x/8q local 0",
+           "set r0 = 1", "set *icgm[0] = 1", "step -1", "info nothing", "watch icgm[0]",
+           "print local[70000]", "pe 3", "proc xx", "delete 9", "print 1/0", "re"]
+    (files / "img.json").write_text(json.dumps({"icgm": [1, 2, 3]}))
+    code, out = debug(bad + ["step", "print r9"], "--program", files / "loop.s", "--image",
+                      files / "img.json")
+    errors = lines_with(out, "error: ")
+    assert len(errors) == len(bad)
+    assert "error: unknown command 'bogus'" in out
+    assert "error: no register r99" in out
+    assert "error: unknown name 'nosuch'" in out
+    assert "error: ambiguous command 're'" in out
+    assert "icgm memory is read-only" in out
+    assert "[cycle 0] pe0.ic issued pc 0 (start)" in out  # the session still works
+    assert "r9 = 0" in out
+    assert code == 1  # a batch with failed commands exits 1
+
+
+def test_the_end_of_the_run_is_shown_and_the_session_stays_open(debug, files):
+    (files / "fault.s").write_text(".proc ic\n li r1, 70000\n ld r2, [r1]\n halt\n")
+    code, out = debug(["continue", "print r1", "step", "info stats"],
+                      "--program", files / "fault.s")
+    assert "run ended at cycle 2: fault (run-time fault)" in out
+    assert "local memory address 70000 is outside" in out
+    assert "r1 = 70000" in out
+    assert "nothing more to run" in out
+    # deadlock: OS sends forever, nobody receives
+    (files / "flood.s").write_text(".proc os\nloop: send ring, r1\n j loop\n")
+    code, out = debug(["continue", "info fifo"], "--program", files / "flood.s",
+                      "--set", "ring.deadlock_cycles=50")
+    assert "run ended at cycle 470: deadlock" in out and "no progress for 50 cycles" in out
+    assert ["send.os", "64/64"] in [line.split()[:2] for line in out.splitlines()]
+
+
+def test_reverse_step_and_continue_in_batch(debug, files):
+    code, out = debug(["step 9", "info state", "step 30", "reverse-step 30", "info state",
+                       "break loop", "continue", "continue", "continue", "reverse-continue",
+                       "print cycle"],
+                      "--os", files / "os.s", "--ic", files / "ic.s", "--sc", files / "sc.s",
+                      "--image", files / "image.json", "--checkpoint-interval", "8", "--proc",
+                      "sc")
+    digests = [line.split(": ")[1] for line in lines_with(out, "state digest after 9 cycles")]
+    assert len(digests) == 2 and digests[0] == digests[1]
+    hits = lines_with(out, "breakpoint 1: pe0.sc issued pc 2 (loop) in cycle")
+    cycles = [int(h.rsplit(" ", 1)[1]) for h in hits]
+    assert len(cycles) == 4 and cycles[3] == cycles[1]  # reverse-continue: the previous hit
+    assert f"cycle = {cycles[1] + 1}" in out
+
+
+def test_help_trace_disassemble_views(debug, files):
+    code, out = debug(["help", "help break", "trace on", "step 2", "trace off", "disassemble loop",
+                       "proc ic", "pe 1", "info registers", "info cache", "info checkpoints"],
+                      "--os", files / "os.s", "--ic", files / "ic.s", "--sc", files / "sc.s",
+                      "--image", files / "image.json", "--pes", "2")
+    assert code == 0
+    assert "reverse-continue" in out and "break LOCATION [if CONDITION]" in out
+    assert "aliases: b" in out
+    first = [line.split() for line in lines_with(out, "pe0.os ") if line[:8].strip().isdigit()][0]
+    assert first[:4] == ["0", "pe0.os", "0", "loop"] and first[-1] == "fifo_empty:host"
+    assert "pe0.os: bundles 0..5" in out and "recv r1, host" in out
+    assert "registers pe1.ic" in out
+    assert "cache: 128 sets x 64 B" in out
+    assert "checkpoints, every 2048 cycles" in out
+
+
+def test_enter_repeats_the_last_command():
+    from netsushisen.emulator.debug_commands import Commands
+
+    s = loop_session()
+    cmds = Commands(s)
+    cmds.execute("step 3")
+    cmds.execute("", repeat_empty=True)
+    assert s.machine.cycle == 6
+    cmds.execute("")  # a batch's empty line does nothing
+    assert s.machine.cycle == 6
+
+
+def test_commands_from_stdin(cli, files, monkeypatch):
+    monkeypatch.setattr(sys, "stdin", io.StringIO("break done\ncontinue\nquit\nstep\n"))
+    code, out, err = cli("debug", "--program", files / "loop.s", "--batch", "-", "--no-screen")
+    assert code == 0 and "issued pc 5 (done) in cycle 13" in out
+    assert "(nss) step" not in out  # quit ends the batch
+
+
+def test_source_and_commands_file(cli, files):
+    setup = files / "setup.txt"
+    setup.write_text("# set up\nbreak done\n")
+    (files / "run.txt").write_text(f"continue\nsource {setup}\ninfo break\nsource nowhere.txt\n")
+    code, out, err = cli("debug", "--program", files / "loop.s", "-x", setup,
+                         "--batch", files / "run.txt", "--no-screen")
+    assert "breakpoint 1: pe0.ic issued pc 5 (done) in cycle 13" in out  # set by -x
+    assert "breakpoint 2 at ic pc 5 (done)" in out  # by `source`
+    assert "error: nowhere.txt: No such file or directory" in out
+    assert code == 1
+
+
+def test_scene_mode(cli, files):
+    # the scene's host work (grid, pre-pass, images, eye rays) with our own small kernels in
+    # place of the bundled ones: they do not understand the scene's messages, so the run may
+    # fault, which the session shows and replays exactly
+    script = files / "scene.txt"
+    script.write_text("step 40\ninfo state\nreverse-step 20\nstep 20\ninfo state\nrestart\n"
+                      "step 40\ninfo state\n")
+    code, out, err = cli("debug", "tetra:1", "--res", "2", "--os", files / "os.s", "--ic",
+                         files / "ic.s", "--sc", files / "sc.s", "--batch", script, "--no-screen")
+    assert code == 0, err
+    assert "netsushisen debug: scene tetra" in out
+    digests = [line.split("cycles: ")[1] for line in lines_with(out, "state digest after")]
+    assert len(digests) == 3 and len(set(digests)) == 1
+
+
+def test_scene_and_program_options_do_not_mix(cli, files):
+    code, out, err = cli("debug", "tetra", "--program", files / "loop.s")
+    assert code == 1 and "scene mode builds its own programs" in err
+    code, out, err = cli("debug", "--program", files / "loop.s", "--res", "8")
+    assert code == 1 and "are for scene mode" in err
+
+
+def test_program_options_are_those_of_run(cli, files):
+    code, out, err = cli("debug", "--program", files / "loop.s", "--program", files / "loop.s")
+    assert code == 1 and "a second IC program" in err
+    code, out, err = cli("debug")
+    assert code == 1 and "nothing to debug" in err
+
+
+# ---------------------------------------------------------------------------------------------
+# Reverse execution is exact
+
+
+def test_state_keys_match_the_machine_snapshot():
+    m = Machine(load_config(None, []), {"ic": assemble_text(LOOP)})
+    assert set(m.snapshot()) == set(STATE_KEYS)
+
+
+def test_state_dump_sees_every_kind_of_state():
+    s = pipe_session(pes=1)
+    s.step(40)
+    base = state_dump(s.machine)
+
+    def pe():  # looked up each time: going back installs new objects
+        return s.machine.pes[0]
+
+    edits = [
+        lambda: pe().cores["ic"].regs.__setitem__(5, 1),
+        lambda: pe().memories["os"].local.words.__setitem__(100, 1),
+        lambda: pe().memories["ic"].cache.tags.__setitem__(3, 7),
+        lambda: pe().ring.send["os"].q.append((99, 1)),
+        lambda: setattr(s.machine, "cycle", 41),
+        lambda: pe().cores["sc"].pending.setdefault(99, []).append((3, 3)),
+    ]
+    for edit in edits:
+        s.goto_cycle(40)
+        assert state_dump(s.machine) == base
+        edit()
+        assert state_dump(s.machine) != base
+
+
+def test_reverse_step_returns_exactly_to_the_earlier_state():
+    # small checkpoint interval and capacity: stepping back crosses checkpoints, replays, and
+    # the interval doubles while the run goes on
+    s = pipe_session(pes=2, checkpoint_interval=8, max_checkpoints=3)
+    rng = random.Random(7)
+    seen = {0: state_dump(s.machine)}
+    while not s.ended:
+        n = rng.randint(1, 11)
+        before = state_dump(s.machine)
+        at = s.machine.cycle
+        s.step(n)
+        moved = s.machine.cycle - at
+        seen[s.machine.cycle] = state_dump(s.machine)
+        if s.ended:
+            break
+        s.reverse_step(moved)
+        assert s.machine.cycle == at
+        diff = dump_differences(state_dump(s.machine), before)
+        assert not diff, diff
+        s.step(moved)
+        assert state_dump(s.machine) == seen[s.machine.cycle]
+    assert s.interval > 8  # thinned
+    assert len([c for c in s.checkpoints.values() if not c.pinned]) <= 3
+    # every recorded state, revisited in reverse order, from the end of the run
+    for c in sorted(seen, reverse=True):
+        s.goto_cycle(c)
+        assert state_dump(s.machine) == seen[c], c
+
+
+def test_replay_matches_a_fresh_machine():
+    s = pipe_session(pes=2, checkpoint_interval=16)
+    s.step(45)
+    s.reverse_step(13)
+    m = s.factory.build()
+    m.record_events(True)
+    for _ in range(32):
+        m.step()
+        for core in m.cores:
+            core.events.clear()
+    assert state_dump(m) == state_dump(s.machine)
+
+
+def test_reverse_step_is_exact_while_the_deadlock_detector_counts():
+    # OS floods the ring and nobody receives: after the FIFOs fill, cycles without progress
+    # are counted (machine.no_progress) until the deadlock report
+    src = ".proc os\nloop: send ring, r1\n j loop\n"
+    factory = ProgramsFactory(load_config(None, ["ring.deadlock_cycles=300"]),
+                              {"os": assemble_text(src)})
+    s = Session(factory, checkpoint_interval=64)
+    s.step(500)
+    assert s.machine.no_progress[0] > 0
+    before = state_dump(s.machine)
+    s.step(77)
+    assert s.machine.no_progress[0] > 77
+    s.reverse_step(77)
+    assert state_dump(s.machine) == before
+    s.cont()
+    assert s.machine.status == "deadlock"
+    end = state_dump(s.machine)
+    s.reverse_step(200)
+    s.cont()
+    assert state_dump(s.machine) == end
+
+
+def test_reverse_continue_returns_to_the_previous_breakpoint_exactly():
+    s = loop_session(checkpoint_interval=4)
+    s.add_breakpoint("loop")
+    states = []
+    for _ in range(3):  # hits in c2, c6, c10
+        stop = s.cont()
+        states.append((s.machine.cycle, state_dump(s.machine)))
+        assert stop.hits
+    stop = s.reverse_continue()
+    assert "in cycle 6" in stop.messages[0]
+    assert (s.machine.cycle, state_dump(s.machine)) == states[1]
+    stop = s.reverse_continue()
+    assert (s.machine.cycle, state_dump(s.machine)) == states[0]
+    stop = s.reverse_continue()
+    assert s.machine.cycle == 0 and "back at cycle 0" in stop.messages[0]
+    assert s.breakpoints[1].hits == 3  # replays do not count hits
+
+
+def test_reverse_continue_finds_a_watchpoint_and_reverse_stepi():
+    s = loop_session(checkpoint_interval=4)
+    s.add_watchpoint("local[counter]")
+    s.cont()
+    s.cont()  # st in c3, c7
+    assert s.machine.cycle == 8
+    s.delete()
+    s.cont()  # to the end
+    s.add_watchpoint("local[counter]")
+    stop = s.reverse_continue()  # the last store: c11
+    assert s.machine.cycle == 12 and "1 -> 0 in cycle 11" in stop.messages[0]
+    s.reverse_stepi(2)  # back over st (c11) and loop (c10): after bnez in c8
+    assert s.machine.cycle == 9 and s.core.last_pc == 4
+
+
+def test_an_edit_is_part_of_history():
+    s = loop_session(checkpoint_interval=4)
+    s.step(2)  # r9 = 3 written at the start of c1
+    assert s.machine.pes[0].cores["ic"].regs[9] == 3
+    s.set_place(s.context().place("r9"), 1)
+    after_edit = state_dump(s.machine)
+    s.cont()
+    assert s.machine.cycle == 7  # one iteration only
+    end = state_dump(s.machine)
+    s.goto_cycle(2)
+    assert state_dump(s.machine) == after_edit
+    s.reverse_step(1)  # before the edit
+    assert s.machine.pes[0].cores["ic"].regs[9] == 0
+    s.step(1)  # stepping forward over the edit re-applies it
+    assert state_dump(s.machine) == after_edit
+    s.reverse_step(2)
+    s.cont()
+    assert state_dump(s.machine) == end
+
+
+# ---------------------------------------------------------------------------------------------
+# A real terminal (tmux)
+
+
+@pytest.mark.skipif(shutil.which("tmux") is None, reason="tmux is not installed "
+                    "(apt-get install tmux); the batch tests cover the commands")
+def test_interactive_session_in_tmux(tmp_path):
+    out = tmp_path / "screen.txt"
+    env = dict(os.environ, NETSUSHISEN_DEBUG_HISTORY="", DRIVE_QUICK="1")
+    r = subprocess.run(["bash", str(PROJECT / "tools" / "drive_debugger.sh"), str(out)],
+                       capture_output=True, text=True, timeout=60, env=env)
+    assert r.returncode == 0, r.stdout + r.stderr
+    screen = out.read_text()
+    assert "netsushisen debug" in screen and "listing pe0.ic" in screen
+    assert "breakpoint 1: pe0.ic issued pc" in screen
+    assert "=>" in screen and "registers pe0.ic" in screen and "fifos pe0" in screen

@@ -1,0 +1,149 @@
+#!/usr/bin/env bash
+# Drive `netsushisen debug` in a real terminal (tmux) and capture what the user sees.
+#
+#   tools/drive_debugger.sh [OUT.txt]      (default: debugger-screens.txt in the current folder)
+#
+# Writes the demo pipeline of docs/debugger.md (OS -> IC -> SC -> COL, one PE) into a temporary
+# folder, starts the debugger in a detached 150x50 tmux session, types commands with
+# `tmux send-keys` (breakpoint, continue, Enter to repeat, stepi, print, x, watch, reverse-step,
+# Tab completion, a bad command) and appends each screen, captured with `tmux capture-pane`, to
+# OUT. Exit 0 when every step showed what it should, 1 otherwise. Needs tmux (apt-get install
+# tmux); PYTHON picks the interpreter (default: python3). DRIVE_QUICK=1 captures fewer screens.
+set -euo pipefail
+
+OUT=${1:-debugger-screens.txt}
+PY=${PYTHON:-python3}
+HERE=$(cd "$(dirname "$0")/.." && pwd)
+WORK=$(mktemp -d)
+SESSION="nssdbg$$"
+trap 'tmux kill-session -t "$SESSION" 2>/dev/null || true; rm -rf "$WORK"' EXIT
+
+command -v tmux >/dev/null || { echo "drive_debugger: tmux is not installed" >&2; exit 1; }
+
+cat > "$WORK/os.s" <<'EOF'
+.proc os
+loop:   recv r1, host                       # header from DIS
+        recv r2, host                       # pixel index
+        li r3, (DEST_IC << HDR_DEST_SHIFT) | 1
+        send ring, r3
+        send ring, r2
+        j loop
+EOF
+cat > "$WORK/ic.s" <<'EOF'
+.proc ic
+loop:   recv r1, ring                       # header
+        recv r2, ring                       # pixel index
+        slli r3, r2, 2                      # 4 words per pixel
+        { ldg r4, [r3 + 1] ; lf r8, 0.5 }   # shape word, through the cache
+        ldr r5, [r2]                        # resident word
+        { fadd r6, r4, r5 ; fmul r9, r4, r8 }
+        li r7, (DEST_SC << HDR_DEST_SHIFT) | (1 << HDR_CLS_SHIFT) | 2
+        send ring, r7
+        send ring, r2
+        send ring, r6
+        j loop
+EOF
+cat > "$WORK/sc.s" <<'EOF'
+.proc sc
+        li r5, (DEST_COL << HDR_DEST_SHIFT) | 4
+        lf r8, 0.5
+loop:   recv r1, ring
+        recv r2, ring
+        recv r3, ring
+        itof r4, r2
+        send col, r5
+        send col, r2
+        send col, r3
+        send col, r4
+        send col, r8
+        j loop
+EOF
+"$PY" - "$WORK/image.json" <<'EOF'
+import json, sys
+host = []
+for i in range(6):
+    host += [{"header": {"length": 1, "dest": "os"}}, i]
+json.dump({"host": host, "frame": {"width": 3, "height": 2},
+           "icgm": [float(i) for i in range(32)], "ic.resident": [0.25 * i for i in range(6)]},
+          open(sys.argv[1], "w"))
+EOF
+
+# `netsushisen` if it is installed, else the module
+if command -v netsushisen >/dev/null && [ -z "${PYTHON:-}" ]; then
+    NSS="netsushisen"
+else
+    NSS="$PY -m netsushisen.cli"
+fi
+
+: > "$OUT"
+tmux new-session -d -s "$SESSION" -x 150 -y 50 \
+    "cd '$WORK' && PYTHONPATH='${PYTHONPATH:-}' NETSUSHISEN_DEBUG_HISTORY='' $NSS debug --os os.s --ic ic.s --sc sc.s --image image.json --proc ic; echo '[debugger exited]'; sleep 30"
+
+screen() { tmux capture-pane -p -t "$SESSION"; }
+
+# wait until the screen has changed from $2 (if given) and the prompt is back (the last
+# non-empty line is `(nss)`), at most ~15 s
+wait_prompt() {
+    local before=${2:-}
+    for _ in $(seq 1 150); do
+        local now
+        now=$(screen)
+        if [ "$now" != "$before" ] && printf '%s\n' "$now" | grep -v '^\s*$' | tail -n 1 | grep -q '^(nss) *$'; then
+            return 0
+        fi
+        sleep 0.1
+    done
+    echo "drive_debugger: no prompt after: $1" >&2
+    screen >&2
+    return 1
+}
+
+FAILED=0
+# type a command (literally), Enter, wait, append the screen to OUT (when $3 is 1, under the
+# title $4), check the screen shows $2
+step() {
+    local cmd=$1 expect=${2:-} keep=${3:-1} title=${4:-$1}
+    if [ -n "$cmd" ]; then
+        tmux send-keys -t "$SESSION" -l "$cmd"
+    fi
+    sleep 0.1
+    local before
+    before=$(screen)
+    tmux send-keys -t "$SESSION" Enter
+    wait_prompt "$cmd" "$before"
+    if [ "$keep" = 1 ]; then
+        { echo "===== (nss) ${title:-<Enter> (repeats the last command)}"; screen | sed -e 's/[[:space:]]*$//'; echo; } >> "$OUT"
+    fi
+    if [ -n "$expect" ] && ! screen | grep -qF -- "$expect"; then
+        echo "drive_debugger: after '${cmd:-<Enter>}' the screen does not show: $expect" >&2
+        FAILED=1
+    fi
+}
+
+QUICK=${DRIVE_QUICK:-0}
+wait_prompt "start"
+{ echo "===== start"; screen | sed -e 's/[[:space:]]*$//'; echo; } >> "$OUT"
+step "break loop+5"      "breakpoint 1 at ic pc 5"            "$((1 - QUICK))"
+step "continue"          "breakpoint 1: pe0.ic issued pc 5 (loop+5)"
+step ""                  "breakpoint 1: pe0.ic issued pc 5 (loop+5)" "$((1 - QUICK))"
+step "stepi"             "issued pc 6"                         "$((1 - QUICK))"
+step "print f:r6"        "f:r6 = "                             0
+step "x/4f icgm 0"       "icgm[0]:"                            0
+step "watch r6"          "watchpoint 2 on pe0.ic.r6"           0
+step "continue"          "watchpoint 2: pe0.ic.r6:"
+step "reverse-step 12"   "last cycle 22 (23 cycles run)"      "$((1 - QUICK))"
+step "bogus"             "error: unknown command 'bogus'"      0
+# Tab completion: `info reg<Tab>` completes to `info registers`
+tmux send-keys -t "$SESSION" -l "info reg"
+tmux send-keys -t "$SESSION" Tab
+sleep 0.3
+step "" "registers pe0.ic (* changed since the previous stop)" "$((1 - QUICK))" "info reg<Tab> (completes to: info registers)"
+tmux send-keys -t "$SESSION" -l "quit"
+tmux send-keys -t "$SESSION" Enter
+for _ in $(seq 1 50); do
+    screen | grep -q '\[debugger exited\]' && break
+    sleep 0.1
+done
+screen | grep -q '\[debugger exited\]' || { echo "drive_debugger: quit did not exit" >&2; FAILED=1; }
+echo "drive_debugger: screens in $OUT"
+exit "$FAILED"

@@ -33,10 +33,12 @@ loop:   recv r1, ring
         j loop
 """
 _OS_SOURCE_SINK = f"""
+# Drain the ring before forwarding the next host word: a stub that blocks in `send` while its
+# own receive FIFO is full would deadlock the ring (the answers could never be consumed).
         li r{SINK_REGISTER}, 0
 loop:   wait
-        poll r1, host
-        bnez r1, forward
+        poll r1, ring
+        beqz r1, forward
         recv r2, ring
         st r2, [r{SINK_REGISTER}]
         addi r{SINK_REGISTER}, r{SINK_REGISTER}, 1

@@ -16,7 +16,7 @@ def test_headers_decode_to_their_tag_destination_length_and_class():
     expect = {  # header: (tag, dest, length, class)
         "HDR_RAY_TO_OS": (p["TAG_RAY"], "os", 13, 0), "HDR_VISIT_FIRST": (p["TAG_VISIT_FIRST"], "ic", 16, 0),
         "HDR_VISIT": (p["TAG_VISIT"], "ic", 3, 0), "HDR_NEXT": (p["TAG_NEXT"], "os", 1, 1),
-        "HDR_DONE": (p["TAG_DONE"], "os", 1, 1), "HDR_HIT": (p["TAG_HIT"], "sc", 19, 0),
+        "HDR_DONE": (p["TAG_DONE"], "os", 1, 1), "HDR_HIT": (p["TAG_HIT"], "sc", 20, 0),
         "HDR_COLOR": (p["TAG_COLOR"], "sc", 4, 0), "HDR_PIXEL": (0, "col", 4, 0),
         "HDR_ID": (p["TAG_ID"], "col", 2, 0), "HDR_MISS": (p["TAG_MISS"], "sc", 4, 0),
     }

@@ -400,6 +400,10 @@ def kernel_symbols(lay: DatabaseLayout, config: MachineConfig) -> dict[str, int]
         HAS_CYLINDERS=int(np.any(kinds == Kind.CYLINDER)), HAS_CONES=int(np.any(kinds == Kind.CONE)),
         HAS_PATCHES=int(np.any(lay.shapes.poly_is_patch)), HAS_TWO_SIDED=int(np.any(lay.shapes.two_sided)),
         HAS_REFLECTION=int(sc.reflective and deep), HAS_REFRACTION=int(sc.transparent and deep),
+        # OS: its local memory above the voxel data (slot table, ray queue) and whether the grid
+        # has a second level at all
+        OS_FREE_BASE=lay.os_base + lay.voxel_words, OS_LOCAL_WORDS=config.os.local_words,
+        HAS_SUBGRIDS=int(len(lay.grid.sub_res) > 0),
     )
     return out
 

@@ -135,15 +135,17 @@ def eye_ray_messages(scene: Scene, res: int, corners: bool, wf: WordFormat) -> n
 
 def prepare(scene: Scene | str, config: MachineConfig, res: int = 32, corners: bool = False,
             generic: bool = False, slots: int = DEFAULT_SLOTS, kernel_dir: str | Path | None = None,
-            kernels: dict[str, str | Path] | None = None) -> RenderSetup:
-    """Host work before a run: grid, pre-pass, images, kernels, eye rays."""
+            kernels: dict[str, str | Path] | None = None,
+            defines: dict[str, int | float] | None = None) -> RenderSetup:
+    """Host work before a run: grid, pre-pass, images, kernels, eye rays. `defines` adds (or
+    overrides) kernel symbols, e.g. {"SERIAL_TREES": 1} for the serial mode."""
     if isinstance(scene, str):
         scene = load_scene(scene)
     config.validate()
     grid = build_grid(scene, config)
     prepass = run_prepass(scene, config, res=res, corners=corners, grid=grid)
     images = build_images(scene, config, priorities=prepass.priorities, grid=grid)
-    defines = kernel_defines(images, generic, slots)
+    defines = kernel_defines(images, generic, slots, defines)
     programs = assemble_kernels(defines, kernel_dir, kernels)
     images.check_programs(programs)
     wf = word_format(config.precision)
@@ -187,9 +189,11 @@ def finish(setup: RenderSetup, machine: Machine, run: RunResult) -> RenderResult
 
 def render(scene: Scene | str, config: MachineConfig, res: int = 32, corners: bool = False,
            generic: bool = False, slots: int = DEFAULT_SLOTS, kernel_dir: str | Path | None = None,
-           kernels: dict[str, str | Path] | None = None, progress=None) -> RenderResult:
-    """Render on the emulated machine. `progress(cycle)` is called now and then if given."""
-    setup = prepare(scene, config, res, corners, generic, slots, kernel_dir, kernels)
+           kernels: dict[str, str | Path] | None = None, progress=None,
+           defines: dict[str, int | float] | None = None) -> RenderResult:
+    """Render on the emulated machine. `progress(cycle)` is called now and then if given;
+    `defines` adds kernel symbols (see `prepare`)."""
+    setup = prepare(scene, config, res, corners, generic, slots, kernel_dir, kernels, defines)
     machine = setup.machine()
     if progress is None:
         run = machine.run()

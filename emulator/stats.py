@@ -4,7 +4,9 @@ Schema `netsushisen-stats` version 1:
 
     schema       {"name": "netsushisen-stats", "version": 1}
     config       the full MachineConfig (a run is reproducible from its statistics)
-    programs     per stage: bundles, data words, source file (or null when absent)
+    programs     per stage: bundles, data words, source file, defines (or null when absent);
+                 static_ilp (ops per bundle, slot fill per unit class, register-port use of
+                 the program as scheduled: `asm.listing.static_ilp`)
     run          status (halted/finished/deadlock/fault/max_cycles), cycles, message,
                  left_in_flight (words still in FIFOs at the end)
     processors   keyed "pe0.os", "pe0.ic", "pe0.sc", "pe1.os", ...: present, halted, pc,
@@ -27,6 +29,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from netsushisen.asm.listing import static_ilp
 from netsushisen.emulator.machine import Machine
 
 SCHEMA = {"name": "netsushisen-stats", "version": 1}
@@ -38,7 +41,8 @@ def collect(machine: Machine) -> dict:
         programs[stage] = None if p is None else {
             "bundles": len(p.bundles), "data_words": len(p.data),
             "source": p.source_map[0].file if p.source_map else None,
-            "defines": {k: v for k, v in sorted(p.defines.items())}}
+            "defines": {k: v for k, v in sorted(p.defines.items())},
+            "static_ilp": static_ilp(p).as_dict()}
     processors, memory, fifos = {}, {}, {}
     left = 0
     for pe in machine.pes:

@@ -13,14 +13,19 @@ from rich.console import Console
 from rich.table import Table
 
 
-
-def memory_figures(stats: dict, proc: str = "pe0.ic", region: str = "shape_data") -> dict | None:
-    """ρ, μ and access times for one processor's references to one database region."""
+def memory_figures(stats: dict, proc: str = "pe0.ic", region: str | None = "shape_data") -> dict | None:
+    """ρ, μ and access times for one processor's references to one database region (None: every
+    region of its resident and global memory together)."""
     mem = stats["memory"].get(proc, {})
     regions = mem.get("regions", {})
-    res = regions.get(f"resident.{region}", {}).get("accesses", 0)
-    glob = regions.get(f"global.{region}", {})
-    acc, hits = glob.get("accesses", 0), glob.get("hits", 0)
+
+    def counts(space: str) -> tuple[int, int]:
+        keys = [k for k in regions if k.startswith(f"{space}.")] if region is None else [f"{space}.{region}"]
+        return (sum(regions.get(k, {}).get("accesses", 0) for k in keys),
+                sum(regions.get(k, {}).get("hits", 0) for k in keys))
+
+    res = counts("resident")[0]
+    acc, hits = counts("global")
     total = res + acc
     if not total:
         return None
@@ -29,7 +34,8 @@ def memory_figures(stats: dict, proc: str = "pe0.ic", region: str = "shape_data"
     mu = hits / acc if acc else 1.0
     measured = (res * cfg["t_r"] + hits * cfg["t_c"] + (acc - hits) * cfg["t_g"]) / total
     model = cfg["t_r"] * (rho + (1 - rho) * (8 - 6 * mu))
-    return {"references": total, "rho": rho, "mu": mu, "measured": measured, "model": model}
+    return {"references": total, "resident": res, "cache": acc, "hits": hits, "rho": rho, "mu": mu,
+            "measured": measured, "model": model}
 
 
 def _top_stalls(p: dict, n: int = 3) -> str:

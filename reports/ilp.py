@@ -1,0 +1,98 @@
+"""ILP report: where each processor's cycles went and how full its bundles were.
+
+Per processor: cycles, bundles issued, operations, dynamic ILP (operations per cycle, stalls
+included) against static ILP (operations per bundle of the program as scheduled), slot fill per
+unit class (dynamic: ops of the class / (cycles × units); static: over the program's bundles),
+register-port use of the program's bundles, and the hottest code locations (label + offset).
+
+Static ILP comes from the statistics file (`programs.<stage>.static_ilp`, written since the
+report existed); for older files the program is reassembled from the recorded source and
+defines when the source is still there, else static columns show "-".
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from netsushisen.isa.processors import PROCESSORS
+from netsushisen.reports.tables import Section, present_processors
+
+
+def static_ilp_of(stats: dict, stage: str) -> dict | None:
+    prog = (stats.get("programs") or {}).get(stage)
+    if not prog:
+        return None
+    if isinstance(prog.get("static_ilp"), dict):
+        return prog["static_ilp"]
+    src = prog.get("source")
+    if not src or not Path(src).is_file():
+        return None
+    try:  # an older statistics file: reassemble the program it ran
+        from netsushisen.asm.assembler import assemble_file
+        from netsushisen.asm.listing import static_ilp
+        p = assemble_file(src, proc=stage, defines=prog.get("defines") or {})
+    except Exception:  # the source changed or no longer assembles: no static figures
+        return None
+    if len(p.bundles) != prog.get("bundles"):
+        return None
+    return static_ilp(p).as_dict()
+
+
+def hot_locations(p: dict) -> list[tuple[int, str, int, int, int]]:
+    """(pc, label, cycles, issued, stalled) per code location, most cycles first. Issued bundles
+    per PC are counted when the statistics give `bundles_by_pc`; otherwise cycles = stalls."""
+    issued = {int(k): int(v) for k, v in (p.get("bundles_by_pc") or {}).items()}
+    labels: dict[int, str] = {}
+    stalled: dict[int, int] = {}
+    for k, v in (p.get("stalls_by_pc") or {}).items():
+        pc = int(k)
+        labels[pc] = v.get("label", str(pc))
+        stalled[pc] = sum(v.get("stalls", {}).values())
+    out = []
+    for pc in set(issued) | set(stalled):
+        i, s = issued.get(pc, 0), stalled.get(pc, 0)
+        out.append((pc, labels.get(pc, str(pc)), i + s, i, s))
+    out.sort(key=lambda r: (-r[2], r[0]))
+    return out
+
+
+def ilp_sections(stats: dict, top: int = 5) -> list[Section]:
+    procs = present_processors(stats)
+    main = Section("processors", "ILP per processor (dynamic = ops/cycle, static = ops/bundle as scheduled)",
+                   ["processor", "cycles", "bundles", "ops", "ops/cycle", "ops/bundle", "static", "stalled"],
+                   formats={"cycles": "int", "bundles": "int", "ops": "int", "ops/cycle": "f2",
+                            "ops/bundle": "f2", "static": "f2", "stalled": "pct"})
+    slots = Section("slot_fill", "Slot fill per unit class (share of slots holding an operation)",
+                    ["processor", "unit", "units", "ops", "dynamic", "static"],
+                    formats={"units": "int", "ops": "int", "dynamic": "pct", "static": "pct"})
+    ports = Section("register_ports", "Register-file ports per bundle, as scheduled (static)",
+                    ["processor", "reads", "read use", "max R", "writes", "write use", "max W"],
+                    formats={"reads": "f2", "read use": "pct", "max R": "int", "writes": "f2",
+                             "write use": "pct", "max W": "int"})
+    hot = Section("hot_locations", f"Hottest code locations (top {top} per processor)",
+                  ["processor", "location", "pc", "cycles", "share"],
+                  formats={"pc": "int", "cycles": "int", "share": "pct"})
+    any_issue_counts = False
+    for name, p in procs:
+        stage = name.rsplit(".", 1)[-1]
+        proc = PROCESSORS.get(stage)
+        cycles = int(p["cycles"])
+        st = static_ilp_of(stats, stage)
+        main.rows.append([name, cycles, p["bundles"], p["ops"], p["ops"] / max(cycles, 1),
+                          p["ops"] / p["bundles"] if p["bundles"] else None,
+                          st["ops_per_bundle"] if st else None, p["stall_cycles"] / max(cycles, 1)])
+        units = proc.units if proc else {}
+        for unit, count in units.items():
+            ops = int(p.get("ops_by_unit", {}).get(unit, 0))
+            slots.rows.append([name, unit, count, ops, ops / max(cycles * count, 1),
+                               (st or {}).get("slot_fill", {}).get(unit)])
+        if st:
+            ports.rows.append([name, st["reads_per_bundle"], st["read_port_use"], st["max_reads"],
+                               st["writes_per_bundle"], st["write_port_use"], st["max_writes"]])
+        any_issue_counts |= "bundles_by_pc" in p
+        for pc, label, c, _, _ in hot_locations(p)[:top]:
+            hot.rows.append([name, label, pc, c, c / max(cycles, 1)])
+    hot.caption = ("cycles = bundles issued there + stall cycles charged there" if any_issue_counts else
+                   "cycles = stall cycles charged to the location (these statistics count no issued "
+                   "bundles per PC)")
+    return [main, slots] + ([ports] if ports.rows else []) + [hot]

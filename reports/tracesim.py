@@ -1,0 +1,362 @@
+"""Trace-driven model of IC's memory: resident memory + direct-mapped cache + global memory.
+
+It replays a stream of (space, word address) loads — the IC access protocol's stream from the
+golden model's reference trace (`host/ic_access.py`) — with the emulator's exact rules
+(`emulator/memories.py`): word bytes from the precision, byte address = word × word_bytes,
+block = byte // block_bytes, set = block % sets, tag = block // sets, a miss fills its line, a
+cache of 0 bytes misses every time; and it keeps the same counters in the same dictionary shape
+as `MemorySystem.stats()` (resident, cache, global, per-region and per-primitive counts; there is
+no local memory in a trace).
+
+Vectorised: a direct-mapped cache needs no loop over accesses. Sort the accesses by set (a
+stable sort keeps each set's accesses in time order); an access hits iff the access before it in
+its set was to the same block (the first access of a set in a chunk compares with the line's
+tag left by the previous chunk).
+
+`machine_order` gives the order in which the machine's serial mode (`SLOTS=1`,
+`SERIAL_TREES=1`) visits the golden trace's rays, `ordered_stream_chunks` the IC stream in that
+order, and `SweepStream` replays one trace under many memory configurations at once (the paper's
+Figures 4 and 5) from a run-collapsed form of the stream.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Iterable, Iterator
+
+import numpy as np
+
+from netsushisen.emulator.memories import Region
+from netsushisen.host.databases import GLOBAL, RESIDENT, DatabaseLayout
+from netsushisen.host.golden import SHADOW
+from netsushisen.host.ic_access import ic_address_stream
+from netsushisen.host.records import ranges
+
+SPACES = {GLOBAL: "global", RESIDENT: "resident"}
+
+
+# ------------------------------------------------------------------------------------------------
+# The direct-mapped cache, vectorised
+
+
+def block_numbers(addresses: np.ndarray, word_bytes: int, block_bytes: int) -> np.ndarray:
+    """Block of each word address: (address × word_bytes) // block_bytes, as the emulator."""
+    return (np.asarray(addresses, np.int64) * word_bytes) // block_bytes
+
+
+def replay_blocks(blocks: np.ndarray, tags: np.ndarray) -> np.ndarray:
+    """Hit (True) or miss of each access to `blocks`, in order, through a direct-mapped cache
+    whose line tags are `tags` (one per set, -1 = invalid; updated in place, so consecutive
+    chunks of one stream replay as one). No sets: every access misses."""
+    blocks = np.asarray(blocks, np.int64)
+    n, sets = len(blocks), len(tags)
+    if n == 0 or sets == 0:
+        return np.zeros(n, bool)
+    s = blocks % sets
+    tag = blocks // sets
+    key = s.astype(np.uint16) if sets <= 1 << 16 else s  # 16-bit keys sort by radix: O(n)
+    order = np.argsort(key, kind="stable")
+    ss, tt = s[order], tag[order]
+    first = np.empty(n, bool)
+    first[0] = True
+    np.not_equal(ss[1:], ss[:-1], out=first[1:])
+    prev = np.empty(n, np.int64)
+    prev[1:] = tt[:-1]
+    prev[first] = tags[ss[first]]
+    last = np.empty(n, bool)
+    last[-1] = True
+    last[:-1] = first[1:]
+    tags[ss[last]] = tt[last]
+    hits = np.empty(n, bool)
+    hits[order] = prev == tt
+    return hits
+
+
+class DirectMappedCache:
+    """The vectorised twin of `emulator.memories.Cache` (tags only, counters)."""
+
+    def __init__(self, cache_bytes: int, block_bytes: int, word_bytes: int):
+        self.block_bytes = block_bytes
+        self.word_bytes = word_bytes
+        self.sets = cache_bytes // block_bytes
+        self.tags = np.full(self.sets, -1, np.int64)
+        self.accesses = self.hits = self.misses = 0
+
+    def replay(self, addresses: np.ndarray) -> np.ndarray:
+        """Replay word addresses in order; hit per access."""
+        hits = replay_blocks(block_numbers(addresses, self.word_bytes, self.block_bytes), self.tags)
+        h = int(np.count_nonzero(hits))
+        self.accesses += len(hits)
+        self.hits += h
+        self.misses += len(hits) - h
+        return hits
+
+
+class VectorRegions:
+    """A region map (`emulator.memories.RegionMap`'s ranges) looked up for many addresses at once."""
+
+    def __init__(self, regions: Iterable[Region], names: list[str]):
+        regs = sorted(regions, key=lambda r: r.start)
+        self.starts = np.array([r.start for r in regs], np.int64)
+        self.ends = np.array([r.end for r in regs], np.int64)
+        for r in regs:
+            if r.name not in names:
+                names.append(r.name)
+        self.name = np.array([names.index(r.name) for r in regs], np.int64)
+        self.primitive = np.array([-1 if r.primitive is None else r.primitive for r in regs], np.int64)
+
+    def lookup(self, addresses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(name index or -1, primitive id or -1) of each address."""
+        a = np.asarray(addresses, np.int64)
+        if not len(self.starts):
+            return np.full(len(a), -1, np.int64), np.full(len(a), -1, np.int64)
+        i = np.searchsorted(self.starts, a, side="right") - 1
+        j = np.maximum(i, 0)
+        inside = (i >= 0) & (a < self.ends[j])
+        return np.where(inside, self.name[j], -1), np.where(inside, self.primitive[j], -1)
+
+
+# ------------------------------------------------------------------------------------------------
+# One processor's resident + cache + global memory, trace-driven
+
+
+class TraceMemory:
+    """IC's (or SC's) memory counters from a replayed (space, address) stream.
+
+    `regions` maps "resident" / "global" to region lists (as `MachineImages.regions["ic.…"]`).
+    `global_words` / `resident_words` bound the addresses like the emulator's memories (an access
+    outside raises ValueError naming it); None = unbounded."""
+
+    def __init__(self, cache_bytes: int, block_bytes: int, word_bytes: int, resident_words: int = 0,
+                 regions: dict[str, list[Region]] | None = None, global_words: int | None = None):
+        self.cache = DirectMappedCache(cache_bytes, block_bytes, word_bytes)
+        self.resident_words = resident_words
+        self.global_words = global_words
+        self.resident_accesses = 0
+        self.names: list[str] = []
+        regions = regions or {}
+        self.maps = {space: VectorRegions(regions.get(space, ()), self.names) for space in ("resident", "global")}
+        self.region_counts: dict[str, np.ndarray] = {}  # "space.name" -> [accesses, hits, misses]
+        self.primitive_counts = np.zeros(0, np.int64)
+
+    @classmethod
+    def for_images(cls, images, proc: str = "ic") -> TraceMemory:
+        """The memory of `proc` for machine images (`host.databases.MachineImages`), sized from
+        `images.config` as the emulator sizes it."""
+        mc = images.config.ic_memory if proc == "ic" else images.config.sc_memory
+        wb = images.config.word_bytes
+        glob = images.icgm if proc == "ic" else images.scgm
+        return cls(mc.cache_bytes, mc.block_bytes, wb, mc.resident_bytes // wb,
+                   {"resident": images.regions.get(f"{proc}.resident", []),
+                    "global": images.regions.get(f"{proc}.global", [])}, global_words=len(glob))
+
+    def _count(self, space: str, address: np.ndarray, hits: np.ndarray | None) -> None:
+        name, prim = self.maps[space].lookup(address)
+        for k in np.unique(name[name >= 0]).tolist():
+            sel = name == k
+            key = f"{space}.{self.names[k]}"
+            c = self.region_counts.setdefault(key, np.zeros(3, np.int64))
+            c[0] += int(np.count_nonzero(sel))
+            if hits is not None:
+                h = int(np.count_nonzero(hits[sel]))
+                c[1] += h
+                c[2] += int(np.count_nonzero(sel)) - h
+        p = prim[prim >= 0]
+        if len(p):
+            counts = np.bincount(p)
+            if len(counts) > len(self.primitive_counts):
+                counts[:len(self.primitive_counts)] += self.primitive_counts
+                self.primitive_counts = counts
+            else:
+                self.primitive_counts[:len(counts)] += counts
+
+    def replay(self, space: np.ndarray, address: np.ndarray) -> None:
+        """Replay one chunk of loads: `space` GLOBAL (ldg) / RESIDENT (ldr) per load."""
+        space = np.asarray(space)
+        address = np.asarray(address, np.int64)
+        res = space == RESIDENT
+        ra, ga = address[res], address[~res]
+        for what, a, bound in (("resident", ra, self.resident_words), ("global", ga, self.global_words)):
+            if bound is not None and len(a) and (a.min() < 0 or a.max() >= bound):
+                bad = int(a[(a < 0) | (a >= bound)][0])
+                raise ValueError(f"{what} memory address {bad} is outside 0..{bound - 1}")
+        self.resident_accesses += len(ra)
+        self._count("resident", ra, None)
+        hits = self.cache.replay(ga)
+        self._count("global", ga, hits)
+
+    def stats(self) -> dict:
+        """The counters in `MemorySystem.stats()`'s shape (without `local`)."""
+        c = self.cache
+        out: dict = {"resident": {"accesses": self.resident_accesses, "words": self.resident_words},
+                     "cache": {"accesses": c.accesses, "hits": c.hits, "misses": c.misses,
+                               "sets": c.sets, "block_bytes": c.block_bytes},
+                     "global": {"accesses": c.misses}}
+        regions = {}
+        for key, (a, h, m) in self.region_counts.items():
+            if a:
+                regions[key] = {"accesses": int(a)} | ({"hits": int(h), "misses": int(m)}
+                                                       if key.startswith("global.") else {})
+        if regions:
+            out["regions"] = regions
+        prims = {str(p): int(n) for p, n in enumerate(self.primitive_counts.tolist()) if n}
+        if prims:
+            out["primitives"] = prims
+        return out
+
+
+# ------------------------------------------------------------------------------------------------
+# The machine's ray order and the IC stream in that order
+
+
+def ray_generation(result) -> np.ndarray:
+    """Generation of each traced ray in its pixel's ray tree: the eye ray 0; a surface ray of
+    depth k: k − 1; a shadow ray of a depth-k hit (it carries depth k): k."""
+    depth = result.trace_depth.astype(np.int64)
+    return np.where(result.trace_kind == SHADOW, depth, depth - 1)
+
+
+def machine_order(result) -> np.ndarray:
+    """The golden trace's ray indices in the order the machine's serial mode visits them: pixel
+    by pixel, each pixel's ray tree in level order (the eye ray; its children in spawn order —
+    shadow rays by light, reflection, refraction; then their children in the same order, ...).
+
+    The trace is depth-first (rays sorted by their tree path); within one generation of one
+    pixel, depth-first order and level order are the same order (both sort the equal-length
+    paths lexicographically), so a stable sort by (pixel, generation) gives level order."""
+    if result.trace_kind is None:
+        raise ValueError("render with keep_trace=True to get the IC reference trace")
+    return np.lexsort((ray_generation(result), result.trace_pixel)).astype(np.int64)
+
+
+def ordered_stream_chunks(layout: DatabaseLayout, result, order: np.ndarray | None = None,
+                          rays_per_chunk: int = 32768, hits: bool = True
+                          ) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """The IC access stream (`ic_address_stream`) of the golden trace's rays taken in `order`
+    (default: the trace's depth-first order), in chunks of rays."""
+    if result.trace_prims is None:
+        raise ValueError("render with keep_trace=True to get the IC reference trace")
+    off = result.trace_ray_offsets
+    n = len(off) - 1
+    order = np.arange(n) if order is None else np.asarray(order, np.int64)
+    for c0 in range(0, len(order), rays_per_chunk):
+        rays = order[c0:c0 + rays_per_chunk]
+        length = off[rays + 1] - off[rays]
+        idx = ranges(off[rays], length)
+        new_off = np.concatenate([[0], np.cumsum(length)])
+        if hits:
+            yield ic_address_stream(layout, result.trace_prims[idx], result.trace_leaves[idx], new_off,
+                                    result.trace_hit[rays], result.trace_hit_fan[rays])
+        else:
+            yield ic_address_stream(layout, result.trace_prims[idx], result.trace_leaves[idx])
+
+
+# ------------------------------------------------------------------------------------------------
+# Many configurations at once: the run-collapsed stream
+
+
+@dataclass
+class SweepPoint:
+    """One memory configuration of a sweep (a layout decides resident vs ICGM and addresses)."""
+
+    layout: DatabaseLayout
+    cache_bytes: int
+    block_bytes: int
+    tags: np.ndarray = field(init=False)
+    resident: np.ndarray = field(init=False)  # (N,) bool
+    shift: np.ndarray = field(init=False)  # (N,) ICGM address − reference ICGM address
+    counts: dict[str, int] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.tags = np.full(self.cache_bytes // self.block_bytes, -1, np.int64)
+        self.resident = self.layout.record_space == RESIDENT
+        for k in ("resident.primitive_list", "resident.shape_data", "global.primitive_list",
+                  "global.shape_data", "hits.primitive_list", "hits.shape_data"):
+            self.counts[k] = 0
+
+
+class SweepStream:
+    """Replays one trace under many configurations that share the lists and the priorities.
+
+    The stream is taken once in a reference layout with every record in ICGM (id order) and cut
+    into *runs*: consecutive loads of one list cell pair or of one record, at ascending addresses
+    no more than `min block words` apart. In any configuration a run's loads stay in one space,
+    move by one offset (the record's new address) and touch every block between its first and
+    last word, each block's loads back to back: the first load of a block is a real cache access,
+    the others hit. So a configuration replays only each run's blocks, exactly."""
+
+    def __init__(self, reference: DatabaseLayout, points: list[SweepPoint], word_bytes: int):
+        self.reference = reference
+        self.points = points
+        self.wb = word_bytes
+        self.list_words = reference.list_words
+        if np.any(reference.record_space != GLOBAL):
+            raise ValueError("the reference layout must keep every record in ICGM")
+        self.addr0 = reference.record_address
+        self.starts = np.sort(self.addr0)
+        self.start_prim = np.argsort(self.addr0, kind="stable")
+        self.max_gap = max(1, min(p.block_bytes for p in points) // word_bytes) if points else 1
+        for p in points:
+            glob = p.layout.record_space == GLOBAL
+            p.shift = np.where(glob, p.layout.record_address - self.addr0, 0)
+
+    def runs(self, address: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(first address, span, loads, primitive or -1 for list cells) of each run."""
+        a = np.asarray(address, np.int64)
+        if not len(a):
+            z = np.zeros(0, np.int64)
+            return z, z, z, z
+        cell = a < self.list_words
+        i = np.searchsorted(self.starts, a, side="right") - 1
+        prim = np.where(cell, -1, self.start_prim[np.maximum(i, 0)])
+        d = np.diff(a)
+        brk = np.ones(len(a), bool)
+        brk[1:] = (prim[1:] != prim[:-1]) | (d <= 0) | (d > self.max_gap)
+        start = np.flatnonzero(brk)
+        end = np.concatenate([start[1:], [len(a)]]) - 1
+        return a[start], a[end] - a[start], end - start + 1, prim[start]
+
+    def replay(self, space: np.ndarray, address: np.ndarray) -> None:
+        """One chunk of the reference layout's stream (every load GLOBAL)."""
+        first, span, loads, prim = self.runs(address)
+        is_rec = prim >= 0
+        p = np.maximum(prim, 0)
+        for pt in self.points:
+            res = is_rec & pt.resident[p]
+            c = pt.counts
+            c["resident.shape_data"] += int(loads[res].sum())
+            g = ~res
+            f = first[g] + np.where(is_rec[g], pt.shift[p[g]], 0)
+            b1 = (f * self.wb) // pt.block_bytes
+            nb = ((f + span[g]) * self.wb) // pt.block_bytes - b1 + 1
+            rec_g = is_rec[g]
+            ld = loads[g]
+            c["global.shape_data"] += int(ld[rec_g].sum())
+            c["global.primitive_list"] += int(ld[~rec_g].sum())
+            if not len(pt.tags):
+                continue
+            blocks = ranges(b1, nb)
+            hits = replay_blocks(blocks, pt.tags)
+            rec_b = np.repeat(rec_g, nb)
+            extra = ld - nb  # loads after the first of their block: hits
+            c["hits.shape_data"] += int(np.count_nonzero(hits & rec_b)) + int(extra[rec_g].sum())
+            c["hits.primitive_list"] += int(np.count_nonzero(hits & ~rec_b)) + int(extra[~rec_g].sum())
+
+    @staticmethod
+    def figures(pt: SweepPoint, t_r: float = 1, t_c: float = 2, t_g: float = 8) -> dict:
+        """ρ, μ, measured t (in cycles with these times) and the paper's model t, over all IC
+        database loads (`all`) and over shape data alone (`shape`)."""
+        c = pt.counts
+        out = {}
+        for what, regions in (("all", ("primitive_list", "shape_data")), ("shape", ("shape_data",))):
+            res = sum(c[f"resident.{r}"] for r in regions)
+            acc = sum(c[f"global.{r}"] for r in regions)
+            hits = sum(c[f"hits.{r}"] for r in regions)
+            total = res + acc
+            rho = res / total if total else 0.0
+            mu = hits / acc if acc else 0.0
+            measured = (res * t_r + hits * t_c + (acc - hits) * t_g) / total if total else 0.0
+            out[what] = {"loads": total, "resident": res, "cache_accesses": acc, "cache_hits": hits,
+                         "rho": rho, "mu": mu, "miss_rate": 1 - mu if acc else 0.0,
+                         "t_measured": measured, "t_model": t_r * (rho + (1 - rho) * (8 - 6 * mu))}
+        return out

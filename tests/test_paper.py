@@ -1,0 +1,212 @@
+"""`netsushisen paper`: the trace-driven path against the full model and (once the kernels are
+there) against the cycle-accurate emulator; the tables, findings, figures and CSV files."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from netsushisen.host.catalog import load_scene
+from netsushisen.host.databases import build_images
+from netsushisen.host.golden import render as golden_render
+from netsushisen.host.grid import build_grid
+from netsushisen.host.prepass import run_prepass
+from netsushisen.isa.config import load_config
+from netsushisen.kernels import KERNELS
+from netsushisen.reports import paper as paper_mod
+from netsushisen.reports.paper import findings, table2
+from netsushisen.reports.paper_data import analyse_scene
+from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
+
+# ------------------------------------------------------------------------------------------------
+# End to end: the trace-driven path equals the emulator's counters (needs the stage kernels)
+
+COMPARED = ("resident", "cache", "global", "regions", "primitives")
+
+
+def _needs_kernels() -> None:
+    if not (KERNELS / "os.s").exists():
+        pytest.skip("kernels/os.s does not exist yet: the emulator cannot render real scenes until "
+                    "the stage kernels (and their serial mode, SERIAL_TREES=1) land")
+    sources = [*KERNELS.glob("*.s"), *KERNELS.glob("*.inc")]
+    if not any("SERIAL_TREES" in f.read_text(encoding="utf-8", errors="replace") for f in sources):
+        pytest.skip("the kernels have no serial mode yet (no SERIAL_TREES in kernels/): only with one "
+                    "ray tree in flight does the machine visit rays in the trace-driven model's order")
+
+
+def trace_driven_counters(setup) -> dict:
+    """IC's memory counters from the golden trace in machine order, for a render setup's images."""
+    golden = golden_render(setup.scene, setup.config, res=setup.res, corners=setup.corners,
+                           keep_trace=True, grid=setup.images.layout.grid)
+    model = TraceMemory.for_images(setup.images)
+    for space, address in ordered_stream_chunks(setup.images.layout, golden, machine_order(golden)):
+        model.replay(space, address)
+    return model.stats()
+
+
+def check_emulator_equals_trace(scene: str, res: int) -> None:
+    _needs_kernels()
+    from netsushisen.emulator.render import render
+
+    config = load_config()
+    r = render(scene, config, res=res, slots=1, defines={"SERIAL_TREES": 1})
+    assert r.run.status in ("halted", "finished"), r.run
+    emulator = r.stats["memory"]["pe0.ic"]
+    want = {k: emulator[k] for k in COMPARED if k in emulator}
+    got = trace_driven_counters(r.setup)
+    assert {k: got[k] for k in COMPARED if k in got} == want
+
+
+def test_trace_driven_path_equals_the_emulator_small():
+    check_emulator_equals_trace("mount:2", 8)  # reflective and transparent: branching ray trees
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scene", ["tetra", "balls", "mount", "rings"])
+def test_trace_driven_path_equals_the_emulator_32(scene):
+    check_emulator_equals_trace(scene, 32)
+
+
+# ------------------------------------------------------------------------------------------------
+# The paper path against the full trace-driven model
+
+
+@pytest.fixture(scope="module")
+def small():
+    config = load_config()
+    return analyse_scene("mount:3", 16, config), config
+
+
+def test_sweep_points_equal_the_full_model(small):
+    data, config = small
+    scene = load_scene("mount:3")
+    grid = build_grid(scene, config)
+    pre = run_prepass(scene, config, res=16, grid=grid)
+    golden = golden_render(scene, config, res=16, keep_trace=True, grid=grid)
+    order = machine_order(golden)
+    checked = 0
+    for row in data.fig5:
+        if (row["local_share"], row["resident_split"]) not in ((0.3, 0.0), (0.3, 0.5), (0.5, 0.8), (0.1, 1.0)):
+            continue
+        L, r = row["local_share"], row["resident_split"]
+        cfg = load_config(None, [f"ic_memory.resident_share={L * r}", f"ic_memory.cache_share={L * (1 - r)}"])
+        im = build_images(scene, cfg, priorities=pre.priorities, grid=grid)
+        model = TraceMemory.for_images(im)
+        for s, a in ordered_stream_chunks(im.layout, golden, order):
+            model.replay(s, a)
+        st = model.stats()
+        res = st["resident"]["accesses"]
+        acc, hits = st["cache"]["accesses"], st["cache"]["hits"]
+        assert row["all"]["resident"] == res and row["all"]["cache_accesses"] == acc
+        assert row["all"]["cache_hits"] == hits
+        assert row["resident_count"] == im.layout.resident_count
+        t = (res * 1 + hits * 2 + (acc - hits) * 8) / (res + acc)
+        assert row["all"]["t_measured"] == pytest.approx(t)
+        assert row["all"]["t_model"] == pytest.approx(t)  # the paper's formula is exact for 1:2:8
+        checked += 1
+    assert checked == 4
+
+
+def test_table2_and_locality_from_the_golden_model(small):
+    data, config = small
+    g = golden_render(load_scene("mount:3"), config, res=16)
+    vis = np.unique(g.hit_ids[g.hit_ids >= 0])
+    row = table2([data])[0]
+    assert row["visible_ours"] == len(vis) == g.visible_primitives
+    assert row["visible_share_ours"] == pytest.approx(len(vis) / len(g.references))
+    assert row["reference_share_ours"] == pytest.approx(g.references[vis].sum() / g.references.sum())
+    f, c = data.locality()
+    assert c[0] == 0 and c[-1] == pytest.approx(1) and np.all(np.diff(c) >= 0) and np.all(np.diff(np.diff(c)) <= 1e-12)
+    assert data.unreferenced_share == pytest.approx(np.mean(g.references == 0))
+    # Figure 5 at resident 0 is Figure 4's cache-only point of the same size
+    fig4 = {r["cache_share"]: r["all"]["t_measured"] for r in data.fig4}
+    for r in data.fig5:
+        if r["resident_split"] == 0:
+            assert r["all"]["t_measured"] == fig4[r["local_share"]]
+
+
+def _fake(name: str, refs: np.ndarray, base=None):
+    data, _ = base
+    import copy
+    d = copy.copy(data)
+    d.name = name
+    d.references = refs
+    d.visible = np.arange(len(refs) // 2)
+    return d
+
+
+def test_findings_can_disagree(small):
+    """A scene whose references are spread evenly must not 'agree' that they are skewed."""
+    uniform = _fake("mount", np.full(1000, 7, np.int64), small)
+    skewed = _fake("mount", np.r_[np.full(200, 1000), np.full(600, 1), np.zeros(200)].astype(np.int64), small)
+    v = {f.paper: f.verdict for f in findings([uniform])}
+    assert v["references are skewed in every scene"] == "differ"
+    assert v["primitives never referenced: 20 % in mount, 67 % in rings"] == "differ"
+    v = {f.paper: f.verdict for f in findings([skewed])}
+    assert v["references are skewed in every scene"] == "agree"
+    assert v["primitives never referenced: 20 % in mount, 67 % in rings"] == "agree"
+    assert all(f.verdict in ("agree", "partly", "differ", "not evaluated") for f in findings([skewed]))
+
+
+# ------------------------------------------------------------------------------------------------
+# The command
+
+
+def test_paper_command_writes_report_figures_and_csvs(tmp_path, cli):
+    out = tmp_path / "p"
+    code, stdout, err = cli("paper", "--res", "8", "--scenes", "tetra:1", "mount:2", "--out", out, "--quiet")
+    assert code == 0, err
+    for name in ("fig3_locality.png", "fig4_miss_rate.png", "fig5_access_time.png"):
+        assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with (out / "fig4_miss_rate.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 20 and {r["scene"] for r in rows} == {"tetra", "mount"}
+    with (out / "fig5_access_time.csv").open() as f:
+        assert len(list(csv.DictReader(f))) == 2 * 3 * 11
+    for name in ("table1.csv", "table2.csv", "fig3_locality.csv"):
+        assert (out / name).stat().st_size > 0
+    md = (out / "report.md").read_text()
+    assert "## Table 1" in md and "## Table 2" in md and "![Figure 5](fig5_access_time.png)" in md
+    assert "Figure 5: for 10 % local memory t rises with the resident share" in md
+    assert "tetra 4096 polygons" in md and "tetra | 4 (paper 2121)" not in md
+
+
+def test_paper_interrupted_writes_what_finished(tmp_path, cli, monkeypatch):
+    from netsushisen.reports import cli_paper
+
+    real = cli_paper.analyse_scene
+    calls = []
+
+    def fake(scene, *a, **k):
+        calls.append(scene.name)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(scene, *a, **k)
+
+    monkeypatch.setattr(cli_paper, "analyse_scene", fake)
+    out = tmp_path / "p"
+    code, _, err = cli("paper", "--res", "6", "--scenes", "tetra:1", "balls:1", "--out", out, "--quiet")
+    assert code == 130
+    assert "interrupted; finished tetra, not balls" in err
+    md = (out / "report.md").read_text()
+    assert "Incomplete run" in md and "balls" in md.split("Incomplete run")[1].splitlines()[0]
+    assert (out / "fig3_locality.png").exists()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--scenes", "nosuchscene"], "cannot load scene"),
+    (["--res", "0"], "--res 0"),
+    (["--set", "ic_memory.block_bytes=48"], "block_bytes must be a power of two"),
+])
+def test_paper_bad_input_is_one_located_line(tmp_path, cli, argv, message):
+    code, _, err = cli("paper", "--out", tmp_path / "p", "--quiet", *argv)
+    assert code == 1 and message in err and "Traceback" not in err
+
+
+def test_paper_tables_hold_the_papers_numbers():
+    assert paper_mod.PAPER_TABLE2["mount"] == (1903, 0.23, 0.57)
+    assert paper_mod.PAPER_TABLE1["rings"][4] == 4200
+    assert Path(paper_mod.__file__).stat().st_size > 0

@@ -221,6 +221,7 @@ class Core:
         self.ops_by_mnemonic: dict[str, int] = {}
         self.stalls: dict[str, int] = {}
         self.stalls_by_pc: dict[int, dict[str, int]] = {}
+        self.bundles_by_pc: dict[int, int] = {}  # issue counts: with stalls_by_pc, cycles per PC
         # what the last cycle did (trace, debugger, deadlock detector)
         self.last_pc = 0
         self.last_issued = False
@@ -409,6 +410,7 @@ class Core:
                 self.occupant[d.unit][i] = d.m
         # counters
         self.bundles_issued += 1
+        self.bundles_by_pc[pc] = self.bundles_by_pc.get(pc, 0) + 1
         self.ops += b.n_ops
         for d in b.ops:
             if d.unit:
@@ -459,4 +461,5 @@ class Core:
             "stalls": dict(sorted(self.stalls.items())),
             "stall_cycles": sum(self.stalls.values()),
             "stalls_by_pc": by_pc,
+            "bundles_by_pc": {str(pc): n for pc, n in sorted(self.bundles_by_pc.items())},
         }

@@ -499,7 +499,7 @@ class Assembler:
         if spec.kind == "port":
             if proc is None:
                 return None  # the missing processor is already reported
-            ports = proc.send_ports if instr.mnemonic == "send" else proc.recv_ports
+            ports = proc.send_ports if OPCODES[instr.mnemonic].sends_to_port else proc.recv_ports
             if expr[0] != "name" or expr[1] not in ports:
                 return fail(f"expected a FIFO port of {proc.name.upper()}: {', '.join(ports)}")
             return expr[1]

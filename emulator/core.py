@@ -33,7 +33,8 @@ T8  FIFOs. `recv` pops a word that is visible in its receive FIFO (cmu.py: pushe
     FIFO's delay earlier); `send` pushes into a send FIFO with a free slot (counted from the
     occupancy at the start of the cycle). A bundle that needs more words, or more slots, than
     available does not issue. `poll` gives the words visible at issue (before the bundle's own
-    pops). `wait` issues only when some receive FIFO has a visible word (`fifo_empty:any`
+    pops); `room` the free slots of a send FIFO at issue (before the bundle's own pushes).
+    `wait` issues only when some receive FIFO has a visible word (`fifo_empty:any`
     otherwise): a processor that serves two FIFOs sleeps there and counts as idle.
 T9  halt stops the processor after its bundle issues. Its `cycles` = halt cycle + 1; a
     processor that never halts counts every cycle of the run. For every processor
@@ -156,7 +157,7 @@ def validate_program(program: Program) -> None:
                 found.append(f"{proc.name.upper()} has no {op.mnemonic!r} instruction")
             for operand, a in zip(oc.operands, op.args):
                 if operand.kind == "port":
-                    ports = proc.send_ports if oc.kind == "send" else proc.recv_ports
+                    ports = proc.send_ports if oc.sends_to_port else proc.recv_ports
                     if a not in ports:
                         found.append(f"{op.mnemonic}: {proc.name.upper()} has no port {a!r}")
                 elif operand.kind == "label" and not 0 <= a < n:
@@ -384,6 +385,9 @@ class Core:
                 next_pc, taken = wrap32(regs[LINK_REGISTER]), True
             elif kind == "poll":
                 n = self.recv_ports[d.port].visible(c)
+                self._schedule(d.rd, self.word(n, "i"), c + d.lat, d.m)
+            elif kind == "room":
+                n = self.send_ports[d.port].free(c)
                 self._schedule(d.rd, self.word(n, "i"), c + d.lat, d.m)
             elif kind == "halt":
                 self.halted = True

@@ -133,7 +133,7 @@ class Opcode:
     pipelined: bool
     procs: frozenset[str]
     kind: str
-    """alu, load, store, branch, jump, jumpr, call, ret, send, recv, poll, wait, halt, nop"""
+    """alu, load, store, branch, jump, jumpr, call, ret, send, recv, poll, room, wait, halt, nop"""
     semantics: Callable | None
     doc: str
     space: str | None = None
@@ -147,6 +147,11 @@ class Opcode:
     def is_control(self) -> bool:
         """Transfers control: at most one per bundle."""
         return self.kind in ("branch", "jump", "jumpr", "call", "ret", "halt")
+
+    @property
+    def sends_to_port(self) -> bool:
+        """Its FIFO operand names a send FIFO (send, room), not a receive FIFO (recv, poll)."""
+        return self.kind in ("send", "room")
 
     @property
     def syntax(self) -> str:
@@ -255,6 +260,8 @@ _op("recv", "int", "rd:w port:", 1, "pop a word of receive FIFO `port` into rd (
     kind="recv")
 _op("poll", "int", "rd:i port:", 1, "rd = number of words waiting in receive FIFO `port`",
     kind="poll")
+_op("room", "int", "rd:i port:", 1, "rd = number of free words in send FIFO `port` (so a "
+    "processor can send a whole message without blocking)", kind="room")
 _op("wait", "int", "", 1, "stall until some receive FIFO of this processor holds a word "
     "(so a processor serving two FIFOs sleeps instead of spinning on poll)", kind="wait")
 

@@ -42,7 +42,7 @@ def programs(draw, proc: str) -> Program:
     available = [o for o in opcodes_for(proc).values() if o.kind != "nop"]
     n = draw(st.integers(1, 10))
 
-    def arg(kind: str, mnemonic: str):
+    def arg(kind: str, opcode):
         if kind in ("rd", "rs"):
             return draw(REGS)
         if kind == "imm":
@@ -53,7 +53,7 @@ def programs(draw, proc: str) -> Program:
             return (draw(REGS), draw(INTS))
         if kind == "label":
             return draw(st.integers(0, n - 1))
-        ports = p.send_ports if mnemonic == "send" else p.recv_ports
+        ports = p.send_ports if opcode.sends_to_port else p.recv_ports
         return draw(st.sampled_from(ports))
 
     bundles = []
@@ -61,7 +61,7 @@ def programs(draw, proc: str) -> Program:
         ops: list[Op] = []
         for _ in range(draw(st.integers(0, p.issue_width))):
             oc = draw(st.sampled_from(available))
-            op = Op(oc.mnemonic, tuple(arg(o.kind, oc.mnemonic) for o in oc.operands))
+            op = Op(oc.mnemonic, tuple(arg(o.kind, oc) for o in oc.operands))
             if not check_bundle(p, ops + [op]):
                 ops.append(op)
         bundles.append(tuple(ops) or (Op("halt"),))

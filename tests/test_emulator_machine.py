@@ -6,6 +6,7 @@ from __future__ import annotations
 import io
 
 import numpy as np
+import pytest
 
 from netsushisen.asm.assembler import assemble_text
 from netsushisen.emulator import stats
@@ -281,3 +282,26 @@ def test_wait_sleeps_until_a_fifo_has_a_word_and_counts_as_idle():
     assert np.array_equal(m.col.frame, expected_frame())
     stalls = m.pes[0].cores["os"].stats()["stalls"]
     assert stalls.get("fifo_empty:any", 0) > 0
+
+
+ROOM_OS_SRC = """
+# `room` tells how many words the send FIFO can still take: send only whole messages
+        li r3, (DEST_SC << HDR_DEST_SHIFT) | 1
+        room r7, ring            # all free at the start
+loop:   recv r1, host
+        recv r2, host
+        send ring, r3
+        send ring, r2
+        j loop
+"""
+
+
+def test_room_reports_free_send_fifo_words():
+    m = Machine(load_config(None, ["ring.fifo_depth=16"]),
+                {"os": assemble_text(ROOM_OS_SRC, proc="os"), "sc": assemble_text(SC_SRC, proc="sc")},
+                image())
+    assert m.run(max_cycles=5000).status == "finished"
+    assert m.pes[0].cores["os"].regs[7] == 16
+    with pytest.raises(Exception) as exc:  # room names a send FIFO: host is a receive FIFO
+        assemble_text("room r1, host\n halt\n", proc="os")
+    assert "expected a FIFO port of OS: ring" in str(exc.value)

@@ -258,16 +258,21 @@ class Machine:
         active = self._active
         if all(core.halted for core in active) and self.col_empty():
             return "halted"
-        idle = [pe.idle() for pe in self.pes]
-        if all(idle) and self.dis.exhausted():
-            if self.col_empty():
-                return "finished"
-            if not any(len(pe.ring.col) for pe in self.pes):  # nothing can complete COL's message
-                self.error = DeadlockError(self.col_report())
-                return "deadlock"
+        # A PE where a processor issued this cycle is neither idle nor stuck: only the others
+        # need the (costly) idle test, and the run can only be finished if none issued.
+        issued = [pe.issued() for pe in self.pes]
+        idle: list[bool | None] = [None] * len(self.pes)
+        if not any(issued):
+            idle = [pe.idle() for pe in self.pes]
+            if all(idle) and self.dis.exhausted():
+                if self.col_empty():
+                    return "finished"
+                if not any(len(pe.ring.col) for pe in self.pes):  # nothing can complete COL's message
+                    self.error = DeadlockError(self.col_report())
+                    return "deadlock"
         limit = self.config.ring.deadlock_cycles
         for i, pe in enumerate(self.pes):
-            if pe.progressed() or idle[i]:
+            if issued[i] or pe.progressed() or (idle[i] if idle[i] is not None else pe.idle()):
                 self.no_progress[i] = 0
                 continue
             self.no_progress[i] += 1

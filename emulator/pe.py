@@ -76,6 +76,13 @@ class PE:
             core.step(c)
         self._moved = self.ring.step(c)
 
+    def issued(self) -> bool:
+        """Some processor of this PE issued a bundle in the last cycle."""
+        for core in self.active:
+            if core.last_issued:
+                return True
+        return False
+
     def progressed(self) -> bool:
         if self._moved or self.dis_moved or self.col_moved:
             return True

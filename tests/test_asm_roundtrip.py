@@ -125,7 +125,7 @@ def mutations(draw):
     return path, text
 
 
-@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(case=mutations())
 def test_mutated_sources_never_escape_as_tracebacks(case):
     path, text = case

@@ -90,8 +90,8 @@ def test_specialised_kernels_equal_generic_and_do_less(spec):
     """Simulate only what the scene calls for: the same image from less work."""
     config = load_config(None, [])
     scene = load_scene(spec)
-    special = render(scene, config, res=16)
-    generic = render(scene, config, res=16, generic=True)
+    special = render(scene, config, res=12)
+    generic = render(scene, config, res=12, generic=True)
     assert np.array_equal(special.image, generic.image)
     assert np.array_equal(special.hit_ids, generic.hit_ids) and special.rays == generic.rays
     s_bundles, s_cycles = _work(special.stats)

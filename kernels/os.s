@@ -2,7 +2,8 @@
 #
 # Contract: docs/kernels.md (messages, slots), docs/golden.md "Traversal (OS)" (every float
 # operation, in order), docs/databases.md (voxel_data). Assembled per scene with the host's
-# symbols (host/databases.py) plus -D SLOTS=n (rays in flight, default 8).
+# symbols (host/databases.py) plus -D SLOTS=n (rays in flight, default 8) and -D SERIAL_TREES=1
+# (the serial mode, see below; default 0).
 #
 # Per ray, exactly as host/traversal.py does it for a whole wavefront:
 #   setup   inv = 1/d, which axes step, the grid-entry slab, t_enter, the start voxel
@@ -47,6 +48,15 @@
 #   on_next          NEXT from IC: reload the ray's state from its slot, on with `step`
 #   ray_end          MISS / COLOR to SC, free the slot
 #
+# Serial mode (-D SERIAL_TREES=1, used with SLOTS=1; docs/kernels.md "Serial mode"): one pixel's
+# ray tree at a time. `alive` counts the tree's rays not yet finished: a host ray sets it to 1,
+# each RAY from SC adds 1; a ray ending at OS (MISS / COLOR), an occluded shadow ray's DONE and
+# SC's SHADED (a hit shaded, every ray it spawned already sent) take 1 off; a surface ray's DONE
+# (a hit) changes nothing: it ends with its SHADED. A host ray is taken only when alive = 0. A
+# RAY from SC also waits in the queue while older rays wait there (strict FIFO: with one slot
+# IC then sees each tree in level order, whatever the timing). Without SERIAL_TREES none of this
+# is assembled.
+#
 # Cost (emulator, IC answering at once; SLOTS=8, balls:2): ~88 cycles per ray setup, 16-18
 # per step (the three crossing chains are ~14 cycles deep), ~16 per visit sent, ~21 to resume
 # after NEXT, ~42 to enter a sub-grid, 11 to leave it.
@@ -59,6 +69,9 @@
 .endif
 .if SLOTS < 1
 .error "SLOTS must be at least 1"
+.endif
+.ifndef SERIAL_TREES
+.equ SERIAL_TREES, 0            # one ray tree at a time (-D SERIAL_TREES=1)
 .endif
 
 # Secondary rays (shadow, reflection, refraction) come back from SC as RAY messages on the
@@ -127,6 +140,10 @@ top_rm:     .space 3            # float(res_a - 1): the top level's start-index 
 .reg qtail    = r7              # next queue entry to fill
 .reg stepaddr = r8              # address of `step`: the continuation after an empty leaf
 .reg neaddr   = r9              # address of `nonempty`: the continuation after a non-empty one
+# serial mode: rays of the current tree not finished (os.s makes no call: the link register is free)
+.if SERIAL_TREES
+.reg alive    = r63
+.endif
 # the ray being traversed (from its slot)
 .reg sp       = r10             # slot base address
 .reg slot     = r11             # slot index (what IC sees)
@@ -209,6 +226,9 @@ start:
     { li stepaddr, step ; li neaddr, nonempty }
     { li qcount, 0 ; li qhead, QUEUE_BASE }
     { li qtail, QUEUE_BASE ; li t0, 0 }
+.if SERIAL_TREES
+    li alive, 0
+.endif
     li t1, SLOTS
 init_free:                              # free_stack[i] = i
     { st t0, [t0 + free_stack] ; addi t0, t0, 1 }
@@ -233,6 +253,9 @@ main:
 .if SECONDARY
     bnez qcount, from_queue
 .endif
+.if SERIAL_TREES
+    bnez alive, ring_msg        # serial mode: the current tree is not finished
+.endif
     poll t0, host
     bnez t0, from_host
     wait
@@ -244,6 +267,10 @@ ring_msg:
     { addi t1, t0, -TAG_NEXT ; addi t2, t0, -TAG_DONE }
     beqz t1, on_next
     beqz t2, on_done
+.if SERIAL_TREES
+    addi t1, t0, -TAG_SHADED
+    beqz t1, on_shaded
+.endif
 .if SECONDARY
     j on_ray
 .else
@@ -253,11 +280,27 @@ ring_msg:
 # DONE (t3 = slot): the ray ended at IC (a hit, or an occluded shadow ray)
 on_done:
     { st t3, [nfree + free_stack] ; addi nfree, nfree, 1 }
+.if SERIAL_TREES
+    slli t1, t3, SLOT_SHIFT                         # serial mode: an occluded shadow ray ends
+    ld t1, [t1 + (SLOT_TABLE + RAY_INFO)]           #   here; a surface ray's hit ends with
+    andi t1, t1, 3                                  #   its SHADED
+    addi t1, t1, -KIND_SHADOW
+    bnez t1, main
+    { addi alive, alive, -1 ; j main }
+
+# SHADED (serial mode; t3 = pixel): SC has shaded a hit and sent every ray it spawned
+on_shaded:
+    { addi alive, alive, -1 ; j main }
+.else
     j main
+.endif
 
 .if SECONDARY
 # RAY from SC (t3 = its pixel word): start it in a free slot, or queue it
 on_ray:
+.if SERIAL_TREES
+    { addi alive, alive, 1 ; bnez qcount, enqueue } # serial mode: strictly first come, first served
+.endif
     beqz nfree, enqueue
     { addi nfree, nfree, -1 ; mov rpix, t3 }
     { ld slot, [nfree + free_stack] ; recv rinfo, ring }
@@ -314,6 +357,9 @@ from_queue:
 
 # a primary ray from the host (DIS) takes a free slot
 from_host:
+.if SERIAL_TREES
+    li alive, 1                                     # serial mode: a new tree
+.endif
     { addi nfree, nfree, -1 ; recv t0, host }       # header (a RAY)
     { ld slot, [nfree + free_stack] ; recv rpix, host }
     { slli sp, slot, SLOT_SHIFT ; recv rinfo, host }
@@ -743,4 +789,7 @@ ray_end:
     { send ring, t3 ; ld t2, [sp + RAY_WB] }
     { send ring, t4 ; st slot, [nfree + free_stack] }
     { send ring, t1 ; addi nfree, nfree, 1 }
+.if SERIAL_TREES
+    addi alive, alive, -1                           # serial mode: the ray is finished
+.endif
     { send ring, t2 ; j main }

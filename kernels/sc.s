@@ -20,6 +20,12 @@
 # cache), both laid out by host/databases.py (docs/databases.md, "luminance_data").
 # Ray counters at the data labels count_* (render reads them after the run).
 #
+# Serial mode (-D SERIAL_TREES=1, docs/kernels.md "Serial mode"): after a HIT is shaded and every
+# ray it spawned is sent, SC sends OS SHADED (pixel) — on the same link and in the same buffer
+# class as those RAYs, so it arrives after them — and OS counts the hit's ray as finished. Every
+# way out of `hit` goes through `hit_done`; without SERIAL_TREES that label is `main` itself, so
+# the program is the same as before.
+#
 # Specialisation (-D symbols from host/databases.py): the light loop runs over NLIGHTS lights
 # (none assembled when NLIGHTS = 0); reflection code only `.if HAS_REFLECTION`, refraction code
 # (and the T / eta loads) only `.if HAS_REFRACTION`. With every HAS_* = 1 (render --generic) the
@@ -48,10 +54,15 @@
 #   reflection    .if HAS_REFLECTION: RAY (P, R, w*Ks)
 #   refraction    .if HAS_REFRACTION: Snell, TIR test, RAY (P, T dir, w*T)
 #   *_cut         render.min_weight, out of line
+#   hit_done      serial mode: SHADED to OS (otherwise another name of `main`)
 #   drain         an unknown message: its payload is skipped
 
 .proc sc
 .include "protocol.inc"
+
+.ifndef SERIAL_TREES
+.equ SERIAL_TREES, 0              # one ray tree at a time (-D SERIAL_TREES=1)
+.endif
 
 .if MAT_INV_IOR != MAT_IOR + 1
 .error "sc.s loads eta from [lum + MAT_INV_IOR - inside]: MAT_INV_IOR must follow MAT_IOR"
@@ -228,6 +239,9 @@ color:
 
 # ---- the message loop ----------------------------------------------------------------------------
 main:
+.if !SERIAL_TREES
+hit_done:                             # a hit is shaded (serial mode: SHADED first, below)
+.endif
     recv hdr, ring
     srli tag, hdr, HDR_TAG_SHIFT
     beq tag, k_tag_color, color
@@ -416,7 +430,7 @@ next_light:
 
 # ---- reflection and refraction (depth < max_depth) ----------------------------------------------
 .if HAS_REFLECTION || HAS_REFRACTION
-    beqz deeper, main
+    beqz deeper, hit_done
 .endif
 .if HAS_REFLECTION
 reflection:
@@ -450,7 +464,7 @@ no_reflection:
 refraction:
     flt ok, r0, tmat                  # c0   T > 0
     addi tinfo, dbits, (1 << INFO_DEPTH_SHIFT) + KIND_REFRACTION    # depth + 1
-    beqz ok, main
+    beqz ok, hit_done
     fmul cc, cosi, cosi               # c3   kk = 1 - (eta*eta)*(1 - cosi*cosi)
     fmul e2, eta, eta
     fmul twr, wr, tmat                #      weight w*T
@@ -466,7 +480,7 @@ refraction:
 refraction_keep:
     fsub kk, k_one, e2                # c16
     fle ok, r0, kk                    # c18  kk < 0 (or NaN): total internal reflection
-    beqz ok, main
+    beqz ok, hit_done
     addi n_refr, n_refr, 1
     fsqrt kk, kk                      # c21
     fsub coef, coef, kk               # c36  (eta*cosi) - sqrt(kk)
@@ -501,6 +515,13 @@ refraction_keep:
     send ring, twg
     send ring, twb
 .endif
+.if SERIAL_TREES
+# ---- serial mode: the hit is shaded and every ray it spawned is on its way to OS ---------------
+hit_done:
+    li hdr, HDR_SHADED                # (hdr is free: the next message is not received yet)
+    send ring, hdr
+    send ring, pix
+.endif
     j main
 
 # ---- render.min_weight (golden: a spawned ray is dropped if its largest weight is below it) ------
@@ -518,5 +539,5 @@ refraction_cut:
     fmax wmax, wmax, twb
     fle ok, k_min_w, wmax
     bnez ok, refraction_keep
-    j main
+    j hit_done
 .endif

@@ -414,3 +414,211 @@ def test_data_stays_below_the_voxel_data():
     for slots in (1, 8, 200):
         program = os_program(images, slots)
         assert len(program.data) == slots + 3 < images.symbols["VOXEL_BASE"]
+
+
+# ------------------------------------------------------------------------------------------------
+# Serial mode (-D SERIAL_TREES=1): one ray tree at a time, in level order
+
+TAG_REPORT = 14  # the IC stub's "hit" report to the SC stub: the 13-word ray record
+LOG_BASE = 40000  # the stubs' logs (IC: first visits; SC: ray ends), far above their data
+TREE_DEPTH = 3  # the SC stub spawns children below this depth
+IC_TREE = f"""
+.proc ic
+.include "protocol.inc"
+# Every surface ray hits at its first leaf (DONE, then its record to SC); a shadow ray of an even
+# pixel is occluded there (DONE), one of an odd pixel never (NEXT: it ends at OS as COLOR). The
+# first visit of every ray is logged (pixel, info) at LOG_BASE.
+        li r60, {LOG_BASE}
+        li r13, RAY_WORDS
+loop:   recv r1, ring                   # header
+        recv r2, ring                   # slot
+        recv r3, ring                   # list pointer
+        recv r4, ring                   # t_exit
+        srli r5, r1, HDR_TAG_SHIFT
+        slli r11, r2, 4                 # the slot's record at 16 * slot
+        li r6, TAG_VISIT_FIRST
+        bne r5, r6, visit
+        li r8, 0
+rec:    recv r9, ring
+        add r12, r11, r8
+        st r9, [r12]
+        addi r8, r8, 1
+        blt r8, r13, rec
+        ld r9, [r11 + RAY_PIXEL]
+        st r9, [r60]
+        ld r9, [r11 + RAY_INFO]
+        st r9, [r60 + 1]
+        addi r60, r60, 2
+visit:  ld r7, [r11 + RAY_INFO]
+        ld r8, [r11 + RAY_PIXEL]
+        andi r9, r7, 3
+        li r10, KIND_SHADOW
+        bne r9, r10, hit
+        andi r9, r8, 1
+        beqz r9, done
+        li r10, HDR_NEXT
+        send ring, r10
+        send ring, r2
+        j loop
+done:   li r10, HDR_DONE
+        send ring, r10
+        send ring, r2
+        j loop
+hit:    li r10, HDR_DONE
+        send ring, r10
+        send ring, r2
+        li r10, ({TAG_REPORT} << HDR_TAG_SHIFT) | (DEST_SC << HDR_DEST_SHIFT) | RAY_WORDS
+        send ring, r10
+        li r8, 0
+fwd:    add r12, r11, r8
+        ld r9, [r12]
+        send ring, r9
+        addi r8, r8, 1
+        blt r8, r13, fwd
+        j loop
+"""
+SC_TREE = f"""
+.proc sc
+.include "protocol.inc"
+.ifndef SERIAL_TREES
+.equ SERIAL_TREES, 0
+.endif
+# A hit (the IC stub's report): think for a long while, then spawn (below depth TREE_DEPTH) a
+# shadow ray (the hit's depth) and a reflection ray (depth + 1) along the same line, then, in
+# serial mode, SHADED. MISS / COLOR: logged (tag, pixel) at LOG_BASE.
+        li r60, {LOG_BASE}
+        li r13, RAY_WORDS
+        li r20, HDR_RAY_TO_OS
+loop:   recv r1, ring
+        srli r2, r1, HDR_TAG_SHIFT
+        li r3, {TAG_REPORT}
+        beq r2, r3, hit
+        st r2, [r60]
+        recv r4, ring
+        st r4, [r60 + 1]
+        addi r60, r60, 2
+        recv r4, ring
+        recv r4, ring
+        recv r4, ring
+        j loop
+hit:    li r8, 0
+rec:    recv r9, ring
+        st r9, [r8]
+        addi r8, r8, 1
+        blt r8, r13, rec
+        li r5, 400
+think:  addi r5, r5, -1
+        bnez r5, think
+        ld r6, [RAY_INFO]
+        srli r7, r6, INFO_DEPTH_SHIFT
+        li r8, {TREE_DEPTH}
+        bge r7, r8, shaded
+        slli r9, r7, INFO_DEPTH_SHIFT
+        ori r9, r9, KIND_SHADOW
+        call spawn
+        addi r9, r7, 1
+        slli r9, r9, INFO_DEPTH_SHIFT
+        ori r9, r9, KIND_REFLECTION
+        call spawn
+shaded:
+.if SERIAL_TREES
+        li r10, HDR_SHADED
+        send ring, r10
+        ld r11, [RAY_PIXEL]
+        send ring, r11
+.endif
+        j loop
+spawn:  send ring, r20                  # RAY: the hit's record with info r9
+        ld r11, [RAY_PIXEL]
+        send ring, r11
+        send ring, r9
+        li r8, 2
+word:   ld r11, [r8]
+        send ring, r11
+        addi r8, r8, 1
+        blt r8, r13, word
+        ret
+"""
+
+
+def run_trees(images, messages, serial: bool):
+    """OS (SLOTS=1) with the tree stubs: IC's log of first visits and SC's log of ray ends."""
+    wf = word_format(images.config.precision)
+    defines = {"SERIAL_TREES": 1} if serial else {}
+    programs = {"os": os_program(images, 1, **defines),
+                "ic": assemble_text(IC_TREE, proc="ic", filename="<ic stub>"),
+                "sc": assemble_text(SC_TREE, proc="sc", filename="<sc stub>", defines=defines)}
+    image = images.memory_image()
+    image.host = [Segment(0, [("w", np.asarray([w for m in messages for w in m], dtype=np.uint64))])]
+    machine = Machine(images.config, programs, image)
+    result = machine.run(max_cycles=3_000_000)
+    assert result.status == "finished", result.error and result.error.format()
+
+    def log(stage):
+        n = machine.pes[0].cores[stage].regs[60] - LOG_BASE
+        words = machine.pes[0].memories[stage].local.words[LOG_BASE:LOG_BASE + n]
+        return [(wf.to_int(words[k]), wf.to_int(words[k + 1])) for k in range(0, n, 2)]
+    return log("ic"), log("sc")
+
+
+def test_serial_mode_finishes_each_ray_tree_before_the_next_eye_ray():
+    """SERIAL_TREES=1, SLOTS=1: OS takes the next host ray only once every ray of the current
+    tree is finished — whichever way each ends: MISS (eye rays that miss the grid), COLOR (odd
+    pixels' shadow rays, at OS), DONE of an occluded shadow ray (even pixels), DONE + SHADED of a
+    hit — so IC sees each pixel's tree whole and in level order: eye ray; its shadow and
+    reflection rays; their children. SC thinks long over each hit: in normal mode the next eye
+    ray overtakes the tree's younger rays."""
+    images, messages, *_ = eye_rays("tetra:3", 6, "fp32")
+    n = len(messages)
+    serial_ic, serial_sc = run_trees(images, messages, serial=True)
+    normal_ic, normal_sc = run_trees(images, messages, serial=False)
+    eye_hit = sorted({p for p, info in serial_ic if info == P["KIND_EYE"] + (1 << P["INFO_DEPTH_SHIFT"])})
+    assert 0 < len(eye_hit) < n, "some eye rays reach a leaf, some miss the grid"
+
+    def info(kind, depth):
+        return P[kind] + (depth << P["INFO_DEPTH_SHIFT"])
+    tree = [info("KIND_EYE", 1), info("KIND_SHADOW", 1), info("KIND_REFLECTION", 2),
+            info("KIND_SHADOW", 2), info("KIND_REFLECTION", 3)]
+    assert serial_ic == [(p, i) for p in eye_hit for i in tree]
+    # the ends: a MISS per eye ray that missed the grid, a COLOR per odd pixel's shadow ray
+    ends = sorted([(P["TAG_MISS"], p) for p in range(n) if p not in eye_hit] +
+                  [(P["TAG_COLOR"], p) for p in eye_hit if p % 2 for _ in range(2)])
+    assert sorted(serial_sc) == ends == sorted(normal_sc)
+    assert any(p % 2 for p in eye_hit) and any(p % 2 == 0 for p in eye_hit)
+    # normal mode: the same rays, but trees overlap
+    assert sorted(normal_ic) == sorted(serial_ic) and normal_ic != serial_ic
+
+
+def test_serial_mode_kernel_assembles_only_when_asked():
+    """Without SERIAL_TREES the kernel is the same program as with SERIAL_TREES=0; with it, only
+    code is added (the slot table, the queue and the data are unchanged)."""
+    images = images_of(SCENES + "axis_parallel.nff")
+    plain, off, on = os_program(images, 1), os_program(images, 1, SERIAL_TREES=0), \
+        os_program(images, 1, SERIAL_TREES=1)
+    assert plain.bundles == off.bundles and plain.data == off.data == on.data
+    assert len(on.bundles) > len(plain.bundles)
+    lean = os_program(images, 1, NLIGHTS=0, HAS_REFLECTION=0, HAS_REFRACTION=0, SERIAL_TREES=1)
+    assert "on_shaded" in lean.labels and "on_ray" not in lean.labels  # SHADED without secondary rays
+
+
+def test_serial_mode_renders_what_normal_mode_renders():
+    """The whole machine (render), serial mode with one slot against normal mode with eight: the
+    same image bit for bit, hit ids, ray counts and IC references (accesses per primitive, per
+    region, resident and cache) — only the order of the work differs."""
+    from netsushisen.emulator.render import render
+    from netsushisen.isa.config import load_config
+
+    config = load_config()
+    serial = render("mount:2", config, res=6, slots=1, defines={"SERIAL_TREES": 1})
+    normal = render("mount:2", config, res=6, slots=8)
+    for r in (serial, normal):
+        assert r.run.status == "finished", r.run
+    assert serial.setup.defines["SERIAL_TREES"] == 1 and "SERIAL_TREES" not in normal.setup.defines
+    assert serial.image.tobytes() == normal.image.tobytes()
+    np.testing.assert_array_equal(serial.hit_ids, normal.hit_ids)
+    assert serial.rays == normal.rays and serial.rays["reflection"] and serial.rays["refraction"]
+    a, b = serial.stats["memory"]["pe0.ic"], normal.stats["memory"]["pe0.ic"]
+    assert a["primitives"] == b["primitives"]
+    assert {k: v["accesses"] for k, v in a["regions"].items()} == {k: v["accesses"] for k, v in b["regions"].items()}
+    assert (a["resident"]["accesses"], a["cache"]["accesses"]) == (b["resident"]["accesses"], b["cache"]["accesses"])
+    assert serial.run.cycles > normal.run.cycles  # one ray at a time

@@ -186,6 +186,7 @@ class Case:
     inside_hits: int = 0  # hits from inside the surface (SC flips the shading normal)
     bent_hits: int = 0  # hits whose shading normal is not the geometric one (patches)
     transparent_hits: int = 0  # hits on T > 0 below the depth limit (refraction or TIR)
+    spawned: list[tuple[int, int]] = field(default_factory=list)  # per HIT, in order: (pixel, rays)
 
 
 def _info(kind: int, depth: int) -> int:
@@ -242,6 +243,7 @@ def build_case(spec: str, precision: str = "fp32", res: int = 8, min_weight: flo
                       tr.t[i], *ng[:, j], *ns[:, j], int(lum_ptr[prim]), prim]
             case.host.append(encode_message(wf, "sc", P["TAG_HIT"], fields))
             case.rays.extend(spawned[j])
+            case.spawned.append((int(b.sample[i]), len(spawned[j])))
         case.hits += len(h)
         case.inside_hits += int(np.count_nonzero(golden.dot(d, ng) > 0))
         case.bent_hits += int(np.count_nonzero(np.any(ng != ns, axis=0)))
@@ -256,11 +258,14 @@ def build_case(spec: str, precision: str = "fp32", res: int = 8, min_weight: flo
     return case
 
 
-def assemble_sc(case: Case, generic: bool = False):
-    """The kernel for the case's scene: its symbols, or every HAS_* = 1 (render --generic)."""
+def assemble_sc(case: Case, generic: bool = False, serial: bool = False):
+    """The kernel for the case's scene: its symbols, or every HAS_* = 1 (render --generic);
+    `serial`: -D SERIAL_TREES=1 (a SHADED to OS after each hit's rays)."""
     defines = dict(case.images.symbols)
     if generic:
         defines.update({k: 1 for k in defines if k.startswith("HAS_")})
+    if serial:
+        defines["SERIAL_TREES"] = 1
     return assemble_file(KERNELS / "sc.s", proc="sc", defines=defines)
 
 
@@ -283,8 +288,8 @@ class Outcome:
     cycles: int
 
 
-def run_sc(case: Case, generic: bool = False) -> Outcome:
-    program = assemble_sc(case, generic)
+def run_sc(case: Case, generic: bool = False, serial: bool = False) -> Outcome:
+    program = assemble_sc(case, generic, serial)
     case.images.check_programs({"sc": program})
     image = case.images.memory_image()
     image.frame = (case.res, case.res)
@@ -441,3 +446,48 @@ def test_unknown_messages_are_skipped():
     expected[0, 3] = [0.25, 0.5, 2.0]
     expected[0, 5] = np.float32([1.0, 0.5, 0.25]) * bg
     np.testing.assert_array_equal(out.frame, expected)
+
+
+# ------------------------------------------------------------------------------------------------
+# Serial mode (-D SERIAL_TREES=1): SHADED after each hit's rays
+
+SERIAL_CASES = [CASES[1], CASES[2], CASES[4], CASES[7], CASES[9]]  # mount, tetra, TIR, no lights, min_weight
+
+
+@pytest.mark.parametrize("spec,precision,res,min_weight,tint", SERIAL_CASES,
+                         ids=[_case_id(c) for c in SERIAL_CASES])
+def test_serial_mode_sends_shaded_after_each_hits_rays(spec, precision, res, min_weight, tint):
+    """Every HIT, whichever way its shading ends (no light faced, depth limit, T = 0, total
+    internal reflection, min_weight cut, no mirrors or glass assembled), is followed on the ring
+    to OS by exactly its spawned RAYs, then SHADED (its pixel); nothing else changes."""
+    case = build_case(spec, precision, res, min_weight, tint)
+    out = run_sc(case, serial=True)
+    wf = word_format(precision)
+    rays, k = [], 0
+    for pixel, n in case.spawned:
+        got = out.rays[k:k + n + 1]
+        assert len(got) == n + 1, f"hit of pixel {pixel}: {len(got)} messages, expected {n} RAYs + SHADED"
+        assert all(parse_header(m[0]).tag == P["TAG_RAY"] for m in got[:n])
+        h = parse_header(got[n][0])
+        assert (h.tag, h.length, h.dest, h.cls) == (P["TAG_SHADED"], P["LEN_SHADED"], 0, P["CLS_WORK"])
+        assert got[n] == [P["HDR_SHADED"], wf.from_int(pixel)], f"hit of pixel {pixel}: SHADED"
+        rays += got[:n]
+        k += n + 1
+    assert k == len(out.rays), "messages to OS after the last SHADED"
+    check_all(case, dataclasses.replace(out, rays=rays))  # the rays, counters, ids and frame of normal mode
+
+
+def test_serial_mode_exits_are_all_exercised():
+    """The serial cases reach every way out of `hit`: a hit with no ray at all, the depth limit,
+    T = 0 (no refraction), total internal reflection, the min_weight cut of a refraction."""
+    by_id = {_case_id(c): build_case(*c) for c in SERIAL_CASES}
+    assert any(n == 0 for c in by_id.values() for _, n in c.spawned)
+    mount = by_id[_case_id(CASES[1])]
+    assert mount.golden.rays["refraction"] > 0 and mount.transparent_hits < mount.hits
+    tir = by_id[_case_id(CASES[4])]  # (every refraction is TIR)
+    assert tir.transparent_hits > tir.golden.rays["refraction"]
+    mw = by_id[_case_id(CASES[9])]
+    assert mw.golden.rays["refraction"] < build_case("mount:2", "fp32", 8).golden.rays["refraction"]
+    depth_limited = [c for c in by_id.values()
+                     if c.golden.trace_depth is not None and c.golden.trace_depth.max() >= c.config.render.max_depth]
+    assert depth_limited, "no case reaches the depth limit"

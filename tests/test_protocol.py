@@ -19,11 +19,23 @@ def test_headers_decode_to_their_tag_destination_length_and_class():
         "HDR_DONE": (p["TAG_DONE"], "os", 1, 1), "HDR_HIT": (p["TAG_HIT"], "sc", 20, 0),
         "HDR_COLOR": (p["TAG_COLOR"], "sc", 4, 0), "HDR_PIXEL": (0, "col", 4, 0),
         "HDR_ID": (p["TAG_ID"], "col", 2, 0), "HDR_MISS": (p["TAG_MISS"], "sc", 4, 0),
+        "HDR_SHADED": (p["TAG_SHADED"], "os", 1, 0),
     }
     for name, (tag, dest, length, cls) in expect.items():
         h = parse_header(p[name])
         assert (h.tag, h.dest, h.length, h.cls) == (tag, DESTS[dest], length, cls), name
-    assert len({p[k] for k in p if k.startswith("TAG_")}) == 9
+    assert len({p[k] for k in p if k.startswith("TAG_")}) == 10
+
+
+def test_shaded_follows_the_rays_sc_sent_before_it():
+    """Serial mode (SERIAL_TREES): SHADED (pixel) goes SC -> OS in RAY's buffer class, so on the
+    SC -> OS link it never overtakes the RAYs of the hit it reports."""
+    p = protocol()
+    assert (p["TAG_SHADED"], p["LEN_SHADED"]) == (10, 1)
+    shaded, ray = parse_header(p["HDR_SHADED"]), parse_header(p["HDR_RAY_TO_OS"])
+    assert (shaded.dest, shaded.cls) == (ray.dest, ray.cls) == (DESTS["os"], p["CLS_WORK"])
+    assert p["CLS_WORK"] != p["CLS_ANSWER"]
+    assert "SERIAL_TREES" not in p  # a kernel switch (default 0 in os.s and sc.s), not a constant
 
 
 def test_ray_kinds_match_the_golden_model():

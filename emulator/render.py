@@ -22,6 +22,7 @@ from netsushisen.asm.objects import Program
 from netsushisen.emulator import stats as run_stats
 from netsushisen.emulator.images import Segment
 from netsushisen.emulator.machine import EXIT_CODES, Machine, RunResult
+from netsushisen.errors import ConfigError, Diagnostic
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.databases import MachineImages, build_images
 from netsushisen.host.golden import to_u8
@@ -133,6 +134,25 @@ def eye_ray_messages(scene: Scene, res: int, corners: bool, wf: WordFormat) -> n
     return words.ravel()
 
 
+def longest_message() -> tuple[str, int]:
+    """The protocol's longest ring message (HIT): its name and its words, header included."""
+    p = protocol()
+    name, length = max(((k[4:], v) for k, v in p.items() if k.startswith("LEN_")), key=lambda kv: kv[1])
+    return name, 1 + length
+
+
+def check_fifo_depth(config: MachineConfig) -> None:
+    """The kernels need FIFOs that hold the longest message: OS sends a message only when it fits
+    its send FIFO whole (docs/kernels.md "Deadlock freedom"), and the other stages' messages must
+    stream through."""
+    name, need = longest_message()
+    if config.ring.fifo_depth < need:
+        raise ConfigError(Diagnostic(
+            f"ring.fifo_depth must be at least {need} to run the kernels (the longest ring "
+            f"message, {name}, is {need} words with its header; OS sends a message only once it "
+            f"fits its send FIFO whole), got {config.ring.fifo_depth}", file="config"))
+
+
 def prepare(scene: Scene | str, config: MachineConfig, res: int = 32, corners: bool = False,
             generic: bool = False, slots: int = DEFAULT_SLOTS, kernel_dir: str | Path | None = None,
             kernels: dict[str, str | Path] | None = None,
@@ -142,6 +162,7 @@ def prepare(scene: Scene | str, config: MachineConfig, res: int = 32, corners: b
     if isinstance(scene, str):
         scene = load_scene(scene)
     config.validate()
+    check_fifo_depth(config)
     grid = build_grid(scene, config)
     prepass = run_prepass(scene, config, res=res, corners=corners, grid=grid)
     images = build_images(scene, config, priorities=prepass.priorities, grid=grid)

@@ -37,7 +37,8 @@
 # Layout of the program:
 #   start            constants, free-slot stack
 #   main             the loop: ring first (ring_msg: on_next / on_done / on_ray -> enqueue),
-#                    then a queued ray (from_queue), then a host ray (from_host); else `wait`
+#                    then a deferred NEXT (from_defer), then a queued ray (from_queue), then a
+#                    host ray (from_host); else `wait`
 #   setup            a new ray: 1/d, stepping classes, grid entry, start voxel (setup_nonstep:
 #                    the golden inside test for axes that do not step); ends in its first step
 #   step             one leaf: crossings, voxel word, exit axis (step_x / step_y / step_z),
@@ -47,6 +48,8 @@
 #   nonempty         VISIT / VISIT_FIRST (then back to main), or sub_enter (a divided voxel)
 #   on_next          NEXT from IC: reload the ray's state from its slot, on with `step`
 #   ray_end          MISS / COLOR to SC, free the slot
+#   drain            a message does not fit the send FIFO: read the ring meanwhile (OS never
+#                    blocks in `send`, so the ring cannot deadlock; docs/kernels.md)
 #
 # Serial mode (-D SERIAL_TREES=1, used with SLOTS=1; docs/kernels.md "Serial mode"): one pixel's
 # ray tree at a time. `alive` counts the tree's rays not yet finished: a host ray sets it to 1,
@@ -85,13 +88,17 @@
 #   OS_FREE_BASE ..           slot table: SLOTS records of SLOT_WORDS words
 #   QUEUE_BASE .. QUEUE_END   overflow queue: rays from SC that found every slot busy (a ring
 #                             buffer of QUEUE_ENTRY-word entries filling the rest of memory)
+#   NDEFER, DEFERRED ..       the last SLOTS + 1 words: the deferred NEXTs (see drain): their
+#                             count, then the slots (one NEXT per slot at most)
 
 .equ SLOT_SHIFT, 6
 .equ SLOT_WORDS, 1 << SLOT_SHIFT
 .equ SLOT_TABLE, OS_FREE_BASE
 .equ QUEUE_BASE, SLOT_TABLE + SLOTS * SLOT_WORDS
 .equ QUEUE_ENTRY, 16
-.equ QUEUE_CAP, (OS_LOCAL_WORDS - QUEUE_BASE) / QUEUE_ENTRY
+.equ NDEFER, OS_LOCAL_WORDS - SLOTS - 1
+.equ DEFERRED, NDEFER + 1
+.equ QUEUE_CAP, (NDEFER - QUEUE_BASE) / QUEUE_ENTRY
 .equ QUEUE_END, QUEUE_BASE + QUEUE_CAP * QUEUE_ENTRY
 .if QUEUE_CAP < 1
 .error "OS local memory is full: no room for the slot table and the ray queue"
@@ -199,6 +206,12 @@ top_rm:     .space 3            # float(res_a - 1): the top level's start-index 
 .reg t2       = r60
 .reg t3       = r61
 .reg t4       = r62
+# the drain (a message waits for room in the send FIFO): step temporaries, dead on both send paths
+.reg d0       = r46             # (tx, ty, tz)
+.reg d1       = r47
+.reg d2       = r48
+.reg dneed    = r53             # words the message needs (cxy)
+.reg dret     = r54             # where it is sent from (cxz)
 # a ray on its way into a slot (only while it starts)
 .reg one      = r49             # 1.0 for the setup's divisions
 .reg qend     = r45             # (from_queue: the queue's end address)
@@ -239,17 +252,18 @@ init_free:                              # free_stack[i] = i
     { itof t0, t0 ; itof t1, t1 }
     { itof t2, t2 }
     { st t0, [top_rm] ; st t1, [top_rm + 1] }
-    st t2, [top_rm + 2]
+    { st t2, [top_rm + 2] ; st r0, [NDEFER] }
 
 # ---------------------------------------------------------------------------------------------
-# The main loop: the ring first (a ring message is never refused), then queued rays, then a
-# host ray if a slot is free; nothing to do: sleep in `wait`. With every slot busy only the ring
-# can help, so sleep in `recv` on the ring (a waiting host ray must not keep OS spinning).
+# The main loop: the ring first (a ring message is never refused), then NEXTs the drain put
+# aside, then queued rays, then a host ray if a slot is free; nothing to do: sleep in `wait`.
+# With every slot busy (and no NEXT put aside) only the ring can help, so sleep in `recv` on the
+# ring (a waiting host ray must not keep OS spinning).
 
 main:
-    poll t0, ring
-    bnez t0, ring_msg
-    beqz nfree, ring_msg
+    { poll t0, ring ; ld t1, [NDEFER] }
+    { bnez t0, ring_msg ; sltu t2, r0, nfree }     # t2 = a slot is free
+    bge t1, t2, defer_or_ring   # NEXTs put aside while OS waited to send (drain), or no free slot
 .if SECONDARY
     bnez qcount, from_queue
 .endif
@@ -261,6 +275,8 @@ main:
     wait
     j main
 
+defer_or_ring:
+    bnez t1, from_defer
 ring_msg:
     recv t0, ring                                   # header
     { srli t0, t0, HDR_TAG_SHIFT ; recv t3, ring }  # tag; first payload word
@@ -276,6 +292,11 @@ ring_msg:
 .else
     j main                                          # (nothing else reaches OS here)
 .endif
+
+# a deferred NEXT (t1 = ndefer > 0): resume the ray as if its NEXT had just arrived
+from_defer:
+    { ld t3, [t1 + (DEFERRED - 1)] ; addi t1, t1, -1 }
+    { st t1, [NDEFER] ; j on_next }
 
 # DONE (t3 = slot): the ray ended at IC (a hit, or an occluded shadow ray)
 on_done:
@@ -639,23 +660,38 @@ leave_sub:
 # A non-empty voxel, reached from the dispatch (kb and addr already point at the next voxel).
 # vw > 0: a leaf -> VISIT; vw < 0 (top level only): a divided voxel -> its sub-grid.
 
+# OS never blocks in `send` (docs/kernels.md "Deadlock freedom"): `room` first; a message that
+# does not fit its send FIFO whole waits in `drain`, which keeps reading the ring meanwhile.
+
 nonempty:
-    { flt lt1, m1, tz ; ld t0, [sp + S_FIRST] }
+    { flt lt1, m1, tz ; ld t0, [sp + S_FIRST] ; st kbx, [sp + S_KB] }
 .if HAS_SUBGRIDS
-    { fsel tcur, lt1, m1, tz ; li t1, HDR_VISIT ; blt vw, r0, sub_enter }   # exact exit t
+    { fsel tcur, lt1, m1, tz ; room t4, ring ; blt vw, r0, sub_enter }   # exact exit t
 .else
-    { fsel tcur, lt1, m1, tz ; li t1, HDR_VISIT }
+    { fsel tcur, lt1, m1, tz ; room t4, ring }
 .endif
     # the leaf's t_exit: top level tcur; in a sub-grid numpy's min(tn, T_exit), `tn < T ? tn : T`
-    { flt lt1, tcur, lexit ; li t2, HDR_VISIT_FIRST }
-    { fsel m1, lt1, tcur, lexit }
-    { sel t1, t0, t2, t1 }
-    { send ring, t1 ; st kbx, [sp + S_KB] }
-    { send ring, slot ; st kby, [sp + (S_KB + 1)] }
-    { send ring, vw ; st kbz, [sp + (S_KB + 2)] }
-    { send ring, m1 ; st addr, [sp + S_ADDR] }
-    { st tcur, [sp + S_TCUR] ; beqz t0, main }
-    # the first visit carries the ray record
+    { flt lt1, tcur, lexit ; li t1, HDR_VISIT ; bnez t0, visit_first }
+    { fsel m1, lt1, tcur, lexit ; slti t2, t4, 1 + LEN_VISIT }
+    { bnez t2, visit_full ; st kby, [sp + (S_KB + 1)] }
+visit_send:
+    { send ring, t1 ; st kbz, [sp + (S_KB + 2)] }
+    { send ring, slot ; st addr, [sp + S_ADDR] }
+    { send ring, vw ; st tcur, [sp + S_TCUR] }
+    { send ring, m1 ; j main }
+visit_full:
+    { li dneed, 1 + LEN_VISIT ; li dret, visit_send }
+    j drain
+
+# the first visit carries the ray record (t4 = room)
+visit_first:
+    { fsel m1, lt1, tcur, lexit ; slti t2, t4, 1 + LEN_VISIT_FIRST }
+    { li t1, HDR_VISIT_FIRST ; bnez t2, first_full }
+first_send:
+    { send ring, t1 ; st kby, [sp + (S_KB + 1)] }
+    { send ring, slot ; st kbz, [sp + (S_KB + 2)] }
+    { send ring, vw ; st addr, [sp + S_ADDR] }
+    { send ring, m1 ; st tcur, [sp + S_TCUR] }
     { ld t1, [sp + 0] ; st r0, [sp + S_FIRST] }
     { ld t2, [sp + 1] ; send ring, t1 }
     { ld t1, [sp + 2] ; send ring, t2 }
@@ -670,6 +706,9 @@ nonempty:
     { ld t2, [sp + 11] ; send ring, t1 }
     { ld t1, [sp + 12] ; send ring, t2 }
     { send ring, t1 ; j main }
+first_full:
+    { li dneed, 1 + LEN_VISIT_FIRST ; li dret, first_send }
+    j drain
 
 .if HAS_SUBGRIDS
 # Enter the sub-grid of a divided top voxel (vw = -(header address)). The top level is
@@ -780,16 +819,94 @@ next_sub:
 # The ray ends at OS: a surface ray left (or missed) the grid -> MISS (pixel, w); a shadow ray
 # left the grid or passed t_max unoccluded -> COLOR (pixel, contribution). Free the slot.
 
+.if LEN_MISS != LEN_COLOR
+.error "ray_end checks one room for MISS and COLOR"
+.endif
 ray_end:
-    { ld t0, [sp + RAY_INFO] ; li t1, HDR_MISS }
-    { andi t0, t0, 3 ; li t2, HDR_COLOR }
-    { addi t0, t0, -KIND_SHADOW ; ld t3, [sp + RAY_PIXEL] }
-    { sel t1, t0, t1, t2 ; ld t4, [sp + RAY_WR] }
-    { send ring, t1 ; ld t1, [sp + RAY_WG] }
-    { send ring, t3 ; ld t2, [sp + RAY_WB] }
-    { send ring, t4 ; st slot, [nfree + free_stack] }
-    { send ring, t1 ; addi nfree, nfree, 1 }
+    { ld t0, [sp + RAY_INFO] ; room t4, ring }
+    { andi t0, t0, 3 ; slti t4, t4, 1 + LEN_MISS }
+    { addi t0, t0, -KIND_SHADOW ; li t1, HDR_MISS }
+    { li t2, HDR_COLOR ; bnez t4, ray_end_full }
+ray_end_send:                                       # (the drain is over: free the slot)
+    { fsel t1, t0, t1, t2 ; st slot, [nfree + free_stack] ; addi nfree, nfree, 1 }
+    { send ring, t1 ; ld t3, [sp + RAY_PIXEL] }
+    { send ring, t3 ; ld t4, [sp + RAY_WR] }
+    { send ring, t4 ; ld t1, [sp + RAY_WG] }
+    { send ring, t1 ; ld t2, [sp + RAY_WB] }
 .if SERIAL_TREES
     addi alive, alive, -1                           # serial mode: the ray is finished
 .endif
     { send ring, t2 ; j main }
+ray_end_full:
+    { li dneed, 1 + LEN_MISS ; li dret, ray_end_send }
+    j drain
+
+# ---------------------------------------------------------------------------------------------
+# The send FIFO lacks room for the message OS is about to send (dneed words; dret = where it is
+# sent from). OS must not block in `send`: SC may be blocked sending to OS, and IC sending to SC
+# (a cycle of full FIFOs). So, until the message fits: consume ONE waiting ring message, sending
+# nothing — RAY into the overflow queue, DONE frees its slot, SHADED (serial mode) is counted,
+# NEXT is put on the deferred list (`main` resumes the ray later) — and check `room` again; with
+# nothing waiting just check again (the send FIFO drains on its own). The ray being sent keeps
+# its registers: the drain uses only step temporaries (d0..d2, dneed, dret).
+drain:
+    poll d0, ring
+    beqz d0, drain_room
+    recv d0, ring                                   # header
+    { srli d0, d0, HDR_TAG_SHIFT ; recv d1, ring }  # tag; first payload word
+    { addi d2, d0, -TAG_NEXT ; addi d0, d0, -TAG_DONE }
+    beqz d2, drain_next
+    beqz d0, drain_done
+.if SERIAL_TREES
+    addi d2, d0, TAG_DONE - TAG_SHADED
+    beqz d2, drain_shaded
+.endif
+.if SECONDARY
+    # RAY from SC (d1 = pixel): queued (serial mode: counted; queued anyway, as on_ray would
+    # once a ray waits in the queue)
+.if SERIAL_TREES
+    addi alive, alive, 1
+.endif
+    li d0, QUEUE_CAP
+    beq qcount, d0, queue_overflow
+    { st d1, [qtail + RAY_PIXEL] ; recv d0, ring }
+    { st d0, [qtail + 1] ; recv d1, ring }
+    { st d1, [qtail + 2] ; recv d0, ring }
+    { st d0, [qtail + 3] ; recv d1, ring }
+    { st d1, [qtail + 4] ; recv d0, ring }
+    { st d0, [qtail + 5] ; recv d1, ring }
+    { st d1, [qtail + 6] ; recv d0, ring }
+    { st d0, [qtail + 7] ; recv d1, ring }
+    { st d1, [qtail + 8] ; recv d0, ring }
+    { st d0, [qtail + 9] ; recv d1, ring }
+    { st d1, [qtail + 10] ; recv d0, ring }
+    { st d0, [qtail + 11] ; recv d1, ring }
+    { st d1, [qtail + 12] ; addi qtail, qtail, QUEUE_ENTRY }
+    { li d0, QUEUE_END ; addi qcount, qcount, 1 }
+    bne qtail, d0, drain_room
+    { li qtail, QUEUE_BASE ; j drain_room }
+.else
+    j drain_room                                    # (nothing else reaches OS here)
+.endif
+
+drain_next:                                         # NEXT (d1 = slot): resume it later
+    ld d0, [NDEFER]
+    { st d1, [d0 + DEFERRED] ; addi d0, d0, 1 }
+    { st d0, [NDEFER] ; j drain_room }
+
+drain_done:                                         # DONE (d1 = slot): as on_done
+    { st d1, [nfree + free_stack] ; addi nfree, nfree, 1 }
+.if SERIAL_TREES
+    slli d1, d1, SLOT_SHIFT
+    ld d1, [d1 + (SLOT_TABLE + RAY_INFO)]
+    andi d1, d1, 3
+    addi d1, d1, -KIND_SHADOW
+    bnez d1, drain_room
+drain_shaded:
+    addi alive, alive, -1
+.endif
+
+drain_room:
+    room d0, ring
+    blt d0, dneed, drain
+    jr dret

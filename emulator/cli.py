@@ -93,17 +93,22 @@ def load_program(path: str, stage: str | None, defines: dict[str, int | float]):
     return prog
 
 
-def machine_inputs(args: argparse.Namespace, extra_programs: list[str] = ()):
-    """(config, programs by stage, memory image or None) from the `add_machine_arguments`
-    options; `extra_programs` are files whose processor the program itself names."""
-    from netsushisen.emulator.images import load_image
-
+def config_from_args(args: argparse.Namespace):
+    """The machine configuration from --config, --set, --pes and --max-cycles."""
     overrides = list(args.overrides)
     if args.pes is not None:
         overrides.append(f"pes={args.pes}")
     if args.max_cycles is not None:
         overrides.append(f"max_cycles={args.max_cycles}")
-    config = load_config(args.config, overrides)
+    return load_config(args.config, overrides)
+
+
+def machine_inputs(args: argparse.Namespace, extra_programs: list[str] = ()):
+    """(config, programs by stage, memory image or None) from the `add_machine_arguments`
+    options; `extra_programs` are files whose processor the program itself names."""
+    from netsushisen.emulator.images import load_image
+
+    config = config_from_args(args)
     defines = _defines(args.defines)
     programs = {s: load_program(getattr(args, s), s, defines) if getattr(args, s) else None
                 for s in STAGES}

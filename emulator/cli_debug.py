@@ -27,7 +27,6 @@ from rich.console import Console
 from rich.text import Text
 
 from netsushisen.errors import NetsushisenError
-from netsushisen.isa.config import load_config
 from netsushisen.isa.processors import STAGES
 
 PROMPT = "(nss) "
@@ -108,12 +107,9 @@ def scene_factory(args: argparse.Namespace):
 
     if args.res is not None and args.res < 1:
         raise NetsushisenError(f"--res {args.res}: the image needs at least 1x1 pixels")
-    sets = list(args.overrides)
-    if args.pes is not None:
-        sets.append(f"pes={args.pes}")
-    if args.max_cycles is not None:
-        sets.append(f"max_cycles={args.max_cycles}")
-    config = load_config(args.config, sets)
+    from netsushisen.emulator.cli import config_from_args
+
+    config = config_from_args(args)
     kernels = {s: getattr(args, s) for s in STAGES if getattr(args, s)}
     options = {"corners": args.corners, "generic": args.generic, "kernel_dir": args.kernels,
                "kernels": kernels}

@@ -29,6 +29,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
+
 from netsushisen.asm.listing import static_ilp
 from netsushisen.emulator.machine import Machine
 
@@ -79,3 +81,14 @@ def dumps(stats: dict) -> str:
 
 def write(machine: Machine, path: str | Path) -> None:
     Path(path).write_text(dumps(collect(machine)), encoding="utf-8")
+
+
+def ic_reference_counts(stats: dict, n_primitives: int) -> np.ndarray:
+    """Per-primitive IC references (tests of each primitive) summed over the PEs' ICs: what the
+    golden model's `references` counts."""
+    refs = np.zeros(n_primitives, np.int64)
+    for name, mem in stats["memory"].items():
+        if name.endswith(".ic"):
+            for prim, count in mem.get("primitives", {}).items():
+                refs[int(prim)] += count
+    return refs

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from netsushisen.emulator.stats import ic_reference_counts
 from netsushisen.emulator.render import render
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.golden import render as golden_render
@@ -30,22 +31,13 @@ def _pair(spec: str, res: int, sets: tuple[str, ...] = (), **kw):
     return scene, machine, golden
 
 
-def _references(stats: dict, n: int) -> np.ndarray:
-    refs = np.zeros(n, np.int64)
-    for name, mem in stats["memory"].items():
-        if name.endswith(".ic"):
-            for prim, count in mem.get("primitives", {}).items():
-                refs[int(prim)] += count
-    return refs
-
-
 def _check_against_golden(scene, machine, golden) -> None:
     assert machine.run.status == "finished", machine.run.error
     assert np.mean(machine.hit_ids == golden.hit_ids) >= 0.999
     diff = np.abs(machine.image_u8.astype(int) - golden.image_u8.astype(int)).max(axis=2)
     assert np.mean(diff <= 2) >= 0.995
     assert machine.rays == golden.rays
-    assert np.array_equal(_references(machine.stats, scene.n_primitives), golden.references)
+    assert np.array_equal(ic_reference_counts(machine.stats, scene.n_primitives), golden.references)
     assert machine.visible_primitives == golden.visible_primitives
 
 

@@ -15,6 +15,7 @@ from functools import lru_cache
 import numpy as np
 import pytest
 
+from netsushisen.emulator.stats import ic_reference_counts
 from netsushisen.emulator.render import longest_message, render
 from netsushisen.errors import ConfigError
 from netsushisen.host.catalog import load_scene
@@ -37,15 +38,6 @@ def _golden(spec: str):
     return golden_render(load_scene(spec), load_config(None, []), res=RES)
 
 
-def _references(stats: dict, n: int) -> np.ndarray:
-    refs = np.zeros(n, np.int64)
-    for name, mem in stats["memory"].items():
-        if name.endswith(".ic"):
-            for prim, count in mem.get("primitives", {}).items():
-                refs[int(prim)] += count
-    return refs
-
-
 def _check(spec: str, sets: list[str], **kw):
     scene = load_scene(spec)
     machine = render(scene, load_config(None, sets), res=RES, **kw)
@@ -55,7 +47,7 @@ def _check(spec: str, sets: list[str], **kw):
     np.testing.assert_array_equal(machine.hit_ids, golden.hit_ids)
     diff = np.abs(machine.image_u8.astype(int) - golden.image_u8.astype(int)).max(axis=2)
     assert np.mean(diff <= 2) >= 0.995
-    assert np.array_equal(_references(machine.stats, scene.n_primitives), golden.references)
+    assert np.array_equal(ic_reference_counts(machine.stats, scene.n_primitives), golden.references)
     assert machine.visible_primitives == golden.visible_primitives
     return machine
 

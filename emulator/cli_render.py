@@ -19,7 +19,6 @@ import time
 
 import numpy as np
 
-from netsushisen.asm.listing import static_ilp
 from netsushisen.emulator import render as pipeline
 from netsushisen.emulator import stats as run_stats
 from netsushisen.emulator.machine import RunResult
@@ -93,8 +92,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"rays: eye {r['eye']:,} (hits {r['eye_hits']:,}), reflection {r['reflection']:,}, "
               f"refraction {r['refraction']:,}, shadow {r['shadow']:,}; "
               f"visible primitives {result.visible_primitives:,}")
-        static = {s: static_ilp(p).ops_per_bundle for s, p in setup.programs.items()}
-        print_summary(result.stats, static)
+        print_summary(result.stats)
     if run_result.error is not None:
         print(run_result.error.format(), file=sys.stderr)
     return 130 if interrupted else result.exit_code

@@ -44,7 +44,7 @@ def _top_stalls(p: dict, n: int = 3) -> str:
     return ", ".join(f"{cause} {100 * c / cycles:.0f}%" for cause, c in items) or "-"
 
 
-def processor_table(stats: dict, static_ilp: dict[str, float] | None = None) -> Table:
+def processor_table(stats: dict) -> Table:
     t = Table(title="ILP and stalls", title_justify="left")
     for col in ("processor", "cycles", "ops", "ops/cycle", "ops/bundle", "stalled", "top stalls"):
         t.add_column(col, justify="left" if col in ("processor", "top stalls") else "right",
@@ -54,7 +54,8 @@ def processor_table(stats: dict, static_ilp: dict[str, float] | None = None) -> 
             continue
         stage = name.rsplit(".", 1)[-1]
         cycles = max(p["cycles"], 1)
-        static = (static_ilp or {}).get(stage)
+        program = (stats.get("programs") or {}).get(stage) or {}
+        static = (program.get("static_ilp") or {}).get("ops_per_bundle")
         t.add_row(name, f"{p['cycles']:,}", f"{p['ops']:,}", f"{p['ops'] / cycles:.2f}",
                   f"{static:.2f}" if static is not None else "-",
                   f"{100 * p['stall_cycles'] / cycles:.0f}%", _top_stalls(p))
@@ -82,9 +83,9 @@ def memory_table(stats: dict) -> Table | None:
     return t
 
 
-def print_summary(stats: dict, static_ilp: dict[str, float] | None = None, console: Console | None = None) -> None:
+def print_summary(stats: dict, console: Console | None = None) -> None:
     console = console or Console(width=100)
-    console.print(processor_table(stats, static_ilp))
+    console.print(processor_table(stats))
     mt = memory_table(stats)
     if mt is not None:
         console.print(mt)

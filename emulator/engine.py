@@ -1,0 +1,185 @@
+"""The engine interface: one small surface every engine of the machine implements.
+
+After amaranth's `BaseEngine`: a command, a test or a report builds an engine from (config,
+programs, memory image), runs it to an end or a cycle limit (or steps it), and then reads what
+the machine did — statistics, frame and id buffers, registers, memories — without knowing which
+engine ran. The engines:
+
+    reference   plain Python, cycle by cycle (core.py, pe.py, cmu.py, memories.py, machine.py):
+                the specification, and the engine the debugger steps
+    compiled    the same machine in numba (emulator/compiled/); after a run its state is
+                written back into the reference engine's objects, so everything read through
+                this interface (and the debugger's hand-off) works unchanged
+    tandem      both in lock step; stops at the first cycle where any state or counter differs
+
+`make_engine(name, ...)` is the one way to get an engine; an unknown name is a one-line error
+that lists the engines.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from netsushisen.asm.objects import Program
+from netsushisen.errors import ConfigError, Diagnostic
+from netsushisen.isa.config import MachineConfig
+
+from netsushisen.emulator import stats as run_stats
+from netsushisen.emulator.images import MemoryImage
+from netsushisen.emulator.machine import EXIT_CODES, Machine, RunResult
+
+Progress = Callable[[int], None]
+"""Called now and then during a run with the machine cycle reached."""
+
+
+class Engine:
+    """The interface (and the reference engine's implementation of it).
+
+    State lives in a reference `Machine`; an engine that computes elsewhere writes its state
+    back into that machine before any read, so the readers below are shared by every engine.
+    """
+
+    name = "reference"
+
+    def __init__(self, config: MachineConfig, programs: dict[str, Program | None],
+                 image: MemoryImage | None = None):
+        self.machine = Machine(config, programs, image)
+        self.config = self.machine.config
+
+    # -- running -------------------------------------------------------------------------------
+
+    def run(self, max_cycles: int | None = None, progress: Progress | None = None,
+            every: int = 20000) -> RunResult:
+        """Run until the machine ends (halted, finished, fault, deadlock) or `max_cycles`
+        (default: config.max_cycles; 0 = none) cycles have run."""
+        m = self.machine
+        if progress is None:
+            return m.run(max_cycles)
+        limit = self.config.max_cycles if max_cycles is None else max_cycles
+        while m.status is None:
+            if limit and m.cycle >= limit:
+                return m.run(max_cycles)  # records the cycle-limit end
+            m.step()
+            if m.cycle % every == 0:
+                progress(m.cycle)
+        progress(m.cycle)
+        return self.result()
+
+    def step(self, cycles: int = 1) -> str | None:
+        """Run `cycles` cycles (fewer if the run ends); the status once ended, else None."""
+        status = None
+        for _ in range(cycles):
+            status = self.machine.step()
+            if status is not None:
+                break
+        return status
+
+    # -- reading -------------------------------------------------------------------------------
+
+    @property
+    def cycle(self) -> int:
+        return self.machine.cycle
+
+    @property
+    def status(self) -> str | None:
+        return self.machine.status
+
+    def result(self) -> RunResult:
+        m = self.machine
+        return RunResult(m.status, m.cycle, m.error)
+
+    @property
+    def exit_code(self) -> int:
+        return EXIT_CODES.get(self.machine.status, 0)
+
+    def statistics(self) -> dict:
+        """The run's statistics (schema `netsushisen-stats`, emulator/stats.py)."""
+        return run_stats.collect(self.machine)
+
+    def summary(self) -> str:
+        return self.machine.summary()
+
+    @property
+    def frame(self) -> np.ndarray:
+        """COL's frame buffer (height × width × 3, float64)."""
+        return self.machine.col.frame
+
+    @property
+    def ids(self) -> np.ndarray:
+        """COL's hit-id buffer (height × width, int32, −1 where none came)."""
+        return self.machine.col.ids
+
+    def processors(self) -> list[str]:
+        """Processor names in machine order: pe0.os, pe0.ic, pe0.sc, pe1.os, ..."""
+        return [core.name for core in self.machine.cores]
+
+    def _core(self, processor: str):
+        for core in self.machine.cores:
+            if core.name == processor:
+                return core
+        raise KeyError(f"no processor {processor!r} (have {', '.join(self.processors())})")
+
+    def register(self, processor: str, reg: int) -> int:
+        """Raw word of register `reg` of processor `processor` (e.g. "pe0.ic")."""
+        return int(self._core(processor).regs[reg])
+
+    def registers(self, processor: str) -> list[int]:
+        return [int(w) for w in self._core(processor).regs]
+
+    def pc(self, processor: str) -> int:
+        return self._core(processor).pc
+
+    def memory(self, processor: str, space: str) -> np.ndarray:
+        """Raw words of a processor's memory `space`: local, resident or global (read-only
+        view of ICGM/SCGM as that processor sees it)."""
+        pe, stage = processor.split(".")
+        mem = self.machine.pes[int(pe[2:])].memories[stage]
+        if space == "local":
+            return mem.local.words
+        if space == "resident":
+            if mem.resident is None:
+                raise KeyError(f"{processor} has no resident memory")
+            return mem.resident.words
+        if space == "global":
+            if mem.global_memory is None:
+                raise KeyError(f"{processor} has no global memory")
+            return mem.global_memory.words
+        raise KeyError(f"no memory space {space!r} (local, resident, global)")
+
+
+ReferenceEngine = Engine
+
+ENGINES: dict[str, Callable[..., Engine]] = {"reference": ReferenceEngine}
+"""Engines by name; the compiled and tandem engines register themselves when importable."""
+
+DEFAULT_ENGINE = "reference"
+
+
+def _register_optional() -> None:
+    try:
+        from netsushisen.emulator.compiled import CompiledEngine, TandemEngine
+    except ImportError:  # numba missing or the compiled engine not built yet
+        return
+    ENGINES["compiled"] = CompiledEngine
+    ENGINES["tandem"] = TandemEngine
+
+
+def engine_names() -> list[str]:
+    _register_optional()
+    return sorted(ENGINES)
+
+
+def check_engine(name: str) -> str:
+    """`name` if it is an engine, else a one-line ConfigError naming the engines."""
+    names = engine_names()
+    if name not in ENGINES:
+        raise ConfigError(Diagnostic(f"unknown engine {name!r} (engines: {', '.join(names)})"))
+    return name
+
+
+def make_engine(name: str, config: MachineConfig, programs: dict[str, Program | None],
+                image: MemoryImage | None = None) -> Engine:
+    """Build engine `name` for (config, programs, image)."""
+    return ENGINES[check_engine(name)](config, programs, image)

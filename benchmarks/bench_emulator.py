@@ -11,9 +11,9 @@ import sys
 import time
 
 from netsushisen.asm.assembler import assemble_text
-from netsushisen.emulator.images import image_from_json
 from netsushisen.emulator.machine import Machine
 from netsushisen.isa.config import MachineConfig
+from netsushisen.isa.images import image_from_json
 
 IC_LOOP = """
         li r1, {n}

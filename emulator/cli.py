@@ -106,7 +106,7 @@ def config_from_args(args: argparse.Namespace):
 def machine_inputs(args: argparse.Namespace, extra_programs: list[str] = ()):
     """(config, programs by stage, memory image or None) from the `add_machine_arguments`
     options; `extra_programs` are files whose processor the program itself names."""
-    from netsushisen.emulator.images import load_image
+    from netsushisen.isa.images import load_image
 
     config = config_from_args(args)
     defines = _defines(args.defines)

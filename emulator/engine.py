@@ -27,7 +27,7 @@ from netsushisen.errors import ConfigError, Diagnostic
 from netsushisen.isa.config import MachineConfig
 
 from netsushisen.emulator import stats as run_stats
-from netsushisen.emulator.images import MemoryImage
+from netsushisen.isa.images import MemoryImage
 from netsushisen.emulator.machine import EXIT_CODES, Machine, RunResult
 
 Progress = Callable[[int], None]

@@ -16,7 +16,7 @@ import numpy as np
 
 from netsushisen.asm.assembler import assemble_text
 from netsushisen.asm.objects import Program
-from netsushisen.emulator.images import MemoryImage, Segment
+from netsushisen.isa.images import MemoryImage, Segment
 from netsushisen.emulator.machine import Machine, RunResult
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.processors import STAGES

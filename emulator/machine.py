@@ -49,7 +49,7 @@ from netsushisen.isa.words import word_format, wrap32
 
 from netsushisen.emulator.cmu import RingFault
 from netsushisen.emulator.core import RunFault
-from netsushisen.emulator.images import MemoryImage
+from netsushisen.isa.images import MemoryImage
 from netsushisen.emulator.memories import Memory
 from netsushisen.emulator.pe import PE
 

@@ -1,4 +1,5 @@
-"""Memories of a PE (MACHINE.md §4–5): local, resident, direct-mapped cache, global.
+"""Memories of a PE (the paper's two-level memory of IC and SC; docs/timing.md §2): local,
+resident, direct-mapped cache, global.
 
 Every memory is a numpy array of raw machine words (uint32 in fp32 mode, uint64 in fp64 mode);
 addresses count words. What each processor reaches:
@@ -30,11 +31,11 @@ a copy of global memory). A cache of 0 bytes makes every `ldg` a miss. When `cac
 database), rounded down to whole blocks (cache) or words (resident).
 
 Counters: local {reads, writes}; resident {accesses}; cache {accesses, hits, misses}; global
-{accesses} (= cache misses). An optional `RegionMap` per memory names address ranges (voxel_data,
-primitive_list, shape_data, luminance_data, ...) and optionally a primitive id per range; every
-load that falls in a range counts towards that region (and, for a cache, its hits/misses) and
-towards the range's primitive (give one word per primitive, e.g. the head of its shape record,
-to count intersection tests).
+{accesses} (= cache misses). An optional `RegionMap` per memory (isa/regions.py) names address
+ranges (voxel_data, primitive_list, shape_data, luminance_data, ...) and optionally a primitive id
+per range; every load that falls in a range counts towards that region (and, for a cache, its
+hits/misses) and towards the range's primitive (give one word per primitive, e.g. the head of
+its shape record, to count intersection tests).
 
 An access outside a memory raises `MemoryFault`; the core turns it into a run-time fault that
 names processor, PC and cycle.
@@ -42,17 +43,17 @@ names processor, PC and cycle.
 
 from __future__ import annotations
 
-import bisect
 from dataclasses import dataclass, field
-from typing import Iterable
 
 import numpy as np
 
 from netsushisen.isa.config import MachineConfig, MemoryConfig
 from netsushisen.isa.opcodes import OPCODES
+from netsushisen.isa.regions import REGION_NAMES, Region, RegionMap, cache_bytes, resident_words
 
-REGION_NAMES = ("voxel_data", "primitive_list", "shape_data", "luminance_data")
-"""The databases' names (MACHINE.md §4); a region map may use others too."""
+__all__ = ["Cache", "Memory", "MemoryFault", "MemorySystem", "RegionCounters",
+           # defined in isa/regions.py (the host reads them there), used here and by pe.py
+           "REGION_NAMES", "Region", "RegionMap", "cache_bytes", "resident_words"]
 
 
 class MemoryFault(Exception):
@@ -60,41 +61,7 @@ class MemoryFault(Exception):
 
 
 # ---------------------------------------------------------------------------------------------
-# Region maps
-
-
-@dataclass(frozen=True)
-class Region:
-    start: int
-    end: int  # exclusive
-    name: str
-    primitive: int | None = None
-
-
-class RegionMap:
-    """Named, non-overlapping address ranges of one memory, looked up by bisection."""
-
-    def __init__(self, regions: Iterable[Region] = ()):
-        regs = sorted(regions, key=lambda r: r.start)
-        for a, b in zip(regs, regs[1:]):
-            if b.start < a.end:
-                raise ValueError(f"regions {a.name} [{a.start}, {a.end}) and {b.name} "
-                                 f"[{b.start}, {b.end}) overlap")
-        for r in regs:
-            if r.end <= r.start:
-                raise ValueError(f"region {r.name} [{r.start}, {r.end}) is empty")
-        self.regions = regs
-        self.starts = [r.start for r in regs]
-        self.names = sorted({r.name for r in regs})
-
-    def lookup(self, address: int) -> Region | None:
-        i = bisect.bisect_right(self.starts, address) - 1
-        if i >= 0 and address < self.regions[i].end:
-            return self.regions[i]
-        return None
-
-    def __len__(self) -> int:
-        return len(self.regions)
+# Region counters (the region maps themselves: isa/regions.py)
 
 
 @dataclass
@@ -291,18 +258,3 @@ class MemorySystem:
         if primitives:
             out["primitives"] = {str(p): n for p, n in sorted(primitives.items())}
         return out
-
-
-def cache_bytes(mc: MemoryConfig, global_words: int, word_bytes: int) -> int:
-    """The cache capacity in bytes: `cache_bytes`, or `cache_share` of the global image."""
-    if mc.cache_share is None:
-        return mc.cache_bytes
-    size = int(mc.cache_share * global_words * word_bytes)
-    return size - size % mc.block_bytes
-
-
-def resident_words(mc: MemoryConfig, global_words: int, word_bytes: int) -> int:
-    """Resident capacity in words: `resident_bytes`, or `resident_share` of the global image."""
-    if mc.resident_share is None:
-        return mc.resident_bytes // word_bytes
-    return int(mc.resident_share * global_words)

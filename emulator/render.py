@@ -20,7 +20,7 @@ import numpy as np
 from netsushisen.asm.assembler import assemble_file
 from netsushisen.asm.objects import Program
 from netsushisen.emulator import stats as run_stats
-from netsushisen.emulator.images import Segment
+from netsushisen.isa.images import Segment
 from netsushisen.emulator.machine import EXIT_CODES, Machine, RunResult
 from netsushisen.errors import ConfigError, Diagnostic
 from netsushisen.host.catalog import load_scene

@@ -24,7 +24,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from netsushisen.emulator.memories import REGION_NAMES, Region, cache_bytes, resident_words
 from netsushisen.errors import ConfigError, Diagnostic
 from netsushisen.host.golden import Luminance, scene_epsilon
 from netsushisen.host.grid import Grid, build_grid
@@ -36,6 +35,8 @@ from netsushisen.host.scenes import Kind, Scene
 from netsushisen.host.shapes import ShapeData, build_shape_data
 from netsushisen.host.traversal import OSGrid, _boundary
 from netsushisen.isa.config import MachineConfig
+from netsushisen.isa.images import MemoryImage, Segment
+from netsushisen.isa.regions import REGION_NAMES, Region, cache_bytes, resident_words
 from netsushisen.isa.words import WordFormat, word_format
 
 OS_BASE = 256
@@ -241,10 +242,8 @@ class MachineImages:
                "sc.local": (self.layout.sc_base, self.sc_local), "sc.resident": (0, self.sc_resident)}
         return {k: v for k, v in out.items() if len(v[1]) or k in ("icgm", "scgm")}
 
-    def memory_image(self):
-        """The emulator's `MemoryImage` (memories, global sizes, region maps)."""
-        from netsushisen.emulator.images import MemoryImage, Segment
-
+    def memory_image(self) -> MemoryImage:
+        """The machine's `MemoryImage` (memories, global sizes, region maps; isa/images.py)."""
         img = MemoryImage(source=f"<images of {self.layout.scene.name}>")
         for key, (at, words) in self.placements().items():
             img.memories[key] = [Segment(at, [("w", words)])]

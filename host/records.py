@@ -18,10 +18,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from netsushisen.emulator.images import encode
 from netsushisen.host.grid import WORDS_PER_SUBGRID
 from netsushisen.host.scenes import Kind
 from netsushisen.host.shapes import ShapeData
+from netsushisen.isa.images import encode
 from netsushisen.isa.words import WordFormat
 
 # ------------------------------------------------------------------------------------------------

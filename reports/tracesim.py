@@ -26,11 +26,11 @@ from typing import Iterable, Iterator
 
 import numpy as np
 
-from netsushisen.emulator.memories import Region
 from netsushisen.host.databases import GLOBAL, RESIDENT, DatabaseLayout
 from netsushisen.host.golden import SHADOW
 from netsushisen.host.ic_access import ic_address_stream
 from netsushisen.host.records import ranges
+from netsushisen.isa.regions import Region
 
 SPACES = {GLOBAL: "global", RESIDENT: "resident"}
 
@@ -93,7 +93,7 @@ class DirectMappedCache:
 
 
 class VectorRegions:
-    """A region map (`emulator.memories.RegionMap`'s ranges) looked up for many addresses at once."""
+    """A region map (`isa.regions.RegionMap`'s ranges) looked up for many addresses at once."""
 
     def __init__(self, regions: Iterable[Region], names: list[str]):
         regs = sorted(regions, key=lambda r: r.start)

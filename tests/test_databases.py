@@ -7,10 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from netsushisen.emulator.images import load_image
+from netsushisen.asm.assembler import assemble_text
 from netsushisen.emulator.machine import Machine
 from netsushisen.emulator.memories import RegionMap
-from netsushisen.asm.assembler import assemble_text
 from netsushisen.errors import ConfigError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.databases import RESIDENT, build_images, database_bytes
@@ -21,6 +20,7 @@ from netsushisen.host.records import CELL_WORDS
 from netsushisen.host.scenes import Kind
 from netsushisen.host.traversal import OSGrid
 from netsushisen.isa.config import MachineConfig
+from netsushisen.isa.images import load_image
 
 # every kind, a 4-vertex patch, a transparent (two-sided) material, two materials equal after
 # Kd*colour (one luminance record), a concave polygon, 2 lights

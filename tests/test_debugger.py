@@ -22,7 +22,7 @@ import pytest
 from netsushisen.asm.assembler import assemble_text
 from netsushisen.emulator.debug_state import STATE_KEYS, dump_differences, state_dump
 from netsushisen.emulator.debugger import ProgramsFactory, Session
-from netsushisen.emulator.images import image_from_json
+from netsushisen.isa.images import image_from_json
 from netsushisen.emulator.machine import Machine
 from netsushisen.isa.config import load_config
 

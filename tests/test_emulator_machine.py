@@ -10,7 +10,7 @@ import pytest
 
 from netsushisen.asm.assembler import assemble_text
 from netsushisen.emulator import stats
-from netsushisen.emulator.images import image_from_json
+from netsushisen.isa.images import image_from_json
 from netsushisen.emulator.machine import Machine
 from netsushisen.emulator.trace import Tracer
 from netsushisen.isa.config import load_config

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from netsushisen.asm.assembler import assemble_text
-from netsushisen.emulator.images import image_from_json
+from netsushisen.isa.images import image_from_json
 from netsushisen.emulator.machine import Machine
 from netsushisen.emulator.memories import Cache, Region, RegionMap
 from netsushisen.isa.config import load_config

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from netsushisen.asm.assembler import assemble_text
-from netsushisen.emulator.images import image_from_json
+from netsushisen.isa.images import image_from_json
 from netsushisen.emulator.machine import Machine
 from netsushisen.isa.config import load_config
 from netsushisen.isa.opcodes import OPCODES

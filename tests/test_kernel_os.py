@@ -24,7 +24,6 @@ import pytest
 
 from netsushisen.asm.assembler import assemble_file, assemble_text
 from netsushisen.emulator.harness import encode_message, run_stage, split_words
-from netsushisen.emulator.images import Segment
 from netsushisen.emulator.machine import Machine
 from netsushisen.emulator.render import eye_ray_messages
 from netsushisen.host import traversal
@@ -34,6 +33,7 @@ from netsushisen.host.rays import dtype_of, primary_rays
 from netsushisen.host.shapes import PairHits, ic_rays
 from netsushisen.host.traversal import OSGrid, _boundary, _next_crossing, trace
 from netsushisen.isa.config import MachineConfig
+from netsushisen.isa.images import Segment
 from netsushisen.isa.ring import parse_header
 from netsushisen.isa.words import word_format
 from netsushisen.kernels import KERNELS, protocol

@@ -12,9 +12,9 @@ import pytest
 
 from netsushisen.asm.assembler import assemble_text
 from netsushisen.emulator import stats as run_stats
-from netsushisen.emulator.images import image_from_json
 from netsushisen.emulator.machine import Machine
 from netsushisen.isa.config import load_config
+from netsushisen.isa.images import image_from_json
 
 MISS_KERNELS = Path(__file__).with_name("kernels_miss")
 

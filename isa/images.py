@@ -1,5 +1,8 @@
 """Memory images: what the host writes into the machine before a run (`netsushisen run --image`).
 
+The encoding lives in isa/, below both sides: the host side builds images (host/databases.py)
+and the machine loads them (emulator/machine.py), and neither imports the other.
+
 Two file formats carry the same content.
 
 JSON (hand-written tests and small examples)::
@@ -27,8 +30,9 @@ or a list of such objects. A word is a JSON integer (a 32-bit integer), a JSON f
 to the machine's precision), a string "0x..." (a raw word, bit for bit), "nan"/"inf"/"-inf", or
 {"header": {"length", "dest" (os/ic/sc/col or 0..3), "cls", "tag"}}. Region keys are
 `<proc>.local`, `<proc>.resident`, `<proc>.global` (IC's or SC's view of ICGM/SCGM); a region
-is [start, end (exclusive), name, primitive id or null] (memories.py says what is counted).
-Program `.data` words are loaded first; image words for the same local memory overwrite them.
+is [start, end (exclusive), name, primitive id or null] (emulator/memories.py says what is
+counted). Program `.data` words are loaded first; image words for the same local memory
+overwrite them.
 
 NPZ (`numpy.savez`, for the host side's large databases): one array per memory key (same
 names; `name@N` places it at address N); integer arrays hold integers, float arrays floats,
@@ -48,10 +52,9 @@ from typing import Any
 import numpy as np
 
 from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.regions import REGION_NAMES, Region, RegionMap
 from netsushisen.isa.ring import DESTS, make_header
 from netsushisen.isa.words import WordFormat, wrap32
-
-from netsushisen.emulator.memories import REGION_NAMES, Region, RegionMap
 
 IMAGE_FORMAT = "netsushisen-image"
 _MEMORY_KEY = re.compile(r"^(?:pe(\d+)\.)?(os\.local|ic\.local|sc\.local|ic\.resident|sc\.resident)$")

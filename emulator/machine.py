@@ -217,6 +217,10 @@ class Machine:
 
     def step(self) -> str | None:
         """Run one cycle; returns the run's status once it has ended (else None)."""
+        with np.errstate(all="ignore"):  # IEEE results (±inf, NaN) are the semantics, not errors
+            return self._step()
+
+    def _step(self) -> str | None:
         if self.status is not None:
             return self.status
         c = self.cycle
@@ -245,13 +249,14 @@ class Machine:
 
     def run(self, max_cycles: int | None = None) -> RunResult:
         limit = self.config.max_cycles if max_cycles is None else max_cycles
-        while self.status is None:
-            if limit and self.cycle >= limit:
-                self.status = "max_cycles"
-                self.error = CycleLimit(f"cycle limit reached: {limit} cycles (max_cycles); "
-                                        "the run did not end")
-                break
-            self.step()
+        with np.errstate(all="ignore"):
+            while self.status is None:
+                if limit and self.cycle >= limit:
+                    self.status = "max_cycles"
+                    self.error = CycleLimit(f"cycle limit reached: {limit} cycles (max_cycles); "
+                                            "the run did not end")
+                    break
+                self._step()
         return RunResult(self.status, self.cycle, self.error)
 
     def _check_end(self) -> str | None:

@@ -33,13 +33,25 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+from numba.extending import register_jitable
 
+from netsushisen.isa.libm import c_pow
 from netsushisen.isa.words import INT_MAX, INT_MIN, wrap32
 
 # ---------------------------------------------------------------------------------------------
 # Semantics with corner cases (the only place they are decided)
+#
+# Every semantics is a plain function `semantics(F, *sources)` of values (integers as Python or
+# machine ints, floats as scalars of type F) written so that numba compiles it unchanged: the
+# reference engine calls these functions, the compiled engine compiles the very same ones (no
+# opcode is typed twice). Helpers they call are `register_jitable`: plain Python functions
+# that numba can also compile. Corner cases are written out: no semantics depends on numpy's
+# error state or on Python exceptions. Floating-point arithmetic is the hardware's IEEE 754
+# (its overflow to ±inf and its default NaN for invalid operations); pow is the C library's
+# powf / pow (`c_pow`), which is what numba calls too.
 
 
+@register_jitable
 def _div(a: int, b: int) -> int:
     if b == 0:
         return -1
@@ -49,6 +61,7 @@ def _div(a: int, b: int) -> int:
     return q if (a < 0) == (b < 0) else -q
 
 
+@register_jitable
 def _rem(a: int, b: int) -> int:
     if b == 0:
         return a
@@ -57,10 +70,17 @@ def _rem(a: int, b: int) -> int:
     return a - _div(a, b) * b
 
 
+@register_jitable
 def _srl(a: int, b: int) -> int:
     return wrap32((a & 0xFFFFFFFF) >> (b & 31))
 
 
+@register_jitable
+def _sra(a: int, b: int) -> int:
+    return a >> (b & 31)
+
+
+@register_jitable
 def _fmin(F, a, b):
     if a != a or b != b:
         return F(np.nan)
@@ -71,6 +91,7 @@ def _fmin(F, a, b):
     return a if math.copysign(1.0, float(a)) < 0 else b  # equal: -0 wins
 
 
+@register_jitable
 def _fmax(F, a, b):
     if a != a or b != b:
         return F(np.nan)
@@ -81,7 +102,9 @@ def _fmax(F, a, b):
     return b if math.copysign(1.0, float(a)) < 0 else a  # equal: +0 wins
 
 
-def _to_int(x: float, rounding: Callable[[float], float]) -> int:
+@register_jitable
+def _ftoi(x) -> int:
+    """Truncate toward zero; saturate to [INT_MIN, INT_MAX]; NaN gives 0."""
     x = float(x)
     if x != x:
         return 0
@@ -89,29 +112,37 @@ def _to_int(x: float, rounding: Callable[[float], float]) -> int:
         return INT_MAX
     if x <= -2147483648.0:
         return INT_MIN
-    return int(rounding(x))
+    return int(math.trunc(x))
 
 
-def _fsqrt(F, a):
-    with np.errstate(invalid="ignore"):
-        return F(np.sqrt(a))
+@register_jitable
+def _floor(x) -> int:
+    """Round toward -inf; saturate to [INT_MIN, INT_MAX]; NaN gives 0."""
+    x = float(x)
+    if x != x:
+        return 0
+    if x >= 2147483647.0:
+        return INT_MAX
+    if x <= -2147483648.0:
+        return INT_MIN
+    return int(math.floor(x))
 
 
+@register_jitable
 def _fdiv(F, a, b):
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore", under="ignore"):
-        return F(a / b)
+    # x/±0 is ±inf by the signs of both, 0/0 and NaN/0 the hardware's default NaN: all of it
+    # is what IEEE 754 division gives, so the division itself decides (no trap, no exception).
+    return F(a / b)
+
+
+@register_jitable
+def _fsqrt(F, a):
+    # sqrt(-0) = -0; sqrt(x < 0) = the default NaN; both are IEEE 754's square root.
+    return F(np.sqrt(a))
 
 
 def _fpow(F, a, b):
-    with np.errstate(all="ignore"):
-        return F(np.power(a, b))
-
-
-def _farith(op: Callable) -> Callable:
-    def sem(F, a, b):
-        with np.errstate(all="ignore"):
-            return F(op(a, b))
-    return sem
+    return F(c_pow(a, b))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -197,7 +228,7 @@ _op("or", "int", I3, 1, "rd = rs1 | rs2", sem=lambda F, a, b: a | b)
 _op("xor", "int", I3, 1, "rd = rs1 ^ rs2", sem=lambda F, a, b: a ^ b)
 _op("sll", "int", I3, 1, "rd = rs1 << (rs2 & 31)", sem=lambda F, a, b: wrap32(a << (b & 31)))
 _op("srl", "int", I3, 1, "rd = rs1 >> (rs2 & 31), logical", sem=lambda F, a, b: _srl(a, b))
-_op("sra", "int", I3, 1, "rd = rs1 >> (rs2 & 31), arithmetic", sem=lambda F, a, b: a >> (b & 31))
+_op("sra", "int", I3, 1, "rd = rs1 >> (rs2 & 31), arithmetic", sem=lambda F, a, b: _sra(a, b))
 _op("slt", "int", I3, 1, "rd = 1 if rs1 < rs2 (signed) else 0", sem=lambda F, a, b: int(a < b))
 _op("sltu", "int", I3, 1, "rd = 1 if rs1 < rs2 (unsigned) else 0",
     sem=lambda F, a, b: int((a & 0xFFFFFFFF) < (b & 0xFFFFFFFF)))
@@ -209,7 +240,7 @@ _op("ori", "int", II, 1, "rd = rs | imm", sem=lambda F, a, b: a | b)
 _op("xori", "int", II, 1, "rd = rs ^ imm", sem=lambda F, a, b: a ^ b)
 _op("slli", "int", II, 1, "rd = rs << (imm & 31)", sem=lambda F, a, b: wrap32(a << (b & 31)))
 _op("srli", "int", II, 1, "rd = rs >> (imm & 31), logical", sem=lambda F, a, b: _srl(a, b))
-_op("srai", "int", II, 1, "rd = rs >> (imm & 31), arithmetic", sem=lambda F, a, b: a >> (b & 31))
+_op("srai", "int", II, 1, "rd = rs >> (imm & 31), arithmetic", sem=lambda F, a, b: _sra(a, b))
 _op("slti", "int", II, 1, "rd = 1 if rs < imm (signed) else 0", sem=lambda F, a, b: int(a < b))
 _op("li", "int", "rd:i imm:i", 1, "rd = imm (any 32-bit value)", sem=lambda F, a: a)
 _op("mov", "int", "rd:w rs:w", 1, "rd = rs (raw word)", sem=lambda F, a: a)
@@ -217,9 +248,9 @@ _op("sel", "int", "rd:w rs:i rs:w rs:w", 1, "rd = rs2 if rs1 != 0 else rs3 (raw 
     sem=lambda F, c, a, b: a if c != 0 else b)
 
 # FP arithmetic (IEEE, round to nearest even, never fused)
-_op("fadd", "fp", F3, 2, "rd = rs1 + rs2", sem=_farith(lambda a, b: a + b))
-_op("fsub", "fp", F3, 2, "rd = rs1 - rs2", sem=_farith(lambda a, b: a - b))
-_op("fmul", "fp", F3, 3, "rd = rs1 * rs2", sem=_farith(lambda a, b: a * b))
+_op("fadd", "fp", F3, 2, "rd = rs1 + rs2", sem=lambda F, a, b: F(a + b))
+_op("fsub", "fp", F3, 2, "rd = rs1 - rs2", sem=lambda F, a, b: F(a - b))
+_op("fmul", "fp", F3, 3, "rd = rs1 * rs2", sem=lambda F, a, b: F(a * b))
 _op("fdiv", "fp", F3, 12, "rd = rs1 / rs2 (x/0 = ±inf, 0/0 = NaN)", sem=_fdiv, pipelined=False)
 _op("fsqrt", "fp", "rd:f rs:f", 15, "rd = sqrt(rs) (negative: NaN)", sem=_fsqrt, pipelined=False)
 _op("fpow", "fp", F3, 30, "rd = rs1 ** rs2 (C pow; Phong highlights)", sem=_fpow, pipelined=False,
@@ -241,9 +272,9 @@ _op("feq", "fp", "rd:i rs:f rs:f", 1, "rd = 1 if rs1 == rs2 else 0 (NaN: 0; -0 =
     sem=lambda F, a, b: int(bool(a == b)))
 _op("itof", "fp", "rd:f rs:i", 2, "rd = float(rs), rounded to nearest", sem=lambda F, a: F(a))
 _op("ftoi", "fp", "rd:i rs:f", 2, "rd = int(rs) truncated; saturating; NaN: 0",
-    sem=lambda F, a: _to_int(a, math.trunc))
+    sem=lambda F, a: _ftoi(a))
 _op("floor", "fp", "rd:i rs:f", 2, "rd = floor(rs) as an integer; saturating; NaN: 0",
-    sem=lambda F, a: _to_int(a, math.floor))
+    sem=lambda F, a: _floor(a))
 
 # Memory: word addresses, base register + immediate offset
 _op("ld", "int", "rd:w mem:i", 1, "rd = local[rs + imm]", kind="load", space="local")

@@ -14,15 +14,17 @@ import struct
 from dataclasses import dataclass
 
 import numpy as np
+from numba.extending import register_jitable
 
 INT_MIN = -(1 << 31)
 INT_MAX = (1 << 31) - 1
 
 
+@register_jitable
 def wrap32(v: int) -> int:
     """Reduce any Python int to the signed 32-bit value with the same low 32 bits."""
     v &= 0xFFFFFFFF
-    return v - (1 << 32) if v & 0x80000000 else v
+    return v - 0x100000000 if v & 0x80000000 else v
 
 
 @dataclass(frozen=True)

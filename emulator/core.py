@@ -67,9 +67,6 @@ from netsushisen.isa.words import word_format, wrap32
 from netsushisen.emulator.cmu import Fifo
 from netsushisen.emulator.memories import MemoryFault, MemorySystem
 
-CONTROL = ("branch", "jump", "jumpr", "call", "ret")
-
-
 class RunFault(NetsushisenError):
     """A run-time fault: processor, PC (label+offset) and cycle. Exit code 2."""
 

@@ -118,6 +118,12 @@ class RingFault(Exception):
     """A message the ring cannot route (the machine reports it as a run-time fault)."""
 
 
+def col_on_ring(stage: str, header: int) -> str:
+    """The fault message of a pixel message sent on the ring instead of SC's `col` port."""
+    return (f"CMU {stage}: message header {header:#x} for COL sent on the ring (SC sends pixels "
+            "on `col`)")
+
+
 class Cmu:
     """The communication unit of stage `stage` (see the module docstring)."""
 
@@ -167,8 +173,7 @@ class Cmu:
                     target = -1
                 else:
                     if i == 0 and h.dest == DESTS["col"]:
-                        raise RingFault(f"CMU {self.stage}: message header {f.q[0][1]:#x} "
-                                        "for COL sent on the ring (SC sends pixels on `col`)")
+                        raise RingFault(col_on_ring(self.stage, f.q[0][1]))
                     target = h.cls if self.pooled else 0
                 length = h.length
             else:

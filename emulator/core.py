@@ -249,6 +249,10 @@ class Core:
         label = self.label(pc)
         return f"pc {pc}" if label == str(pc) else f"pc {pc} ({label})"
 
+    def pc_fault(self, c: int) -> RunFault:
+        """The fault of a PC outside the program (every engine reports it with these words)."""
+        return self.fault(c, f"pc {self.pc} is outside the program (0..{len(self.bundles) - 1})")
+
     def fault(self, c: int, message: str, pc: int | None = None) -> RunFault:
         pc = self.pc if pc is None else pc
         return RunFault(self.name, c, message, pc, self.label(pc))
@@ -282,7 +286,7 @@ class Core:
             return
         pc = self.pc
         if not 0 <= pc < len(self.bundles):
-            raise self.fault(c, f"pc {pc} is outside the program (0..{len(self.bundles) - 1})")
+            raise self.pc_fault(c)
         b = self.bundles[pc]
         ready_at = self.ready_at
 

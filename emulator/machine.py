@@ -138,6 +138,19 @@ class Col:
     def busy(self) -> bool:
         return any(self.partial)
 
+    # the faults COL reports (every engine reports them with these words)
+
+    @staticmethod
+    def header_fault(pe: str, c: int, header: int) -> RunFault:
+        h = parse_header(header)
+        return RunFault(f"{pe} COL", c, f"COL takes pixel messages (dest COL, length 4) and ID "
+                        f"messages (length 2), got header {header:#x} (dest {h.dest}, length "
+                        f"{h.length})")
+
+    def pixel_fault(self, pe: str, c: int, pixel: int) -> RunFault:
+        return RunFault(f"{pe} COL", c, f"pixel {pixel} outside the {self.width}x{self.height} "
+                        "frame (image key `frame`)")
+
     def step(self, c: int, pes: list[PE]) -> None:
         for i, pe in enumerate(pes):
             pe.col_moved = False
@@ -151,14 +164,11 @@ class Col:
             part.append(w)
             h = parse_header(part[0])
             if h.dest != DESTS["col"] or h.length not in (2, 4):
-                raise RunFault(f"{pe.name} COL", c, f"COL takes pixel messages (dest COL, length 4) "
-                               f"and ID messages (length 2), got header {part[0]:#x} "
-                               f"(dest {h.dest}, length {h.length})")
+                raise self.header_fault(pe.name, c, part[0])
             if len(part) == h.length + 1:
                 pixel = wrap32(part[1])
                 if not 0 <= pixel < self.width * self.height:
-                    raise RunFault(f"{pe.name} COL", c, f"pixel {pixel} outside the "
-                                   f"{self.width}x{self.height} frame (image key `frame`)")
+                    raise self.pixel_fault(pe.name, c, pixel)
                 y, x = divmod(pixel, self.width)
                 if h.length == 2:
                     self.ids[y, x] = wrap32(part[2])

@@ -1,10 +1,10 @@
-"""The `netsushisen` (alias `nss`) command line.
+"""The `netsushisen` (alias `nss`) command line: the dispatcher.
 
-Each subcommand lives beside the code it drives, in a module exposing `configure(parser)` and
-`run(args) -> int`; this file only routes to them, so adding a command touches one table. Bad
-input surfaces as `NetsushisenError` and is printed as located messages with a non-zero exit;
-an unexpected internal error is reported in one line too (set NETSUSHISEN_DEBUG=1 for the
-traceback).
+Every subcommand is a module of `netsushisen/commands/` exposing `configure(parser)` and
+`run(args) -> int` (options several commands share come from `netsushisen/options.py`); this
+file only routes to them, so adding a command touches one table. Bad input surfaces as
+`NetsushisenError` and is printed as located messages with a non-zero exit; an unexpected
+internal error is reported in one line too (set NETSUSHISEN_DEBUG=1 for the traceback).
 """
 
 from __future__ import annotations
@@ -20,17 +20,17 @@ from netsushisen.errors import NetsushisenError
 
 # name -> (module that implements it, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
-    "asm": ("netsushisen.asm.cli", "assemble a stage kernel (OS, IC or SC)"),
-    "disasm": ("netsushisen.asm.cli_disasm", "disassemble an object file back to source"),
-    "isa": ("netsushisen.isa.cli", "print the ISA reference generated from the opcode table"),
-    "config": ("netsushisen.emulator.cli_config", "show or check the machine configuration"),
-    "run": ("netsushisen.emulator.cli", "run assembled programs on memory images"),
-    "scene": ("netsushisen.host.cli_scene", "inspect a scene (built-in SPD name or .nff file)"),
-    "golden": ("netsushisen.host.cli_golden", "render a scene with the golden numpy model"),
-    "render": ("netsushisen.emulator.cli_render", "render a scene on the emulated machine"),
-    "report": ("netsushisen.reports.cli", "ILP, stall and memory reports from a statistics file"),
-    "paper": ("netsushisen.reports.cli_paper", "reproduce the paper's tables and figures"),
-    "debug": ("netsushisen.emulator.cli_debug", "step through the machine in the terminal"),
+    "asm": ("netsushisen.commands.asm", "assemble a stage kernel (OS, IC or SC)"),
+    "disasm": ("netsushisen.commands.disasm", "disassemble an object file back to source"),
+    "isa": ("netsushisen.commands.isa", "print the ISA reference generated from the opcode table"),
+    "config": ("netsushisen.commands.config", "show or check the machine configuration"),
+    "run": ("netsushisen.commands.run", "run assembled programs on memory images"),
+    "scene": ("netsushisen.commands.scene", "inspect a scene (built-in SPD name or .nff file)"),
+    "golden": ("netsushisen.commands.golden", "render a scene with the golden numpy model"),
+    "render": ("netsushisen.commands.render", "render a scene on the emulated machine"),
+    "report": ("netsushisen.commands.report", "ILP, stall and memory reports from a statistics file"),
+    "paper": ("netsushisen.commands.paper", "reproduce the paper's tables and figures"),
+    "debug": ("netsushisen.commands.debug", "step through the machine in the terminal"),
 }
 
 

@@ -1,10 +1,12 @@
-"""The short report `render` prints: where the cycles went, per processor, and how IC's memory did.
+"""The short report `render` prints, read from the run's statistics dict alone: what was
+rendered and how the run ended, the rays by kind, where the cycles went per processor, and how
+IC's memory did.
 
 Dynamic ILP is operations per cycle (stalls included); static ILP is operations per bundle of the
 kernel as scheduled. The memory line gives the paper's quantities for IC's shape-data references
-(MACHINE.md §5): ρ = the share served by resident memory, μ = the cache hit rate, and the mean
-access time measured next to the paper's model t = t_r·{ρ + (1 − ρ)(8 − 6μ)} (which assumes
-t_c = 2·t_r and t_g = 8·t_r).
+(its two-level memory of resident memory and cache; docs/databases.md): ρ = the share served by
+resident memory, μ = the cache hit rate, and the mean access time measured next to the paper's
+model t = t_r·{ρ + (1 − ρ)(8 − 6μ)} (which assumes t_c = 2·t_r and t_g = 8·t_r).
 """
 
 from __future__ import annotations
@@ -89,3 +91,26 @@ def print_summary(stats: dict, console: Console | None = None) -> None:
     mt = memory_table(stats)
     if mt is not None:
         console.print(mt)
+
+
+def render_headline(stats: dict, seconds: float, output: str) -> list[str]:
+    """What was rendered, how the run ended, and the rays by kind (statistics of `render`:
+    the `render`, `rays` and `visible_primitives` sections beside the run's own)."""
+    r, rays, cfg, run = stats["render"], stats["rays"], stats["config"], stats["run"]
+    res, pes = r["resolution"], cfg["pes"]
+    return [
+        f"{r['scene']}: {res}x{res}{' corners' if r['corners'] else ''} on {pes} "
+        f"PE{'s' if pes > 1 else ''}, {cfg['precision']}, "
+        f"{'generic' if r['generic'] else 'specialised'} kernels: {run['status'] or 'interrupted'} "
+        f"after {run['cycles']:,} cycles ({seconds:.1f} s) -> {output}",
+        f"rays: eye {rays['eye']:,} (hits {rays['eye_hits']:,}), reflection {rays['reflection']:,}, "
+        f"refraction {rays['refraction']:,}, shadow {rays['shadow']:,}; "
+        f"visible primitives {stats['visible_primitives']:,}"]
+
+
+def print_render_summary(stats: dict, seconds: float, output: str,
+                         console: Console | None = None) -> None:
+    """The whole summary `render` prints: the headline, then the ILP / stall and memory tables."""
+    for line in render_headline(stats, seconds, output):
+        print(line)
+    print_summary(stats, console)

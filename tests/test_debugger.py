@@ -20,11 +20,11 @@ from pathlib import Path
 import pytest
 
 from netsushisen.asm.assembler import assemble_text
-from netsushisen.emulator.debug_state import STATE_KEYS, dump_differences, state_dump
-from netsushisen.emulator.debugger import ProgramsFactory, Session
-from netsushisen.isa.images import image_from_json
+from netsushisen.debugger.session import ProgramsFactory, Session
+from netsushisen.debugger.state import STATE_KEYS, dump_differences, state_dump
 from netsushisen.emulator.machine import Machine
 from netsushisen.isa.config import load_config
+from netsushisen.isa.images import image_from_json
 
 PROJECT = Path(__file__).resolve().parents[1]
 
@@ -363,7 +363,7 @@ def test_help_trace_disassemble_views(debug, files):
 
 
 def test_enter_repeats_the_last_command():
-    from netsushisen.emulator.debug_commands import Commands
+    from netsushisen.debugger.commands import Commands
 
     s = loop_session()
     cmds = Commands(s)

@@ -25,7 +25,6 @@ import pytest
 from netsushisen.asm.assembler import assemble_file, assemble_text
 from netsushisen.emulator.harness import encode_message, run_stage, split_words
 from netsushisen.emulator.machine import Machine
-from netsushisen.emulator.render import eye_ray_messages
 from netsushisen.host import traversal
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.databases import build_images
@@ -37,6 +36,7 @@ from netsushisen.isa.images import Segment
 from netsushisen.isa.ring import parse_header
 from netsushisen.isa.words import word_format
 from netsushisen.kernels import KERNELS, protocol
+from netsushisen.render import eye_ray_messages
 
 P = protocol()
 SCENES = "tests/scenes/"
@@ -605,7 +605,7 @@ def test_serial_mode_renders_what_normal_mode_renders():
     """The whole machine (render), serial mode with one slot against normal mode with eight: the
     same image bit for bit, hit ids, ray counts and IC references (accesses per primitive, per
     region, resident and cache) — only the order of the work differs."""
-    from netsushisen.emulator.render import render
+    from netsushisen.render import render
     from netsushisen.isa.config import load_config
 
     config = load_config()

@@ -49,7 +49,7 @@ def trace_driven_counters(setup) -> dict:
 
 def check_emulator_equals_trace(scene: str, res: int, sets: tuple[str, ...] = ()) -> None:
     _needs_kernels()
-    from netsushisen.emulator.render import render
+    from netsushisen.render import render
 
     config = load_config(None, list(sets))
     r = render(scene, config, res=res, slots=1, defines={"SERIAL_TREES": 1})
@@ -73,7 +73,7 @@ def test_serial_mode_ic_loads_follow_machine_order():
     one, the golden trace's IC access stream in `machine_order` (each pixel's ray tree in level
     order) — and in normal mode they are not."""
     _needs_kernels()
-    from netsushisen.emulator.render import prepare
+    from netsushisen.render import prepare
 
     def ic_loads(setup) -> list[tuple[int, int]]:
         machine = setup.machine()
@@ -208,9 +208,9 @@ def test_paper_command_writes_report_figures_and_csvs(tmp_path, cli):
 
 
 def test_paper_interrupted_writes_what_finished(tmp_path, cli, monkeypatch):
-    from netsushisen.reports import cli_paper
+    from netsushisen.commands import paper as paper_command
 
-    real = cli_paper.analyse_scene
+    real = paper_command.analyse_scene
     calls = []
 
     def fake(scene, *a, **k):
@@ -219,7 +219,7 @@ def test_paper_interrupted_writes_what_finished(tmp_path, cli, monkeypatch):
             raise KeyboardInterrupt
         return real(scene, *a, **k)
 
-    monkeypatch.setattr(cli_paper, "analyse_scene", fake)
+    monkeypatch.setattr(paper_command, "analyse_scene", fake)
     out = tmp_path / "p"
     code, _, err = cli("paper", "--res", "6", "--scenes", "tetra:1", "balls:1", "--out", out, "--quiet")
     assert code == 130

@@ -10,7 +10,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from netsushisen.emulator.render import eye_ray_messages, render
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.golden import Luminance
 from netsushisen.host.images import read_png
@@ -19,6 +18,7 @@ from netsushisen.isa.config import load_config
 from netsushisen.isa.ring import parse_header
 from netsushisen.isa.words import FP32, FP64
 from netsushisen.kernels import protocol
+from netsushisen.render import eye_ray_messages, render
 
 MISS_KERNELS = Path(__file__).with_name("kernels_miss")
 

@@ -17,33 +17,23 @@ from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.golden import render
 from netsushisen.host.images import write_png
-from netsushisen.isa.config import load_config
+from netsushisen.options import add_config_options, add_resolution, check_resolution, config_from_args
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scene", help="built-in SPD name (tetra, balls, mount, rings[:SIZE]) or an .nff file")
-    parser.add_argument("--res", type=int, default=64, help="image resolution N (N x N pixels, default 64)")
+    add_resolution(parser, 64)
     parser.add_argument("--corners", action="store_true",
                         help="SPD eye rays through the pixel corners ((N+1)^2 rays, pixel = mean of 4)")
-    parser.add_argument("--precision", choices=("fp32", "fp64"), help="floating-point format (default: config)")
-    parser.add_argument("--depth", type=int, help="maximum ray-tree depth (eye ray = 1; default: config, 5)")
-    parser.add_argument("--config", metavar="TOML", help="machine configuration file")
-    parser.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
-                        help="override one configuration field, e.g. grid.subdivide_threshold=4")
+    add_config_options(parser, precision=True, depth=True)
     parser.add_argument("-o", "--output", metavar="PNG", help="write the image as PNG")
     parser.add_argument("--ids", metavar="NPY", help="write the eye rays' hit-primitive ids (.npy)")
     parser.add_argument("--json", metavar="FILE", help="write the statistics as JSON")
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.res < 1 or args.res > 8192:
-        raise NetsushisenError(Diagnostic(f"--res must lie in 1..8192, got {args.res}", file="golden"))
-    overrides = list(args.set)
-    if args.precision:
-        overrides.append(f"precision={args.precision}")
-    if args.depth is not None:
-        overrides.append(f"render.max_depth={args.depth}")
-    config = load_config(args.config, overrides)
+    check_resolution(args.res)
+    config = config_from_args(args)
     scene = load_scene(args.scene)
     result = render(scene, config, res=args.res, corners=args.corners)
     stats = {"scene": scene.name, "source": scene.source, "res": args.res, "corners": args.corners,

@@ -13,46 +13,17 @@ import json
 from pathlib import Path
 
 from netsushisen.asm.assembler import assemble_file
-from netsushisen.asm.expressions import ExprError, evaluate
 from netsushisen.asm.listing import format_static_ilp, listing, static_ilp
-from netsushisen.asm.parser import Chunk, Directive, parse_chunk
-from netsushisen.errors import Diagnostic, NetsushisenError
-
-
-def parse_define(item: str) -> tuple[str, int | float]:
-    """`NAME` (= 1) or `NAME=VALUE` where VALUE is a constant expression."""
-    name, _, raw = item.partition("=")
-    name = name.strip()
-    if not name.isidentifier():
-        raise NetsushisenError(f"-D {item!r}: expected NAME or NAME=VALUE")
-    if not raw.strip():
-        return name, 1
-    stmt = parse_chunk(Chunk(f".equ {name}, {raw}", "-D", 1, [raw]))
-    if isinstance(stmt, Diagnostic) or not isinstance(stmt.item, Directive) or len(stmt.item.args) != 2:
-        raise NetsushisenError(f"-D {item!r}: VALUE must be a constant expression")
-
-    def no_symbols(symbol: str, loc):
-        raise ExprError(f"undefined symbol '{symbol}' (a -D value must be a constant)")
-
-    try:
-        return name, evaluate(stmt.item.args[1].value, no_symbols)
-    except ExprError as err:
-        raise NetsushisenError(f"-D {item!r}: {err.message}") from None
-
-
-def add_assembly_options(parser: argparse.ArgumentParser) -> None:
-    """-D and -I, shared by every command that assembles kernels."""
-    parser.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME[=VALUE]",
-                        help="define a symbol for .if / expressions (value defaults to 1)")
-    parser.add_argument("-I", dest="include_dirs", action="append", default=[], metavar="DIR",
-                        help="add an include directory (the source's own directory is always searched)")
+from netsushisen.errors import NetsushisenError
+from netsushisen.options import add_defines, add_include_dirs, parse_defines
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("source", help="assembly source file (.s)")
     parser.add_argument("--proc", choices=["os", "ic", "sc"],
                         help="target processor (may be omitted when the source says .proc)")
-    add_assembly_options(parser)
+    add_defines(parser)
+    add_include_dirs(parser)
     parser.add_argument("-o", dest="output", help="object file to write (default: STEM.o)")
     parser.add_argument("--listing", metavar="PATH|-", help="write a listing (- for stdout)")
     parser.add_argument("--stats", action="store_true", help="print static ILP statistics")
@@ -60,7 +31,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    defines = dict(parse_define(d) for d in args.defines)
+    defines = parse_defines(args.defines)
     program = assemble_file(args.source, proc=args.proc, defines=defines,
                             include_dirs=args.include_dirs)
     analysis_only = (args.stats or args.listing) and not args.output

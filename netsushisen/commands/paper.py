@@ -1,7 +1,8 @@
-"""Reproduce the paper's Table 1, Table 2 and Figures 3–5 (MACHINE.md §6) and say where we agree.
+"""Reproduce the paper's Table 1, Table 2 and Figures 3–5 (its evaluation of IC's memory) and
+say where we agree.
 
     netsushisen paper [--res N] [--scenes S ...] [--out DIR] [--corners] [--precision fp32|fp64]
-                      [--config FILE] [--set field=value]...
+                      [--config FILE] [--set field=value]... [--engine NAME]
 
 Writes into DIR (default `paper/`): report.md (both tables with the paper's numbers beside ours,
 each of the paper's findings with our numbers, whether we agree and why we differ),
@@ -12,7 +13,8 @@ It answers from the fastest exact path: the golden model's IC reference trace, i
 serial ray order, replayed through a trace-driven resident memory + direct-mapped cache for every
 memory configuration of the figures (no cycle-accurate emulation). The default resolution is the
 paper's 512×512 (several minutes); --res 128 takes well under a minute per scene. Ctrl-C stops
-after writing what the finished scenes give.
+after writing what the finished scenes give. `--engine` is checked and recorded in the report's
+command line; this path runs no machine yet.
 """
 
 from __future__ import annotations
@@ -25,22 +27,21 @@ from pathlib import Path
 
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
-from netsushisen.isa.config import load_config
+from netsushisen.options import (add_config_options, add_engine, add_resolution, check_resolution,
+                                 config_from_args, engine_from_args)
 from netsushisen.reports.paper import findings, report_markdown, verdict_counts
 from netsushisen.reports.paper_data import PAPER_SCENES, analyse_scene
 from netsushisen.reports.paper_plots import write_csvs, write_figures
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--res", type=int, default=512, help="N×N main pass (default 512, the paper's)")
+    add_resolution(parser, 512, "N×N main pass (default 512, the paper's)")
     parser.add_argument("--scenes", nargs="+", default=list(PAPER_SCENES), metavar="SCENE",
                         help="built-in scenes or .nff files (default: tetra balls mount rings)")
     parser.add_argument("--out", default="paper", help="output folder (default paper/)")
     parser.add_argument("--corners", action="store_true", help="SPD corner rays: (N+1)² eye rays")
-    parser.add_argument("--precision", choices=["fp32", "fp64"], help="machine FP format (default fp32)")
-    parser.add_argument("--config", help="machine configuration (TOML)")
-    parser.add_argument("--set", dest="sets", action="append", default=[], metavar="FIELD=VALUE",
-                        help="override a configuration field (e.g. ic_memory.block_bytes=32)")
+    add_config_options(parser, precision=True)
+    add_engine(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress bars or summary")
 
 
@@ -54,14 +55,14 @@ def _command(args: argparse.Namespace) -> str:
         parts += ["--config", args.config]
     for s in args.sets:
         parts += ["--set", s]
+    parts += ["--engine", args.engine]
     return " ".join(shlex.quote(p) for p in parts)
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.res < 1:
-        raise NetsushisenError(f"--res {args.res}: the image needs at least 1x1 pixels")
-    sets = list(args.sets) + ([f"precision={args.precision}"] if args.precision else [])
-    config = load_config(args.config, sets)
+    check_resolution(args.res)
+    engine = engine_from_args(args)
+    config = config_from_args(args)
     scenes = [load_scene(s) for s in args.scenes]  # every bad name is reported before any work
     out = Path(args.out)
     if out.exists() and not out.is_dir():
@@ -102,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
         files += write_csvs(done, out)
         items = findings(done)
     settings = {"res": args.res, "command": _command(args), "max_depth": config.render.max_depth,
-                "seconds": time.perf_counter() - start}
+                "engine": engine, "seconds": time.perf_counter() - start}
     report = out / "report.md"
     names = [p.name for p in files]
     report.write_text(report_markdown(done, items, settings, [report.name] + names,

@@ -17,10 +17,10 @@ from rich.console import RenderableType
 from rich.table import Table
 from rich.text import Text
 
-from netsushisen.emulator import debug_view as view
-from netsushisen.emulator.debug_expr import DebugError, format_number, format_word, hex_word
-from netsushisen.emulator.debug_help import ALIASES, HELP, INFO_TOPICS, MOVES
-from netsushisen.emulator.debug_state import state_digest
+from netsushisen.debugger import view
+from netsushisen.debugger.expressions import DebugError, format_number, format_word, hex_word
+from netsushisen.debugger.help import ALIASES, HELP, INFO_TOPICS, MOVES
+from netsushisen.debugger.state import state_digest
 from netsushisen.errors import NetsushisenError
 from netsushisen.isa.processors import STAGES
 from netsushisen.isa.words import wrap32

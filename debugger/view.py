@@ -19,7 +19,7 @@ from rich.table import Table
 from rich.text import Text
 
 from netsushisen.asm.listing import slot_assignment
-from netsushisen.emulator.debug_expr import hex_word
+from netsushisen.debugger.expressions import hex_word
 from netsushisen.isa.words import wrap32
 
 ISSUED = "bold black on green"

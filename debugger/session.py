@@ -2,7 +2,8 @@
 breakpoints, watchpoints, checkpoints and exact reverse execution.
 
 The machine comes from a *factory* (`build() -> Machine`): `ProgramsFactory` for raw programs
-(`netsushisen debug --os ... --ic ...`); scene mode will be one more factory.
+(`netsushisen debug --os ... --ic ...`), `SceneFactory` for a scene's render setup
+(`netsushisen debug SCENE`, the machine `netsushisen render` runs).
 
 Time. The session always stands between two cycles: `machine.cycle` cycles have run, and "the
 last cycle" is `machine.cycle - 1`. Every stop describes what happened in the last cycle: which
@@ -15,7 +16,7 @@ matching processor, and its condition, evaluated after that cycle, is true), at 
 every write, even of the same value), or on an interrupt (Ctrl-C), and otherwise when its own
 count is done.
 
-Reverse execution (debug_reverse.py): checkpoints every K cycles (default 2048) and exact
+Reverse execution (reverse.py): checkpoints every K cycles (default 2048) and exact
 deterministic replay; `set` edits are pinned checkpoints, so they stay part of the history that
 replays and forward steps go through.
 """
@@ -25,8 +26,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable, Protocol
 
-from netsushisen.emulator.debug_expr import Context, DebugError, Place, short_word
-from netsushisen.emulator.debug_reverse import Checkpoint, Hit, ReverseExecution, Stop
+from netsushisen.debugger.expressions import Context, DebugError, Place, short_word
+from netsushisen.debugger.reverse import Checkpoint, Hit, ReverseExecution, Stop
 from netsushisen.emulator.machine import CycleLimit, Machine
 from netsushisen.isa.processors import STAGES
 
@@ -48,6 +49,21 @@ class ProgramsFactory:
 
     def build(self) -> Machine:
         return Machine(self.config, self.programs, self.image)
+
+
+class SceneFactory:
+    """Scene mode: the render pipeline's host work (grid, pre-pass, images, kernels, eye rays;
+    a `netsushisen.render.RenderSetup`) is done once; every `build()` (the start, `restart`)
+    makes a fresh Machine from it."""
+
+    def __init__(self, setup):
+        self.setup = setup
+        self.description = (f"scene {setup.scene.name}, {setup.res}x{setup.res}"
+                            f"{' corners' if setup.corners else ''}, "
+                            f"{'generic' if setup.generic else 'specialised'} kernels")
+
+    def build(self):
+        return self.setup.machine()
 
 
 @dataclass
@@ -455,7 +471,7 @@ class Session(ReverseExecution):
     # -- edits --------------------------------------------------------------------------------
 
     def set_place(self, place: Place, value) -> tuple[int, int]:
-        """Write a value; (old word, new word). Pins a checkpoint (debug_reverse.py: edits)."""
+        """Write a value; (old word, new word). Pins a checkpoint (reverse.py: edits)."""
         if self.ended:
             raise DebugError(self.end_message() + ": the state can no longer change")
         ctx = self.context()

@@ -1,11 +1,14 @@
 """Render a scene on the emulated machine: the whole pipeline, host to frame buffer.
 
     scene ─► grid ─► pre-pass (priorities, M) ─► memory images + kernel symbols
-          ─► kernels assembled for this scene's needs ─► Machine ─► run
+          ─► kernels assembled for this scene's needs ─► engine (config, programs, image) ─► run
           ─► frame buffer, hit ids, ray counts, statistics
 
-The host's side is the golden model's (same grid, same eye rays, same records); the machine's
-side is the three hand-written kernels (docs/kernels.md). `generic=True` assembles every feature
+It sits above both sides and joins them: the host's side is the golden model's (same grid, same
+eye rays, same records; host/), the machine's side is the three hand-written kernels
+(docs/kernels.md) run by any engine of the machine. It reaches the machine only through the
+engine interface (emulator/engine.py): `make_engine`, `run`, and then `frame`, `ids`,
+`statistics()` and `memory()` (SC's ray counters). `generic=True` assembles every feature
 (`HAS_* = 1`) instead of only what the scene calls for; the two must give identical images.
 """
 
@@ -19,9 +22,7 @@ import numpy as np
 
 from netsushisen.asm.assembler import assemble_file
 from netsushisen.asm.objects import Program
-from netsushisen.emulator import stats as run_stats
-from netsushisen.isa.images import Segment
-from netsushisen.emulator.machine import EXIT_CODES, Machine, RunResult
+from netsushisen.emulator.engine import DEFAULT_ENGINE, EXIT_CODES, Engine, RunResult, make_engine
 from netsushisen.errors import ConfigError, Diagnostic
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.databases import MachineImages, build_images
@@ -31,6 +32,7 @@ from netsushisen.host.prepass import PrepassResult, run_prepass
 from netsushisen.host.rays import dtype_of, primary_rays
 from netsushisen.host.scenes import Scene
 from netsushisen.isa.config import MachineConfig
+from netsushisen.isa.images import MemoryImage, Segment
 from netsushisen.isa.processors import STAGES
 from netsushisen.isa.words import WordFormat, word_format
 from netsushisen.kernels import KERNELS, protocol
@@ -44,7 +46,8 @@ DEFAULT_SLOTS = 8
 
 @dataclass
 class RenderSetup:
-    """Everything a run needs, built once: a debugger or a benchmark can build the Machine from it."""
+    """Everything a run needs, built once: a run, a debugger or a benchmark builds its machine
+    from it."""
 
     scene: Scene
     config: MachineConfig
@@ -62,17 +65,29 @@ class RenderSetup:
         """Samples per axis: the frame COL fills (res, or res + 1 SPD corners)."""
         return self.res + 1 if self.corners else self.res
 
-    def machine(self) -> Machine:
+    def memory_image(self) -> MemoryImage:
+        """The databases, the eye-ray stream DIS hands out and the frame COL fills."""
         image = self.images.memory_image()
         image.host = [Segment(0, [("w", self.host_words)])]
         image.frame = (self.side, self.side)
-        return Machine(self.images.config, self.programs, image)
+        return image
+
+    def engine(self, name: str = DEFAULT_ENGINE) -> Engine:
+        """A fresh engine `name` loaded with this setup, ready to run."""
+        return make_engine(name, self.images.config, self.programs, self.memory_image())
+
+    def machine(self):
+        """A fresh reference `Machine`, for the debugger: it steps the reference engine's
+        machine directly (debugger/__init__.py says why); everything else takes `engine()`."""
+        from netsushisen.emulator.machine import Machine
+
+        return Machine(self.images.config, self.programs, self.memory_image())
 
 
 @dataclass
 class RenderResult:
     setup: RenderSetup
-    machine: Machine
+    engine: Engine
     run: RunResult
     image: np.ndarray  # (res, res, 3) in the machine's precision
     image_u8: np.ndarray
@@ -174,10 +189,11 @@ def prepare(scene: Scene | str, config: MachineConfig, res: int = 32, corners: b
                        eye_ray_messages(scene, res, corners, wf))
 
 
-def finish(setup: RenderSetup, machine: Machine, run: RunResult) -> RenderResult:
-    """Read the results out of a machine that has run (whatever its end: nothing computed is lost)."""
+def finish(setup: RenderSetup, engine: Engine, run: RunResult) -> RenderResult:
+    """Read the results out of an engine that has run (whatever its end: nothing computed is
+    lost), through the engine interface only."""
     dt = dtype_of(setup.config.precision)
-    frame = machine.col.frame.astype(dt)
+    frame = np.asarray(engine.frame).astype(dt)
     if setup.corners:
         c = frame
         image = (((c[:-1, :-1] + c[:-1, 1:]) + c[1:, :-1]) + c[1:, 1:]) * dt(0.25)
@@ -192,12 +208,13 @@ def finish(setup: RenderSetup, machine: Machine, run: RunResult) -> RenderResult
         if section != "data":
             rays[name] = 0
             continue
-        rays[name] = sum(wf.to_int(pe.memories["sc"].local.words[addr]) for pe in machine.pes)
-    ids = machine.col.ids.copy()
+        rays[name] = sum(wf.to_int(engine.memory(f"pe{pe}.sc", "local")[addr])
+                         for pe in range(setup.images.config.pes))
+    ids = np.array(engine.ids, copy=True)
     visible = int(len(np.unique(ids[ids >= 0])))
     u8 = to_u8(image)
-    result = RenderResult(setup, machine, run, image, u8, ids, rays, visible)
-    s = run_stats.collect(machine)
+    result = RenderResult(setup, engine, run, image, u8, ids, rays, visible)
+    s = engine.statistics()
     s["render"] = {"scene": setup.scene.name, "resolution": setup.res, "corners": setup.corners,
                    "generic": setup.generic, "slots": setup.defines.get("SLOTS"),
                    "prepass": setup.prepass.summary() | {"seconds": None}}
@@ -211,25 +228,10 @@ def finish(setup: RenderSetup, machine: Machine, run: RunResult) -> RenderResult
 def render(scene: Scene | str, config: MachineConfig, res: int = 32, corners: bool = False,
            generic: bool = False, slots: int = DEFAULT_SLOTS, kernel_dir: str | Path | None = None,
            kernels: dict[str, str | Path] | None = None, progress=None,
-           defines: dict[str, int | float] | None = None) -> RenderResult:
-    """Render on the emulated machine. `progress(cycle)` is called now and then if given;
-    `defines` adds kernel symbols (see `prepare`)."""
+           defines: dict[str, int | float] | None = None,
+           engine: str = DEFAULT_ENGINE) -> RenderResult:
+    """Render on the emulated machine with engine `engine`. `progress(cycle)` is called now and
+    then if given; `defines` adds kernel symbols (see `prepare`)."""
     setup = prepare(scene, config, res, corners, generic, slots, kernel_dir, kernels, defines)
-    machine = setup.machine()
-    if progress is None:
-        run = machine.run()
-    else:
-        run = _run_with_progress(machine, progress)
-    return finish(setup, machine, run)
-
-
-def _run_with_progress(machine: Machine, progress, every: int = 20000) -> RunResult:
-    limit = machine.config.max_cycles
-    while machine.status is None:
-        if limit and machine.cycle >= limit:
-            return machine.run()  # records the cycle-limit end
-        machine.step()
-        if machine.cycle % every == 0:
-            progress(machine.cycle)
-    progress(machine.cycle)
-    return RunResult(machine.status, machine.cycle, machine.error)
+    eng = setup.engine(engine)
+    return finish(setup, eng, eng.run(progress=progress))

@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import argparse
 
-from netsushisen.isa.config import dump_toml, load_config
+from netsushisen.isa.config import dump_toml
+from netsushisen.options import add_config_options, config_from_args
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -19,17 +20,16 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--dump", action="store_true", help="print the configuration as TOML "
                         "(the default action)")
     parser.add_argument("--check", metavar="FILE", help="validate a configuration file")
-    parser.add_argument("--config", metavar="FILE", help="start from this file instead of the defaults")
-    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                        help="override one field, e.g. --set ring.buffer_pool=false")
+    add_config_options(parser)
 
 
 def run(args: argparse.Namespace) -> int:
     if args.check:
-        load_config(args.check, args.overrides)
+        config = config_from_args(args, path=args.check)
         print(f"{args.check}: ok")
         if not args.dump:
             return 0
-    config = load_config(args.check or args.config, args.overrides)
+    else:
+        config = config_from_args(args)
     print(dump_toml(config), end="")
     return 0

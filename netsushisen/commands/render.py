@@ -1,6 +1,6 @@
 """Render a scene on the emulated machine and print its ILP / memory-stall summary.
 
-    netsushisen render SCENE [--res N] [--corners] [--pes P] [--engine reference]
+    netsushisen render SCENE [--res N] [--corners] [--pes P] [--engine NAME]
         [--precision fp32|fp64] [--generic] [--slots N] [--config FILE] [--set field=value]...
         [-o image.png] [--ids ids.npy] [--json stats.json] [--kernels DIR] [--os F] [--ic F] [--sc F]
 
@@ -19,28 +19,23 @@ import time
 
 import numpy as np
 
-from netsushisen.emulator import render as pipeline
+from netsushisen import render as pipeline
 from netsushisen.emulator import stats as run_stats
-from netsushisen.emulator.machine import RunResult
-from netsushisen.errors import NetsushisenError
+from netsushisen.emulator.engine import RunResult
 from netsushisen.host.images import write_png
-from netsushisen.isa.config import load_config
-from netsushisen.reports.summary import print_summary
+from netsushisen.options import (add_config_options, add_engine, add_resolution, check_resolution,
+                                 config_from_args, engine_from_args)
+from netsushisen.reports.summary import print_render_summary
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scene", help="built-in scene name (tetra, balls, mount, rings, ...) or .nff file")
-    parser.add_argument("--res", type=int, default=32, help="N×N image (default 32)")
+    add_resolution(parser, 32)
     parser.add_argument("--corners", action="store_true", help="SPD corner rays: (N+1)² eye rays")
-    parser.add_argument("--pes", type=int, help="number of PEs (default: the config's, 1)")
-    parser.add_argument("--engine", choices=["reference"], default="reference",
-                        help="simulation engine (the plain-Python reference engine)")
-    parser.add_argument("--precision", choices=["fp32", "fp64"], help="machine FP format (default fp32)")
+    add_engine(parser)
+    add_config_options(parser, pes=True, precision=True)
     parser.add_argument("--generic", action="store_true", help="assemble every feature, not only the scene's")
     parser.add_argument("--slots", type=int, default=pipeline.DEFAULT_SLOTS, help="rays OS keeps in flight")
-    parser.add_argument("--config", help="machine configuration (TOML)")
-    parser.add_argument("--set", dest="sets", action="append", default=[], metavar="FIELD=VALUE",
-                        help="override a configuration field")
     parser.add_argument("-o", dest="output", help="image file (default: SCENE.png)")
     parser.add_argument("--ids", help="save the eye rays' hit-primitive ids (int32 .npy, -1 background)")
     parser.add_argument("--json", help="write the statistics JSON here")
@@ -51,30 +46,24 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    sets = list(args.sets)
-    if args.pes is not None:
-        sets.append(f"pes={args.pes}")
-    if args.precision:
-        sets.append(f"precision={args.precision}")
-    config = load_config(args.config, sets)
-    if args.res < 1:
-        raise NetsushisenError(f"--res {args.res}: the image needs at least 1x1 pixels")
+    check_resolution(args.res)
+    engine_name = engine_from_args(args)
+    config = config_from_args(args)
     overrides = {s: getattr(args, s) for s in ("os", "ic", "sc") if getattr(args, s)}
     start = time.perf_counter()
     setup = pipeline.prepare(args.scene, config, args.res, args.corners, args.generic, args.slots,
                              args.kernels, overrides)
-    machine = setup.machine()
+    engine = setup.engine(engine_name)
     progress = _progress_printer() if sys.stderr.isatty() and not args.quiet else None
     interrupted = False
     try:
-        run_result = (pipeline._run_with_progress(machine, progress) if progress
-                      else machine.run())
+        run_result = engine.run(progress=progress)
     except KeyboardInterrupt:  # keep what was computed: write the partial image and statistics
         interrupted = True
-        print(f"\nnetsushisen render: interrupted at cycle {machine.cycle:,}; writing what was computed",
+        print(f"\nnetsushisen render: interrupted at cycle {engine.cycle:,}; writing what was computed",
               file=sys.stderr)
-        run_result = RunResult(machine.status or "interrupted", machine.cycle, None)
-    result = pipeline.finish(setup, machine, run_result)
+        run_result = RunResult(engine.status or "interrupted", engine.cycle, None)
+    result = pipeline.finish(setup, engine, run_result)
     seconds = time.perf_counter() - start
     output = args.output or f"{setup.scene.name}.png"
     write_png(output, result.image_u8)
@@ -84,15 +73,7 @@ def run(args: argparse.Namespace) -> int:
         with open(args.json, "w", encoding="utf-8") as f:
             f.write(run_stats.dumps(result.stats))
     if not args.quiet:
-        r = result.rays
-        print(f"{setup.scene.name}: {setup.res}x{setup.res}{' corners' if setup.corners else ''} on "
-              f"{config.pes} PE{'s' if config.pes > 1 else ''}, {config.precision}, "
-              f"{'generic' if setup.generic else 'specialised'} kernels: {run_result.status} after "
-              f"{run_result.cycles:,} cycles ({seconds:.1f} s) -> {output}")
-        print(f"rays: eye {r['eye']:,} (hits {r['eye_hits']:,}), reflection {r['reflection']:,}, "
-              f"refraction {r['refraction']:,}, shadow {r['shadow']:,}; "
-              f"visible primitives {result.visible_primitives:,}")
-        print_summary(result.stats)
+        print_render_summary(result.stats, seconds, output)
     if run_result.error is not None:
         print(run_result.error.format(), file=sys.stderr)
     return 130 if interrupted else result.exit_code

@@ -1,6 +1,6 @@
 """Reverse execution for the debugger session: checkpoints, exact replay, going back.
 
-A checkpoint (debug_state.freeze) is taken whenever the machine reaches a cycle that is a
+A checkpoint (state.freeze) is taken whenever the machine reaches a cycle that is a
 multiple of the interval K, and at cycle 0; it also keeps the session's per-core notes (last
 loads, register origins). Going back to cycle T thaws the last checkpoint at or before T and
 replays the cycles after it (breakpoint hit counts do not change during a replay): the engine is
@@ -23,8 +23,8 @@ import copy
 from dataclasses import dataclass, field
 from typing import Callable
 
-from netsushisen.emulator.debug_expr import DebugError
-from netsushisen.emulator.debug_state import Frozen, freeze, thaw
+from netsushisen.debugger.expressions import DebugError
+from netsushisen.debugger.state import Frozen, freeze, thaw
 
 
 @dataclass

@@ -1,0 +1,26 @@
+"""The step debugger (`netsushisen debug`, docs/debugger.md): a session over one machine —
+stepping by cycles or bundles, breakpoints, watchpoints, `set`, exact reverse execution — and
+its command language, expressions, screen and terminal front end.
+
+    session.py      `Session`; the machine factories (`ProgramsFactory`, `SceneFactory`)
+    commands.py     the command language (`Commands.execute(line) -> Outcome`)
+    help.py         usage, help texts, aliases
+    expressions.py  expressions, places (registers, memory words, PCs), locations
+    reverse.py      checkpoints, replay, reverse-step / -stepi / -continue
+    state.py        `freeze` / `thaw` (checkpoints) and `state_dump` (the canonical state dump)
+    view.py         the rich panels of the screen
+    frontend.py     the batch and interactive front ends (prompt, history, tab completion)
+
+Unlike every other reader of the machine (the render pipeline, reports, benchmarks), the
+debugger does not go through the engine interface (emulator/engine.py): it knows the reference
+engine's internals and steps the reference `Machine` (emulator/machine.py) directly. It has to:
+its screen shows what the interface deliberately leaves out — each core's scoreboard and
+results in flight, the bundle issued or the stall cause of the last cycle, every FIFO and CMU
+lock, the cache set touched last — and reverse execution checkpoints and restores the whole
+mutable state of the machine (state.py pickles the same parts `Machine.snapshot` copies) and
+replays cycle by cycle. Widening the engine interface to all of that would make every engine
+model the reference engine's objects; instead the reference engine is the one the debugger
+steps (an engine that computes elsewhere writes its state back into a reference `Machine`,
+which the debugger can then take over). The debugger has no timing rules of its own: every
+cycle it shows is one `Machine.step()`.
+"""

@@ -1,0 +1,212 @@
+"""The options the commands share, each defined and parsed in one place.
+
+Every command in `netsushisen/commands/` takes its shared options from here, so an option means
+the same and is checked the same way wherever it appears:
+
+    add_defines(parser)         -D NAME[=EXPR]: a symbol for the assembler (`args.defines`);
+                                `parse_defines(args.defines)` evaluates each EXPR exactly as the
+                                assembler's `.equ` does (`-D 'X=1<<4'`, `-D N=0x10`, `-D F=1.5`)
+    add_include_dirs(parser)    -I DIR (`args.include_dirs`)
+    add_config_options(parser, pes=, precision=, max_cycles=, depth=)
+                                --config FILE and --set PATH=VALUE (`args.sets`, repeatable),
+                                and those of --pes N, --precision fp32|fp64, --max-cycles N,
+                                --depth D the command asks for; `config_from_args(args)` builds
+                                the validated machine configuration from them (file, then each
+                                --set, then the shorthands, which are --set in disguise)
+    add_resolution(parser, default)
+                                --res N (`args.res`); `check_resolution(args.res)` rejects
+                                N outside 1..MAX_RES with one line before anything is allocated
+    add_engine(parser)          --engine NAME (`args.engine`, default the engine interface's
+                                DEFAULT_ENGINE); `engine_from_args(args)` checks the name
+    add_program_options(parser) --os/--ic/--sc PROGRAM, --image FILE (with -D and the config
+                                options: what `run` and `debug` build a machine from);
+                                `machine_inputs(args)` -> (config, programs, image)
+
+Bad values are `NetsushisenError`s: the command line prints one line and exits 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.config import MachineConfig, load_config
+from netsushisen.isa.processors import STAGES
+
+MAX_RES = 8192
+"""The largest --res: an 8192×8192 image (67 M eye rays) is beyond any run this toolchain
+finishes; a larger N is a typo, refused before the frame buffer is allocated."""
+
+
+# ---------------------------------------------------------------------------------------------
+# -D and -I: assembler symbols and include folders
+
+
+def parse_define(item: str) -> tuple[str, int | float]:
+    """`NAME` (= 1) or `NAME=EXPR`, EXPR a constant expression as `.equ` accepts it."""
+    from netsushisen.asm.expressions import ExprError, evaluate
+    from netsushisen.asm.parser import Chunk, Directive, parse_chunk
+
+    name, _, raw = item.partition("=")
+    name = name.strip()
+    if not name.isidentifier():
+        raise NetsushisenError(f"-D {item!r}: expected NAME or NAME=VALUE")
+    if not raw.strip():
+        return name, 1
+    stmt = parse_chunk(Chunk(f".equ {name}, {raw}", "-D", 1, [raw]))
+    if isinstance(stmt, Diagnostic) or not isinstance(stmt.item, Directive) or len(stmt.item.args) != 2:
+        raise NetsushisenError(f"-D {item!r}: VALUE must be a constant expression")
+
+    def no_symbols(symbol: str, loc):
+        raise ExprError(f"undefined symbol '{symbol}' (a -D value must be a constant)")
+
+    try:
+        return name, evaluate(stmt.item.args[1].value, no_symbols)
+    except ExprError as err:
+        raise NetsushisenError(f"-D {item!r}: {err.message}") from None
+
+
+def parse_defines(items: list[str]) -> dict[str, int | float]:
+    """The symbols of every -D, later ones winning."""
+    return dict(parse_define(item) for item in items)
+
+
+def add_defines(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME[=VALUE]",
+                        help="define a symbol for .if / expressions when assembling (VALUE: a "
+                             "constant expression as .equ takes it; default 1)")
+
+
+def add_include_dirs(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("-I", dest="include_dirs", action="append", default=[], metavar="DIR",
+                        help="add an include directory (the source's own directory is always searched)")
+
+
+# ---------------------------------------------------------------------------------------------
+# The machine configuration
+
+
+def add_config_options(parser: argparse.ArgumentParser, *, pes: bool = False,
+                       precision: bool = False, max_cycles: bool = False,
+                       depth: bool = False) -> None:
+    """--config and --set, and the shorthands the command asks for."""
+    parser.add_argument("--config", metavar="FILE", help="machine configuration (TOML; "
+                        "`netsushisen config --dump` prints the defaults)")
+    parser.add_argument("--set", dest="sets", action="append", default=[], metavar="PATH=VALUE",
+                        help="override one configuration field, e.g. --set ic_memory.t_g=16 "
+                             "(repeatable)")
+    if pes:
+        parser.add_argument("--pes", type=int, metavar="N",
+                            help="number of PEs (same as --set pes=N; default: the config's, 1)")
+    if precision:
+        parser.add_argument("--precision", choices=("fp32", "fp64"),
+                            help="machine floating-point format (same as --set precision=...; "
+                                 "default: the config's, fp32)")
+    if max_cycles:
+        parser.add_argument("--max-cycles", type=int, metavar="N",
+                            help="stop after N cycles (same as --set max_cycles=N)")
+    if depth:
+        parser.add_argument("--depth", type=int, metavar="D",
+                            help="maximum ray-tree depth, eye ray = 1 (same as --set "
+                                 "render.max_depth=D; default: the config's, 5)")
+
+
+def config_overrides(args: argparse.Namespace) -> list[str]:
+    """Every --set, then the shorthands given, as `path=value` overrides."""
+    overrides = list(args.sets)
+    for attr, path in (("pes", "pes"), ("precision", "precision"), ("max_cycles", "max_cycles"),
+                       ("depth", "render.max_depth")):
+        value = getattr(args, attr, None)
+        if value is not None:
+            overrides.append(f"{path}={value}")
+    return overrides
+
+
+def config_from_args(args: argparse.Namespace, path: str | None = None) -> MachineConfig:
+    """The validated configuration: defaults, the --config file (or `path`), the overrides."""
+    return load_config(path if path is not None else args.config, config_overrides(args))
+
+
+# ---------------------------------------------------------------------------------------------
+# --res and --engine
+
+
+def add_resolution(parser: argparse.ArgumentParser, default: int | None, help: str = "") -> None:
+    parser.add_argument("--res", type=int, default=default, metavar="N",
+                        help=help or f"N×N image (default {default})")
+
+
+def check_resolution(res: int | None) -> int | None:
+    """`res` if it is a resolution the tools take (None: not given), else a one-line error."""
+    if res is not None and not 1 <= res <= MAX_RES:
+        raise NetsushisenError(f"--res {res}: the image must be 1 to {MAX_RES} pixels on a side")
+    return res
+
+
+def add_engine(parser: argparse.ArgumentParser) -> None:
+    from netsushisen.emulator.engine import DEFAULT_ENGINE
+
+    parser.add_argument("--engine", default=DEFAULT_ENGINE, metavar="NAME",
+                        help=f"simulation engine (default {DEFAULT_ENGINE}; an unknown name lists "
+                             "the engines)")
+
+
+def engine_from_args(args: argparse.Namespace) -> str:
+    """The --engine name, checked against the engines there are (a one-line error otherwise)."""
+    from netsushisen.emulator.engine import check_engine
+
+    return check_engine(args.engine)
+
+
+# ---------------------------------------------------------------------------------------------
+# Programs, image and configuration: what `run` and `debug` build a machine from
+
+
+def add_program_options(parser: argparse.ArgumentParser) -> None:
+    for stage in STAGES:
+        parser.add_argument(f"--{stage}", metavar="PROGRAM",
+                            help=f"{stage.upper()} program: object file or .s source")
+    parser.add_argument("--image", metavar="FILE", help="memory image (.json or .npz)")
+    add_config_options(parser, pes=True, max_cycles=True)
+    add_defines(parser)
+
+
+def load_program(path: str, stage: str | None, defines: dict[str, int | float]):
+    """An object file or `.s` source for `stage`; with `stage` None the program says which
+    processor it is for (the object's `proc`, the source's `.proc`)."""
+    from netsushisen.asm.assembler import assemble_file
+    from netsushisen.asm.objects import Program
+
+    p = Path(path)
+    if p.suffix == ".s":
+        if not p.is_file():
+            raise NetsushisenError(Diagnostic("no such source file", file=path))
+        prog = assemble_file(p, proc=stage, defines=defines)
+    else:
+        prog = Program.load(p)
+    if stage is not None and prog.proc != stage:
+        raise NetsushisenError(Diagnostic(
+            f"this is a {prog.proc.upper()} program, given as --{stage}", file=path))
+    return prog
+
+
+def machine_inputs(args: argparse.Namespace, extra_programs: list[str] = ()):
+    """(config, programs by stage, memory image or None) from the `add_program_options`
+    options; `extra_programs` are files whose processor the program itself names."""
+    from netsushisen.isa.images import load_image
+
+    config = config_from_args(args)
+    defines = parse_defines(args.defines)
+    programs = {s: load_program(getattr(args, s), s, defines) if getattr(args, s) else None
+                for s in STAGES}
+    for path in extra_programs:
+        prog = load_program(path, None, defines)
+        if programs[prog.proc] is not None:
+            raise NetsushisenError(Diagnostic(
+                f"a second {prog.proc.upper()} program (one program per processor)", file=path))
+        programs[prog.proc] = prog
+    if not any(programs.values()):
+        raise NetsushisenError("nothing to run: give at least one of --os, --ic, --sc")
+    image = load_image(args.image) if args.image else None
+    return config, programs, image

@@ -1,0 +1,126 @@
+"""The option layer the commands share (netsushisen/options.py): one -D parser, one --set, one
+resolution check, one --engine, the same for every command that takes them."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from netsushisen.asm.objects import Program
+from netsushisen.emulator.engine import DEFAULT_ENGINE, engine_names
+from netsushisen.errors import NetsushisenError
+from netsushisen.options import MAX_RES, parse_define
+
+MISS_KERNELS = Path(__file__).with_name("kernels_miss")
+
+PROGRAM = """.proc ic
+.data
+value: .word X
+.text
+    halt
+"""
+
+
+@pytest.fixture
+def program(tmp_path) -> Path:
+    path = tmp_path / "p.s"
+    path.write_text(PROGRAM)
+    return path
+
+
+@pytest.mark.parametrize("item, value", [("X", 1), ("X=1<<4", 16), ("X=0x10", 16), ("X=-3", -3),
+                                         ("X=(2+3)*4", 20), ("X=1.5", 1.5)])
+def test_one_define_parser(item, value):
+    assert parse_define(item) == ("X", value)
+
+
+@pytest.mark.parametrize("item, message", [("1X=2", "expected NAME"), ("X=Y+1", "undefined symbol 'Y'"),
+                                           ("X=1 +", "constant expression")])
+def test_define_errors(item, message):
+    with pytest.raises(NetsushisenError, match=message):
+        parse_define(item)
+
+
+def test_run_takes_the_defines_asm_takes(tmp_path, cli, program):
+    obj, stats = tmp_path / "p.o", tmp_path / "s.json"
+    code, _, err = cli("asm", program, "-D", "X=1<<4", "-o", obj)
+    assert code == 0, err
+    assert Program.load(obj).defines["X"] == 16
+    code, _, err = cli("run", "--ic", program, "-D", "X=1<<4", "--json", stats, "-q")
+    assert code == 0, err
+    assert json.loads(stats.read_text())["programs"]["ic"]["defines"]["X"] == 16
+    for command in (["asm", program, "-o", obj], ["run", "--ic", program, "-q"]):
+        code, _, err = cli(*command, "-D", "X=Y")
+        assert code == 1 and "-D 'X=Y': undefined symbol 'Y'" in err
+
+
+@pytest.fixture
+def no_work(monkeypatch):
+    """Any scene loading, host work or machine building fails the test: a rejected option must
+    be rejected before anything is allocated."""
+    from netsushisen import render
+    from netsushisen.commands import golden, paper
+    from netsushisen.emulator import engine
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("work started before the options were checked")
+
+    for module, name in ((render, "prepare"), (golden, "load_scene"), (golden, "render"),
+                         (paper, "load_scene"), (paper, "analyse_scene"), (engine, "Machine")):
+        monkeypatch.setattr(module, name, forbidden)
+
+
+def _one_line_error(cli, *argv) -> str:
+    code, out, err = cli(*argv)
+    assert code == 1 and out == "" and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1, err
+    return err.strip()
+
+
+def test_resolution_out_of_range_is_one_line_before_any_work(cli, tmp_path, no_work):
+    big = [_one_line_error(cli, "render", "tetra", "--res", "99999", "-o", tmp_path / "t.png"),
+           _one_line_error(cli, "paper", "--res", "99999", "--out", tmp_path / "p", "--quiet"),
+           _one_line_error(cli, "golden", "tetra", "--res", "99999")]
+    zero = [_one_line_error(cli, "render", "tetra", "--res", "0", "-o", tmp_path / "t.png"),
+            _one_line_error(cli, "golden", "tetra", "--res", "0"),
+            _one_line_error(cli, "paper", "--res", "0", "--out", tmp_path / "p", "--quiet"),
+            _one_line_error(cli, "debug", "tetra", "--res", "0")]
+    assert len(set(big)) == 1 and len(set(zero)) == 1
+    assert big[0] == zero[0].replace("--res 0", "--res 99999")
+    assert f"1 to {MAX_RES}" in big[0]
+    assert not (tmp_path / "p").exists() and not (tmp_path / "t.png").exists()
+
+
+def test_unknown_engine_is_one_line_naming_the_engines(cli, tmp_path, program, no_work):
+    errors = [_one_line_error(cli, "render", "tetra", "--engine", "nosuch", "-o", tmp_path / "t.png"),
+              _one_line_error(cli, "run", "--ic", program, "--engine", "nosuch"),
+              _one_line_error(cli, "paper", "--engine", "nosuch", "--out", tmp_path / "p", "--quiet")]
+    assert len(set(errors)) == 1
+    assert "unknown engine 'nosuch'" in errors[0]
+    assert all(name in errors[0] for name in engine_names())
+
+
+def test_the_default_engine_is_accepted_by_render_run_and_paper(cli, tmp_path, program):
+    assert DEFAULT_ENGINE == "reference"
+    code, out, err = cli("render", "tetra:1", "--res", "2", "--kernels", MISS_KERNELS, "--engine",
+                         "reference", "-o", tmp_path / "t.png", "--quiet")
+    assert code == 0, err
+    code, out, err = cli("run", "--ic", program, "-D", "X=1", "--engine", "reference", "-q")
+    assert code == 0, err
+    code, out, err = cli("paper", "--res", "4", "--scenes", "tetra:1", "--engine", "reference",
+                         "--out", tmp_path / "p", "--quiet")
+    assert code == 0, err
+    assert "--engine reference" in (tmp_path / "p" / "report.md").read_text()
+
+
+def test_set_is_one_option_everywhere(cli, tmp_path):
+    """--set (and its shorthands) reach the configuration of every command that builds one."""
+    code, out, _ = cli("config", "--set", "ring.fifo_depth=40")
+    assert code == 0 and "fifo_depth = 40" in out
+    for argv in (["golden", "tetra:1", "--res", "2"], ["render", "tetra:1", "--res", "2", "-o", tmp_path / "t.png"],
+                 ["paper", "--res", "2", "--out", tmp_path / "p", "--quiet"],
+                 ["run", "--ic", "x.s"], ["debug", "tetra:1"], ["config"]):
+        code, _, err = cli(*argv, "--set", "ring.nosuch=1")
+        assert code == 1 and "unknown configuration field 'ring.nosuch'" in err, argv

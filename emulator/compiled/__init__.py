@@ -1,0 +1,131 @@
+"""The compiled engine: the whole machine in numba, cycle for cycle the reference engine.
+
+    build.py   the loop module: opcode dispatchers generated from the opcode table + loop.py,
+               cached on disk under a hash of its sources
+    loop.py    the machine's cycle (core, memories, CMU ring, DIS, COL, end of run) over arrays
+    bits.py    words as integers and floats in compiled code
+    state.py   the machine's state as arrays, read from and written back into the reference
+               engine's objects
+    tandem.py  both engines in lock step, stopping at the first difference
+
+The engine builds the reference `Machine` (validation, decoding, memory images: one code path
+for both engines), flattens its state into arrays, runs the compiled loop in chunks (progress,
+Ctrl-C), and writes the state back — so statistics, reports, fault and deadlock messages and
+the debugger's hand-off are produced by the reference engine's own code from the same state.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from netsushisen.errors import Diagnostic, NetsushisenError
+
+from netsushisen.emulator.core import RunFault
+from netsushisen.emulator.engine import Engine, Progress
+from netsushisen.emulator.machine import DeadlockError, RunResult
+from netsushisen.emulator.memories import MemoryFault
+from netsushisen.emulator.cmu import col_on_ring
+from netsushisen.emulator.compiled import state as S
+from netsushisen.emulator.compiled.build import load
+
+CHUNK = 2_000_000
+"""Cycles per call into compiled code: progress reports and Ctrl-C come between calls."""
+
+
+class CompiledEngine(Engine):
+    name = "compiled"
+
+    def run(self, max_cycles: int | None = None, progress: Progress | None = None,
+            every: int = CHUNK) -> RunResult:
+        m = self.machine
+        if m.status is not None:
+            return self.result()
+        if m.tracer is not None:  # per-cycle tracing is the reference engine's job
+            return super().run(max_cycles, progress)
+        limit = self.config.max_cycles if max_cycles is None else max_cycles
+        loop = load()
+        F = np.float32 if self.config.precision == "fp32" else np.float64
+        st = S.flatten(m)
+        g = st.arrays["g"]
+        code = S.S_RUNNING
+        try:
+            while True:
+                until = g[S.G_CYCLE] + max(every, 1)
+                if limit:
+                    until = min(until, limit)
+                st.arrays["until"] = int(until)
+                code = loop.run_loop(F, *st.args())
+                if code != S.S_RUNNING:
+                    break
+                if progress is not None:
+                    progress(int(g[S.G_CYCLE]))
+                if limit and g[S.G_CYCLE] >= limit:
+                    break
+        finally:  # Ctrl-C between chunks leaves a consistent machine behind
+            S.write_back(st, m)
+        if code == S.S_RUNNING:
+            return m.run(max_cycles)  # the cycle limit: the reference words its end
+        self._finish(code, st)
+        if progress is not None:
+            progress(m.cycle)
+        return self.result()
+
+    def step(self, cycles: int = 1) -> str | None:
+        """Run `cycles` cycles in compiled code (the run may end sooner)."""
+        m = self.machine
+        if m.status is not None:
+            return m.status
+        self.run(max_cycles=m.cycle + cycles)
+        if m.status == "max_cycles":  # stepping is not a limit: the run goes on
+            m.status, m.error = None, None
+        return m.status
+
+    def _finish(self, code: int, st: S.State) -> None:
+        """Set status and error as machine.Machine.step would have, then drain the cores."""
+        m = self.machine
+        finfo = st.arrays["finfo"]
+        if code == S.S_HALTED:
+            m.status = "halted"
+        elif code == S.S_FINISHED:
+            m.status = "finished"
+        elif code == S.S_DEADLOCK_COL:
+            m.status, m.error = "deadlock", DeadlockError(m.col_report())
+        elif code == S.S_DEADLOCK_PE:
+            m.status, m.error = "deadlock", DeadlockError(m.deadlock_report(m.pes[int(finfo[1])]))
+        elif code == S.S_FAULT:
+            m.status, m.error = "fault", self._fault(finfo)
+        else:  # pragma: no cover - the loop returns only the codes above
+            raise NetsushisenError(Diagnostic(f"internal error: compiled loop status {code}"))
+        for core in m.cores:
+            core.drain()
+
+    def _fault(self, finfo: np.ndarray) -> RunFault:
+        m = self.machine
+        c = m.cycle - 1
+        kind = int(finfo[0])
+        if kind == S.F_PC:
+            return m.cores[int(finfo[1])].pc_fault(c)
+        if kind == S.F_MEMORY:
+            core = m.cores[int(finfo[1])]
+            space, addr = S.SPACES[int(finfo[3])], int(finfo[4])
+            try:  # the reference memory words the fault (the access fails before any effect)
+                if space == "local":
+                    core.memory.local.check(addr)
+                core.memory.load(space, addr)
+            except MemoryFault as err:
+                return core.fault(c, str(err), int(finfo[2]))
+        mask = (1 << (8 * self.config.word_bytes)) - 1
+        if kind == S.F_RING_COL:
+            pe = m.pes[int(finfo[3])]
+            stage = pe.ring.cmus[int(finfo[1]) % 3].stage
+            return RunFault(f"{pe.name} CMU", c, col_on_ring(stage, int(finfo[2]) & mask))
+        if kind == S.F_COL_HEADER:
+            return m.col.header_fault(m.pes[int(finfo[1])].name, c, int(finfo[2]) & mask)
+        if kind == S.F_COL_PIXEL:
+            return m.col.pixel_fault(m.pes[int(finfo[1])].name, c, int(finfo[2]))
+        raise NetsushisenError(Diagnostic(f"internal error: compiled loop fault kind {kind}"))
+
+
+from netsushisen.emulator.compiled.tandem import TandemEngine  # noqa: E402
+
+__all__ = ["CompiledEngine", "TandemEngine"]

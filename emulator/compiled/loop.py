@@ -1,0 +1,736 @@
+"""The compiled engine's machine loop: the reference engine's cycle, line for line, over arrays.
+
+This file is never imported as it stands: `build.py` puts the opcode dispatchers it generates
+from the opcode table (`exec_alu`, `exec_branch`) in front of this text, writes the whole into a
+cache folder named by a hash of everything it depends on, and imports that (so numba's on-disk
+cache can never serve code compiled from an older opcode table or loop). Every rule here is the
+reference engine's: core.py (T1–T10, the issue checks in their order), memories.py, cmu.py,
+machine.py (DIS, COL, end of run); the comments name the reference function mirrored. State
+layouts (the index constants) are defined in state.py and passed in as plain integers.
+"""
+
+import numpy as np
+from numba import njit
+
+from netsushisen.emulator.compiled.bits import as_f, as_i, word_f, word_i, word_w
+from netsushisen.emulator.compiled.state import (
+    B_NOPS, B_NREADS, B_READS, B_NWRITES, B_WRITES, B_NUNITS, B_UNITS, B_HASLOAD,
+    B_NRECVS, B_RECVS, B_NSENDS, B_SENDS, B_WAITS, B_NOPCOUNT,
+    O_KIND, O_MN, O_UNIT, O_LAT, O_PIPE, O_RD, O_SRC, O_R, O_KI, O_BASE, O_OFF, O_SPACE,
+    O_PORT, O_TARGET, O_NWRITES,
+    K_ALU, K_LOAD, K_STORE, K_BRANCH, K_JUMP, K_JUMPR, K_CALL, K_RET, K_SEND, K_RECV, K_POLL,
+    K_ROOM, K_WAIT, K_HALT, K_NOP,
+    C_PC, C_HALTED, C_HOLD_UNTIL, C_HOLD_MEM_UNTIL, C_HOLD_CAUSE, C_HOLD_PC, C_CYCLES,
+    C_BUNDLES, C_OPS, C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY,
+    C_PE, C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL,
+    C_CACHE_SETS, C_CACHE_OFF, C_BLOCK_BYTES, C_WORD_BYTES, C_LOCAL_READS, C_LOCAL_WRITES, C_RES_READS,
+    C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC,
+    CAUSE_NONE, CAUSE_HALTED, CAUSE_BRANCH, CAUSE_LOCAL, CAUSE_RESIDENT, CAUSE_CACHE_HIT,
+    CAUSE_CACHE_MISS, CAUSE_WRITE_PORT, CAUSE_FIFO_ANY, CAUSE_FIFO_EMPTY, CAUSE_FIFO_FULL,
+    CAUSE_OPERAND, CAUSE_WAW, CAUSE_UNIT,
+    Q_CAP, Q_DELAY, Q_HEAD, Q_CNT, Q_POPC, Q_POPS, Q_PEAK, Q_TOTAL,
+    M_N, M_RECV_OWNER, M_MOVED, M_RECV, M_DEST, M_LINK_IN, M_LINK_OUT, M_NOUT,
+    P_MOVED, P_DIS_MOVED, P_COL_MOVED, P_NO_PROGRESS, P_HOST, P_COL,
+    D_DYNAMIC, D_NEXT, D_NMSGS, D_WORDS_SENT,
+    L_MESSAGES, L_WORDS, L_WIDTH, L_HEIGHT,
+    G_CYCLE, G_DEADLOCK_CYCLES, G_POOLED, G_NPES, G_W,
+    S_RUNNING, S_HALTED, S_FINISHED, S_DEADLOCK_PE, S_DEADLOCK_COL, S_FAULT, S_LIMIT,
+    F_PC, F_MEMORY, F_RING_COL, F_COL_HEADER, F_COL_PIXEL,
+    SP_LOCAL, SP_RESIDENT, SP_GLOBAL,
+)
+
+_OPTS = dict(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+
+# -- FIFOs (cmu.Fifo) ---------------------------------------------------------------------------
+
+
+@njit(**_OPTS)
+def q_free(fq, q, c):
+    return fq[q, Q_CAP] - fq[q, Q_CNT] - (fq[q, Q_POPS] if fq[q, Q_POPC] == c else 0)
+
+
+@njit(**_OPTS)
+def q_ready(fq, fbt, q, c):
+    return fq[q, Q_CNT] > 0 and fbt[q, fq[q, Q_HEAD]] <= c
+
+
+@njit(**_OPTS)
+def q_visible(fq, fbt, q, c):
+    n = 0
+    cap = fbt.shape[1]
+    h = fq[q, Q_HEAD]
+    for k in range(fq[q, Q_CNT]):
+        if fbt[q, (h + k) % cap] > c:
+            break
+        n += 1
+    return n
+
+
+@njit(**_OPTS)
+def q_push(fq, fbt, fbw, q, c, w):
+    cap = fbt.shape[1]
+    k = (fq[q, Q_HEAD] + fq[q, Q_CNT]) % cap
+    fbt[q, k] = c + fq[q, Q_DELAY]
+    fbw[q, k] = w
+    fq[q, Q_CNT] += 1
+    fq[q, Q_TOTAL] += 1
+    occ = fq[q, Q_CNT] + (fq[q, Q_POPS] if fq[q, Q_POPC] == c else 0)
+    if occ > fq[q, Q_PEAK]:
+        fq[q, Q_PEAK] = occ
+
+
+@njit(**_OPTS)
+def q_pop(fq, fbw, q, c):
+    if fq[q, Q_POPC] != c:
+        fq[q, Q_POPC] = c
+        fq[q, Q_POPS] = 0
+    fq[q, Q_POPS] += 1
+    h = fq[q, Q_HEAD]
+    w = fbw[q, h]
+    fq[q, Q_HEAD] = (h + 1) % fbw.shape[1]
+    fq[q, Q_CNT] -= 1
+    return w
+
+
+# -- memories (memories.py) -------------------------------------------------------------------
+
+
+@njit(**_OPTS)
+def count_region(rg, rmap, rcnt, pcnt, p, space, addr, hit):
+    """RegionMap.lookup + RegionCounters.count; hit: -1 none, 0 miss, 1 hit."""
+    off = rmap[p, space, 0]
+    n = rmap[p, space, 1]
+    if n <= 0:
+        return
+    starts = rg[0, off:off + n]
+    i = np.searchsorted(starts, addr, side="right") - 1
+    if i < 0 or addr >= rg[1, off + i]:
+        return
+    name = rg[2, off + i]
+    rcnt[p, space, name, 0] += 1
+    if hit == 1:
+        rcnt[p, space, name, 1] += 1
+    elif hit == 0:
+        rcnt[p, space, name, 2] += 1
+    prim = rg[3, off + i]
+    if prim >= 0:
+        pcnt[p, space, prim] += 1
+
+
+@njit(**_OPTS)
+def cache_probe(cs, ctags, p, addr):
+    sets = cs[p, C_CACHE_SETS]
+    if sets == 0:
+        return False
+    block = (addr * cs[p, C_WORD_BYTES]) // cs[p, C_BLOCK_BYTES]
+    return ctags[cs[p, C_CACHE_OFF] + block % sets] == block // sets
+
+
+# -- one processor's cycle (core.Core.step) -------------------------------------------------------
+
+
+@njit(**_OPTS)
+def stall(cs, stpc, p, cause, pc):
+    stpc[p, pc, cause] += 1
+    cs[p, C_CAUSE] = cause
+    cs[p, C_LAST_PC] = pc
+
+
+@njit(**_OPTS)
+def schedule(cs, regs_ready, prod, wbn, wbr, wbw, W, p, rd, word, t, mn):
+    if rd <= 0:
+        return
+    s = t & (W - 1)
+    k = wbn[p, s]
+    wbr[p, s, k] = rd
+    wbw[p, s, k] = word
+    wbn[p, s] = k + 1
+    regs_ready[p, rd] = t
+    prod[p, rd] = mn
+
+
+@njit(**_OPTS)
+def core_step(F, c, p, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, opu,
+              opm, ops, opf, bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rcnt,
+              pcnt, W, finfo):
+    """Returns 0, or a fault code (finfo filled)."""
+    # write back results due now
+    s = c & (W - 1)
+    n = wbn[p, s]
+    if n:
+        for k in range(n):
+            regs[p, wbr[p, s, k]] = wbw[p, s, k]
+        wbn[p, s] = 0
+    cs[p, C_LAST_ISSUED] = 0
+    if cs[p, C_HALTED]:
+        return 0
+    cs[p, C_CYCLES] += 1
+    if c < cs[p, C_HOLD_UNTIL]:
+        stall(cs, stpc, p, cs[p, C_HOLD_CAUSE] if c < cs[p, C_HOLD_MEM_UNTIL] else CAUSE_BRANCH,
+              cs[p, C_HOLD_PC])
+        return 0
+    pc = cs[p, C_PC]
+    if pc < 0 or pc >= cs[p, C_NB]:
+        finfo[0] = F_PC
+        finfo[1] = p
+        finfo[2] = pc
+        return 1
+    # 2. operands (RAW): the source ready last
+    worst = -1
+    worst_t = c
+    for k in range(bun[p, pc, B_NREADS]):
+        r = bun[p, pc, B_READS + k]
+        if ready[p, r] > worst_t:
+            worst = r
+            worst_t = ready[p, r]
+    if worst >= 0:
+        stall(cs, stpc, p, CAUSE_OPERAND + prod[p, worst] + 1, pc)
+        return 0
+    # 3. destinations (WAW)
+    for k in range(bun[p, pc, B_NWRITES]):
+        r = bun[p, pc, B_WRITES + k]
+        if ready[p, r] > c:
+            stall(cs, stpc, p, CAUSE_WAW + prod[p, r] + 1, pc)
+            return 0
+    # 4. units
+    for k in range(bun[p, pc, B_NUNITS]):
+        u = bun[p, pc, B_UNITS + 2 * k]
+        need = bun[p, pc, B_UNITS + 2 * k + 1]
+        free = 0
+        first = -1
+        for i in range(unitn[p, u]):
+            if busy[p, u, i] <= c:
+                free += 1
+            elif first < 0:
+                first = i
+        if free < need:
+            stall(cs, stpc, p, CAUSE_UNIT + occ[p, u, first] + 1, pc)
+            return 0
+    nops = bun[p, pc, B_NOPS]
+    # load timing (memories.MemorySystem.access_time); the base register is ready
+    lt0 = 0
+    lt1 = 0
+    lc0 = 0
+    lc1 = 0
+    la0 = 0
+    la1 = 0
+    if bun[p, pc, B_HASLOAD]:
+        nl = 0
+        for j in range(nops):
+            if ops[p, pc, j, O_KIND] == K_LOAD:
+                addr = as_i(regs[p, ops[p, pc, j, O_BASE]]) + ops[p, pc, j, O_OFF]
+                sp = ops[p, pc, j, O_SPACE]
+                if sp == SP_LOCAL:
+                    t = cs[p, C_T_LOCAL]
+                    cause = CAUSE_LOCAL
+                elif sp == SP_RESIDENT:
+                    t = cs[p, C_T_R]
+                    cause = CAUSE_RESIDENT
+                elif cache_probe(cs, ctags, p, addr):
+                    t = cs[p, C_T_C]
+                    cause = CAUSE_CACHE_HIT
+                else:
+                    t = cs[p, C_T_G]
+                    cause = CAUSE_CACHE_MISS
+                if nl == 0:
+                    lt0, lc0, la0 = t, cause, addr
+                else:
+                    lt1, lc1, la1 = t, cause, addr
+                nl += 1
+    # 5. write ports
+    wp = cs[p, C_WPORTS]
+    nl = 0
+    for j in range(nops):
+        nw = ops[p, pc, j, O_NWRITES]
+        kind = ops[p, pc, j, O_KIND]
+        if kind == K_LOAD:
+            t = c + (lt0 if nl == 0 else lt1)
+            nl += 1
+        else:
+            t = c + ops[p, pc, j, O_LAT]
+        if nw == 0:
+            continue
+        # writes of this bundle due at t, counted once per distinct t (at its first writer)
+        dup = False
+        due = 0
+        nl2 = 0
+        for j2 in range(nops):
+            k2 = ops[p, pc, j2, O_KIND]
+            if k2 == K_LOAD:
+                t2 = c + (lt0 if nl2 == 0 else lt1)
+                nl2 += 1
+            else:
+                t2 = c + ops[p, pc, j2, O_LAT]
+            if ops[p, pc, j2, O_NWRITES] and t2 == t:
+                if j2 < j:
+                    dup = True
+                    break
+                due += ops[p, pc, j2, O_NWRITES]
+        if dup:
+            continue
+        if wbn[p, t & (W - 1)] + due > wp:
+            stall(cs, stpc, p, CAUSE_WRITE_PORT, pc)
+            return 0
+    # 6. FIFOs
+    for k in range(bun[p, pc, B_NRECVS]):
+        port = bun[p, pc, B_RECVS + 2 * k]
+        need = bun[p, pc, B_RECVS + 2 * k + 1]
+        q = recvq[p, port]
+        have = q_visible(fq, fbt, q, c) if need > 1 else (1 if q_ready(fq, fbt, q, c) else 0)
+        if have < need:
+            stall(cs, stpc, p, CAUSE_FIFO_EMPTY + port, pc)
+            return 0
+    if bun[p, pc, B_WAITS]:
+        anyready = False
+        for port in range(3):
+            q = recvq[p, port]
+            if q >= 0 and q_ready(fq, fbt, q, c):
+                anyready = True
+        if not anyready:
+            stall(cs, stpc, p, CAUSE_FIFO_ANY, pc)
+            return 0
+    for k in range(bun[p, pc, B_NSENDS]):
+        port = bun[p, pc, B_SENDS + 2 * k]
+        need = bun[p, pc, B_SENDS + 2 * k + 1]
+        if q_free(fq, sendq[p, port], c) < need:
+            stall(cs, stpc, p, CAUSE_FIFO_FULL + port, pc)
+            return 0
+    # issue (core.Core._issue)
+    next_pc = pc + 1
+    taken = False
+    hold_mem = c + 1
+    mem_cause = CAUSE_NONE
+    nl = 0
+    for j in range(nops):
+        kind = ops[p, pc, j, O_KIND]
+        mn = ops[p, pc, j, O_MN]
+        if kind == K_ALU:
+            w = exec_alu(F, mn, regs[p, ops[p, pc, j, O_R]], regs[p, ops[p, pc, j, O_R + 1]],
+                         regs[p, ops[p, pc, j, O_R + 2]], ops[p, pc, j, O_KI], opf[p, pc, j])
+            schedule(cs, ready, prod, wbn, wbr, wbw, W, p, ops[p, pc, j, O_RD], w,
+                     c + ops[p, pc, j, O_LAT], mn)
+        elif kind == K_LOAD:
+            if nl == 0:
+                addr, t_acc, cause = la0, lt0, lc0
+            else:
+                addr, t_acc, cause = la1, lt1, lc1
+            nl += 1
+            sp = ops[p, pc, j, O_SPACE]
+            if sp == SP_LOCAL:
+                sg = cs[p, C_SEG_LOCAL]
+            elif sp == SP_RESIDENT:
+                sg = cs[p, C_SEG_RES]
+            else:
+                sg = cs[p, C_SEG_GLOBAL]
+            if sg < 0 or addr < 0 or addr >= seg[sg, 1]:
+                finfo[0] = F_MEMORY
+                finfo[1] = p
+                finfo[2] = pc
+                finfo[3] = sp
+                finfo[4] = addr
+                return 1
+            w = mem[seg[sg, 0] + addr]
+            if sp == SP_LOCAL:
+                cs[p, C_LOCAL_READS] += 1
+                count_region(rg, rmap, rcnt, pcnt, p, SP_LOCAL, addr, -1)
+            elif sp == SP_RESIDENT:
+                cs[p, C_RES_READS] += 1
+                count_region(rg, rmap, rcnt, pcnt, p, SP_RESIDENT, addr, -1)
+            else:
+                # Cache.access: count, fill on a miss
+                cs[p, C_CACHE_ACC] += 1
+                sets = cs[p, C_CACHE_SETS]
+                block = (addr * cs[p, C_WORD_BYTES]) // cs[p, C_BLOCK_BYTES]
+                hit = False
+                if sets > 0:
+                    ti = cs[p, C_CACHE_OFF] + block % sets
+                    if ctags[ti] == block // sets:
+                        hit = True
+                    else:
+                        ctags[ti] = block // sets
+                if hit:
+                    cs[p, C_CACHE_HITS] += 1
+                else:
+                    cs[p, C_CACHE_MISSES] += 1
+                    cs[p, C_GLOBAL_ACC] += 1
+                count_region(rg, rmap, rcnt, pcnt, p, SP_GLOBAL, addr, 1 if hit else 0)
+            schedule(cs, ready, prod, wbn, wbr, wbw, W, p, ops[p, pc, j, O_RD], w, c + t_acc, mn)
+            if c + t_acc > hold_mem:
+                hold_mem = c + t_acc
+                mem_cause = cause
+        elif kind == K_BRANCH:
+            if exec_branch(F, mn, regs[p, ops[p, pc, j, O_R]], regs[p, ops[p, pc, j, O_R + 1]]):
+                next_pc = ops[p, pc, j, O_TARGET]
+                taken = True
+        elif kind == K_JUMP:
+            next_pc = ops[p, pc, j, O_TARGET]
+            taken = True
+        elif kind == K_JUMPR:
+            next_pc = as_i(regs[p, ops[p, pc, j, O_SRC]])
+            taken = True
+        elif kind == K_CALL:
+            schedule(cs, ready, prod, wbn, wbr, wbw, W, p, 63, word_i(F, pc + 1),
+                     c + ops[p, pc, j, O_LAT], mn)
+            next_pc = ops[p, pc, j, O_TARGET]
+            taken = True
+        elif kind == K_RET:
+            next_pc = as_i(regs[p, 63])
+            taken = True
+        elif kind == K_POLL:
+            nv = q_visible(fq, fbt, recvq[p, ops[p, pc, j, O_PORT]], c)
+            schedule(cs, ready, prod, wbn, wbr, wbw, W, p, ops[p, pc, j, O_RD], word_i(F, nv),
+                     c + ops[p, pc, j, O_LAT], mn)
+        elif kind == K_ROOM:
+            nv = q_free(fq, sendq[p, ops[p, pc, j, O_PORT]], c)
+            schedule(cs, ready, prod, wbn, wbr, wbw, W, p, ops[p, pc, j, O_RD], word_i(F, nv),
+                     c + ops[p, pc, j, O_LAT], mn)
+        elif kind == K_HALT:
+            cs[p, C_HALTED] = 1
+    # FIFO operations and stores: after every op has read its operands
+    for j in range(nops):
+        kind = ops[p, pc, j, O_KIND]
+        if kind == K_RECV:
+            w = q_pop(fq, fbw, recvq[p, ops[p, pc, j, O_PORT]], c)
+            schedule(cs, ready, prod, wbn, wbr, wbw, W, p, ops[p, pc, j, O_RD], w,
+                     c + ops[p, pc, j, O_LAT], ops[p, pc, j, O_MN])
+        elif kind == K_SEND:
+            q_push(fq, fbt, fbw, sendq[p, ops[p, pc, j, O_PORT]], c, regs[p, ops[p, pc, j, O_SRC]])
+        elif kind == K_STORE:
+            addr = as_i(regs[p, ops[p, pc, j, O_BASE]]) + ops[p, pc, j, O_OFF]
+            sg = cs[p, C_SEG_LOCAL]
+            if addr < 0 or addr >= seg[sg, 1]:
+                finfo[0] = F_MEMORY
+                finfo[1] = p
+                finfo[2] = pc
+                finfo[3] = SP_LOCAL
+                finfo[4] = addr
+                return 1
+            cs[p, C_LOCAL_WRITES] += 1
+            mem[seg[sg, 0] + addr] = regs[p, ops[p, pc, j, O_SRC]]
+    # occupy unpipelined units for their whole latency
+    for j in range(nops):
+        if not ops[p, pc, j, O_PIPE]:
+            u = ops[p, pc, j, O_UNIT]
+            for i in range(unitn[p, u]):
+                if busy[p, u, i] <= c:
+                    busy[p, u, i] = c + ops[p, pc, j, O_LAT]
+                    occ[p, u, i] = ops[p, pc, j, O_MN]
+                    break
+    # counters
+    cs[p, C_BUNDLES] += 1
+    bpc[p, pc] += 1
+    cs[p, C_OPS] += bun[p, pc, B_NOPCOUNT]
+    for j in range(nops):
+        u = ops[p, pc, j, O_UNIT]
+        if u >= 0:
+            opu[p, u] += 1
+            opm[p, ops[p, pc, j, O_MN]] += 1
+    cs[p, C_LAST_ISSUED] = 1
+    cs[p, C_LAST_PC] = pc
+    cs[p, C_CAUSE] = CAUSE_HALTED if cs[p, C_HALTED] else CAUSE_NONE
+    cs[p, C_PC] = next_pc
+    if taken or hold_mem > c + 1:
+        hu = c + 1 + cs[p, C_PENALTY] if taken else 0
+        cs[p, C_HOLD_UNTIL] = hold_mem if hold_mem > hu else hu
+        cs[p, C_HOLD_MEM_UNTIL] = hold_mem
+        cs[p, C_HOLD_CAUSE] = mem_cause
+        cs[p, C_HOLD_PC] = pc
+    return 0
+
+
+# -- the CMU (cmu.Cmu.step) -------------------------------------------------------------------
+
+
+@njit(**_OPTS)
+def cmu_step(c, m, cm, cin, cout, route, rem, lown, linkw, fq, fbt, fbw, pooled, finfo):
+    """Returns 1 if a word moved, 0 if none, -1 on a fault (finfo filled)."""
+    n = cm[m, M_N]
+    lin = cm[m, M_LINK_IN]
+    lout = cm[m, M_LINK_OUT]
+    if linkw[lin] == 0:
+        if fq[cin[m, 0], Q_CNT] == 0:
+            return 0
+        ncand = 1
+    else:
+        ncand = n
+    start = c % n
+    recv_free = True
+    link_free = True
+    moved = 0
+    recv = cm[m, M_RECV]
+    for jj in range(ncand):
+        i = 0 if ncand == 1 else (start + jj) % n
+        f = cin[m, i]
+        if fq[f, Q_CNT] == 0:
+            continue
+        if fbt[f, fq[f, Q_HEAD]] > c:
+            continue
+        target = route[m, i]
+        if target == -2:  # a header: choose the output
+            hw = fbw[f, fq[f, Q_HEAD]] & 0xFFFFFFFF
+            length = hw & 255
+            dest = (hw >> 8) & 3
+            cls = (hw >> 10) & 15
+            if i > 0 and dest == cm[m, M_DEST]:
+                target = -1
+            else:
+                if i == 0 and dest == 3:
+                    finfo[0] = F_RING_COL
+                    finfo[1] = m
+                    finfo[2] = fbw[f, fq[f, Q_HEAD]]
+                    return -1
+                target = cls if pooled else 0
+        else:
+            length = -1
+        if target == -1:
+            if not recv_free or (cm[m, M_RECV_OWNER] != -1 and cm[m, M_RECV_OWNER] != i) \
+                    or q_free(fq, recv, c) <= 0:
+                continue
+            q_push(fq, fbt, fbw, recv, c, q_pop(fq, fbw, f, c))
+            recv_free = False
+        else:
+            out = cout[m, target]
+            if not link_free or (lown[m, target] != -1 and lown[m, target] != i) \
+                    or q_free(fq, out, c) <= 0:
+                continue
+            q_push(fq, fbt, fbw, out, c, q_pop(fq, fbw, f, c))
+            linkw[lout] += 1
+            link_free = False
+        if i:
+            linkw[lin] -= 1
+        moved = 1
+        cm[m, M_MOVED] += 1
+        if length >= 0:
+            route[m, i] = target
+            rem[m, i] = length
+            if target == -1:
+                cm[m, M_RECV_OWNER] = i
+            else:
+                lown[m, target] = i
+        else:
+            rem[m, i] -= 1
+        if rem[m, i] == 0:
+            route[m, i] = -2
+            if target == -1:
+                cm[m, M_RECV_OWNER] = -1
+            else:
+                lown[m, target] = -1
+        if not recv_free and not link_free:
+            break
+    return moved
+
+
+# -- the whole machine (machine.Machine.step, Dis.step, Col.step, _check_end) --------------------
+
+
+@njit(**_OPTS)
+def ring_words(pe, pes, cm, cin, cout, fq):
+    """cmu.Ring.ring_words: send, receive FIFOs and links of a PE."""
+    n = 0
+    for s in range(3):
+        m = pe * 3 + s
+        n += fq[cin[m, 0], Q_CNT] + fq[cm[m, M_RECV], Q_CNT]
+        for k in range(cm[m, M_NOUT]):
+            n += fq[cout[m, k], Q_CNT]
+    return n
+
+
+@njit(**_OPTS)
+def core_idle(cs, stpc_flags, p):
+    """core.Core.idle: halted, or waiting on an empty receive FIFO."""
+    return cs[p, C_HALTED] or (not cs[p, C_LAST_ISSUED] and stpc_flags[cs[p, C_CAUSE]] == 2)
+
+
+@njit(**_OPTS)
+def pe_idle(pe, cs, cflags, pes, cm, cin, cout, fq):
+    for s in range(3):
+        p = pe * 3 + s
+        if cs[p, C_PRESENT] and not core_idle(cs, cflags, p):
+            return False
+    return ring_words(pe, pes, cm, cin, cout, fq) + fq[pes[pe, P_HOST], Q_CNT] \
+        + fq[pes[pe, P_COL], Q_CNT] == 0
+
+
+@njit(**_OPTS)
+def pe_issued(pe, cs):
+    for s in range(3):
+        p = pe * 3 + s
+        if cs[p, C_PRESENT] and cs[p, C_LAST_ISSUED]:
+            return True
+    return False
+
+
+@njit(**_OPTS)
+def pe_progressed(pe, cs, cflags, pes):
+    if pes[pe, P_MOVED] or pes[pe, P_DIS_MOVED] or pes[pe, P_COL_MOVED]:
+        return True
+    for s in range(3):
+        p = pe * 3 + s
+        if cs[p, C_LAST_ISSUED]:
+            return True
+        if not cs[p, C_HALTED] and cflags[cs[p, C_CAUSE]] == 0:
+            return True
+    return False
+
+
+@njit(**_OPTS)
+def run_loop(F, g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, opu,
+             opm, ops, opf, bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rcnt,
+             pcnt, cm, cin, cout, route, rem, lown, linkw, pes, dis, dcur, doff, dup, dasg,
+             moff, mwords, col, cpart, cplen, frame, ids, cflags, finfo):
+    """Run cycles from g[G_CYCLE] until the run ends or the cycle `until` is reached; returns
+    the status code (S_*). The cycle counter in g is advanced like machine.cycle."""
+    W = g[G_W]
+    npes = g[G_NPES]
+    pooled = g[G_POOLED]
+    limit = g[G_DEADLOCK_CYCLES]
+    nmsgs = dis[D_NMSGS]
+    while g[G_CYCLE] < until:
+        c = g[G_CYCLE]
+        # DIS (machine.Dis.step)
+        if dis[D_DYNAMIC] and dis[D_NEXT] < nmsgs:
+            best = -1
+            best_load = 0
+            for i in range(npes):
+                if dcur[i] < 0 and fq[pes[i, P_HOST], Q_CNT] == 0:
+                    ld = ring_words(i, pes, cm, cin, cout, fq)
+                    if best < 0 or ld < best_load:
+                        best = i
+                        best_load = ld
+            if best >= 0:
+                dcur[best] = dis[D_NEXT]
+                doff[best] = 0
+                dasg[best] += 1
+                dis[D_NEXT] += 1
+        for i in range(npes):
+            pes[i, P_DIS_MOVED] = 0
+            if dcur[i] < 0:
+                if dis[D_DYNAMIC] or dup[i] >= nmsgs:
+                    continue
+                dcur[i] = dup[i]
+                doff[i] = 0
+                dasg[i] += 1
+                dup[i] += npes
+            hq = pes[i, P_HOST]
+            if q_free(fq, hq, c) > 0:
+                msg = dcur[i]
+                q_push(fq, fbt, fbw, hq, c, mwords[moff[msg] + doff[i]])
+                doff[i] += 1
+                if doff[i] == moff[msg + 1] - moff[msg]:
+                    dcur[i] = -1
+                dis[D_WORDS_SENT] += 1
+                pes[i, P_DIS_MOVED] = 1
+        # PEs (pe.PE.step): processors, then CMUs
+        for pe in range(npes):
+            for s in range(3):
+                p = pe * 3 + s
+                if cs[p, C_PRESENT]:
+                    if core_step(F, c, p, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn,
+                                 stpc, bpc, opu, opm, ops, opf, bun, recvq, sendq, fq, fbt, fbw,
+                                 mem, seg, ctags, rg, rmap, rcnt, pcnt, W, finfo):
+                        g[G_CYCLE] = c + 1
+                        return S_FAULT
+            moved = 0
+            for s in range(3):
+                r = cmu_step(c, pe * 3 + s, cm, cin, cout, route, rem, lown, linkw, fq, fbt,
+                             fbw, pooled, finfo)
+                if r < 0:
+                    finfo[3] = pe
+                    g[G_CYCLE] = c + 1
+                    return S_FAULT
+                if r:
+                    moved = 1
+            pes[pe, P_MOVED] = moved
+        # COL (machine.Col.step)
+        for i in range(npes):
+            pes[i, P_COL_MOVED] = 0
+            cq = pes[i, P_COL]
+            if not q_ready(fq, fbt, cq, c):
+                continue
+            w = q_pop(fq, fbw, cq, c)
+            pes[i, P_COL_MOVED] = 1
+            col[L_WORDS] += 1
+            cpart[i, cplen[i]] = w
+            cplen[i] += 1
+            hw = cpart[i, 0] & 0xFFFFFFFF
+            length = hw & 255
+            dest = (hw >> 8) & 3
+            if dest != 3 or (length != 2 and length != 4):
+                finfo[0] = F_COL_HEADER
+                finfo[1] = i
+                finfo[2] = cpart[i, 0]
+                g[G_CYCLE] = c + 1
+                return S_FAULT
+            if cplen[i] == length + 1:
+                pixel = as_i(cpart[i, 1])
+                width = col[L_WIDTH]
+                if pixel < 0 or pixel >= width * col[L_HEIGHT]:
+                    finfo[0] = F_COL_PIXEL
+                    finfo[1] = i
+                    finfo[2] = pixel
+                    g[G_CYCLE] = c + 1
+                    return S_FAULT
+                y = pixel // width
+                x = pixel - y * width
+                if length == 2:
+                    ids[y, x] = as_i(cpart[i, 2])
+                else:
+                    for k in range(3):
+                        frame[y, x, k] += np.float64(as_f(F, cpart[i, 2 + k]))
+                col[L_MESSAGES] += 1
+                cplen[i] = 0
+        g[G_CYCLE] = c + 1
+        # end of the run (machine.Machine._check_end)
+        all_halted = True
+        for p in range(npes * 3):
+            if cs[p, C_PRESENT] and not cs[p, C_HALTED]:
+                all_halted = False
+                break
+        col_empty = True
+        for i in range(npes):
+            if cplen[i] or fq[pes[i, P_COL], Q_CNT]:
+                col_empty = False
+                break
+        if all_halted and col_empty:
+            return S_HALTED
+        any_issued = False
+        for i in range(npes):
+            if pe_issued(i, cs):
+                any_issued = True
+                break
+        if not any_issued:
+            all_idle = True
+            for i in range(npes):
+                if not pe_idle(i, cs, cflags, pes, cm, cin, cout, fq):
+                    all_idle = False
+                    break
+            exhausted = True
+            for i in range(npes):
+                if dcur[i] >= 0:
+                    exhausted = False
+            if exhausted:
+                if dis[D_DYNAMIC]:
+                    exhausted = dis[D_NEXT] >= nmsgs
+                else:
+                    for i in range(npes):
+                        if dup[i] < nmsgs:
+                            exhausted = False
+            if all_idle and exhausted:
+                if col_empty:
+                    return S_FINISHED
+                anycol = False
+                for i in range(npes):
+                    if fq[pes[i, P_COL], Q_CNT]:
+                        anycol = True
+                if not anycol:
+                    return S_DEADLOCK_COL
+        for i in range(npes):
+            if (pe_issued(i, cs) or pe_progressed(i, cs, cflags, pes)
+                    or pe_idle(i, cs, cflags, pes, cm, cin, cout, fq)):
+                pes[i, P_NO_PROGRESS] = 0
+                continue
+            pes[i, P_NO_PROGRESS] += 1
+            if pes[i, P_NO_PROGRESS] >= limit:
+                finfo[1] = i
+                return S_DEADLOCK_PE
+    return S_RUNNING

@@ -1,0 +1,553 @@
+"""The machine's state as dense arrays, read from the reference engine's objects and written back.
+
+`flatten(machine)` reads every piece of mutable state of a reference `Machine` — at the start
+of a run or in the middle of one — into int64 arrays the compiled loop (loop.py) works on;
+`write_back(state, machine)` puts it all back. So the compiled engine can start from any state
+the reference engine reached (tandem checks, debugger hand-off) and leave behind a machine the
+reference engine, the statistics and the debugger read as if it had run the cycles itself.
+
+The index constants below name the columns of those arrays; loop.py imports them.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from netsushisen.isa.opcodes import OPCODES
+from netsushisen.isa.processors import STAGES
+
+from netsushisen.emulator.cmu import PREV
+from netsushisen.emulator.machine import Machine
+
+
+def _enum(names: str) -> dict[str, int]:
+    return {n: i for i, n in enumerate(names.split())}
+
+
+# core scalars: cs[processor, C_*]
+_C = _enum("PC HALTED HOLD_UNTIL HOLD_MEM_UNTIL HOLD_CAUSE HOLD_PC CYCLES BUNDLES OPS LAST_PC "
+           "LAST_ISSUED CAUSE PRESENT NB WPORTS PENALTY PE T_LOCAL T_R T_C T_G SEG_LOCAL "
+           "SEG_RES SEG_GLOBAL CACHE_SETS CACHE_OFF BLOCK_BYTES WORD_BYTES LOCAL_READS "
+           "LOCAL_WRITES RES_READS CACHE_ACC CACHE_HITS CACHE_MISSES GLOBAL_ACC")
+(C_PC, C_HALTED, C_HOLD_UNTIL, C_HOLD_MEM_UNTIL, C_HOLD_CAUSE, C_HOLD_PC, C_CYCLES, C_BUNDLES,
+ C_OPS, C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY, C_PE,
+ C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL, C_CACHE_SETS,
+ C_CACHE_OFF, C_BLOCK_BYTES, C_WORD_BYTES, C_LOCAL_READS, C_LOCAL_WRITES, C_RES_READS,
+ C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC) = range(len(_C))
+N_C = len(_C)
+
+# decoded bundles: bun[processor, pc, B_*]; reads up to 8, writes up to 4, (class, count) pairs
+B_NOPS, B_NREADS, B_READS = 0, 1, 2
+B_NWRITES, B_WRITES = 10, 11
+B_NUNITS, B_UNITS = 15, 16
+B_HASLOAD, B_NRECVS, B_RECVS, B_NSENDS, B_SENDS, B_WAITS, B_NOPCOUNT = 20, 21, 22, 26, 27, 31, 32
+N_B = 33
+
+# decoded operations: ops[processor, pc, slot, O_*]; O_R.. the three source registers in order
+(O_KIND, O_MN, O_UNIT, O_LAT, O_PIPE, O_RD, O_SRC, O_R, O_R1, O_R2, O_KI, O_BASE, O_OFF,
+ O_SPACE, O_PORT, O_TARGET, O_NWRITES) = range(17)
+N_O = 17
+
+KINDS = ("alu", "load", "store", "branch", "jump", "jumpr", "call", "ret", "send", "recv",
+         "poll", "room", "wait", "halt", "nop")
+(K_ALU, K_LOAD, K_STORE, K_BRANCH, K_JUMP, K_JUMPR, K_CALL, K_RET, K_SEND, K_RECV, K_POLL,
+ K_ROOM, K_WAIT, K_HALT, K_NOP) = range(len(KINDS))
+
+SPACES = ("local", "resident", "global")
+SP_LOCAL, SP_RESIDENT, SP_GLOBAL = range(3)
+PORTS = ("ring", "host", "col")
+
+MNEMONICS = tuple(OPCODES)
+MN_ID = {m: i for i, m in enumerate(MNEMONICS)}
+NM = len(MNEMONICS)
+
+# stall causes: ids of the reference engine's cause strings
+CAUSE_NONE, CAUSE_HALTED, CAUSE_BRANCH, CAUSE_LOCAL, CAUSE_RESIDENT, CAUSE_CACHE_HIT, \
+    CAUSE_CACHE_MISS, CAUSE_WRITE_PORT, CAUSE_FIFO_ANY = range(9)
+CAUSE_FIFO_EMPTY = 9  # + port id
+CAUSE_FIFO_FULL = 12  # + port id
+CAUSE_OPERAND = 15  # + producer mnemonic id + 1 ("" producer: + 0)
+CAUSE_WAW = CAUSE_OPERAND + NM + 1
+CAUSE_UNIT = CAUSE_WAW + NM + 1
+CAUSES: tuple[str, ...] = (
+    ("", "halted", "branch", "local", "resident", "cache_hit", "cache_miss", "write_port",
+     "fifo_empty:any")
+    + tuple(f"fifo_empty:{p}" for p in PORTS) + tuple(f"fifo_full:{p}" for p in PORTS)
+    + tuple(f"{k}:{m}" for k in ("operand", "waw", "unit_busy") for m in ("",) + MNEMONICS))
+CAUSE_ID = {c: i for i, c in enumerate(CAUSES)}
+MEMORY_CAUSE = {"local": CAUSE_LOCAL, "resident": CAUSE_RESIDENT, "cache_hit": CAUSE_CACHE_HIT,
+                "cache_miss": CAUSE_CACHE_MISS}
+CAUSE_FLAGS = np.array([2 if c.startswith("fifo_empty") else 1 if c.startswith("fifo_") else 0
+                        for c in CAUSES], np.int64)
+"""0: not a FIFO wait; 1: a FIFO wait (`fifo_full`); 2: waiting on an empty receive FIFO."""
+
+# FIFOs: fq[fifo, Q_*]
+Q_CAP, Q_DELAY, Q_HEAD, Q_CNT, Q_POPC, Q_POPS, Q_PEAK, Q_TOTAL = range(8)
+# CMUs: cm[cmu, M_*]
+M_N, M_RECV_OWNER, M_MOVED, M_RECV, M_DEST, M_LINK_IN, M_LINK_OUT, M_NOUT = range(8)
+# PEs: pes[pe, P_*]
+P_MOVED, P_DIS_MOVED, P_COL_MOVED, P_NO_PROGRESS, P_HOST, P_COL = range(6)
+# DIS, COL, globals
+D_DYNAMIC, D_NEXT, D_NMSGS, D_WORDS_SENT = range(4)
+L_MESSAGES, L_WORDS, L_WIDTH, L_HEIGHT = range(4)
+G_CYCLE, G_DEADLOCK_CYCLES, G_POOLED, G_NPES, G_W = range(5)
+
+# run-loop status codes and fault kinds (finfo[0])
+S_RUNNING, S_HALTED, S_FINISHED, S_DEADLOCK_PE, S_DEADLOCK_COL, S_FAULT, S_LIMIT = range(7)
+F_PC, F_MEMORY, F_RING_COL, F_COL_HEADER, F_COL_PIXEL = range(1, 6)
+
+_ROUTE_NONE = -2
+
+
+@dataclass
+class State:
+    """Every array the loop takes, in its argument order, plus what write-back needs."""
+
+    arrays: dict
+    fifos: list
+    region_names: list[str]
+    mask: int
+
+    def args(self) -> tuple:
+        a = self.arrays
+        return tuple(a[k] for k in ARG_ORDER)
+
+
+ARG_ORDER = ("g", "until", "cs", "regs", "ready", "prod", "wbn", "wbr", "wbw", "busy", "occ",
+             "unitn", "stpc", "bpc", "opu", "opm", "ops", "opf", "bun", "recvq", "sendq", "fq",
+             "fbt", "fbw", "mem", "seg", "ctags", "rg", "rmap", "rcnt", "pcnt", "cm", "cin",
+             "cout", "route", "rem", "lown", "linkw", "pes", "dis", "dcur", "doff", "dup",
+             "dasg", "moff", "mwords", "col", "cpart", "cplen", "frame", "ids", "cflags",
+             "finfo")
+
+
+def _words(a: np.ndarray) -> np.ndarray:
+    """Raw words as int64 (uint32 widened, uint64 reinterpreted)."""
+    return a.view(np.int64).copy() if a.dtype == np.uint64 else a.astype(np.int64)
+
+
+def _as_signed(w: int) -> int:
+    return w - (1 << 64) if w >= 1 << 63 else w
+
+
+def flatten(machine: Machine) -> State:
+    cfg = machine.config
+    cores = machine.cores
+    P = len(cores)
+    npes = len(machine.pes)
+    mask = (1 << (8 * cfg.word_bytes)) - 1
+    NB = max([len(c.bundles) for c in cores] + [1])
+    MAXOPS = max([len(b.ops) for c in cores for b in c.bundles] + [1])
+
+    # the write-back ring: longer than any latency or access time (and any result in flight)
+    longest = 2
+    for core in cores:
+        mem = core.memory
+        longest = max(longest, mem.t_local, mem.t_r, mem.t_c, mem.t_g)
+        for b in core.bundles:
+            for d in b.ops:
+                longest = max(longest, d.lat)
+        for t in core.pending:
+            longest = max(longest, t - machine.cycle + 1)
+    W = 1
+    while W < longest + 2:
+        W *= 2
+
+    a: dict = {}
+    cs = np.zeros((P, N_C), np.int64)
+    regs = np.zeros((P, 64), np.int64)
+    ready = np.zeros((P, 64), np.int64)
+    prod = np.full((P, 64), -1, np.int64)
+    wbn = np.zeros((P, W), np.int64)
+    wbr = np.zeros((P, W, 4), np.int64)
+    wbw = np.zeros((P, W, 4), np.int64)
+    busy = np.zeros((P, 2, 4), np.int64)
+    occ = np.full((P, 2, 4), -1, np.int64)
+    unitn = np.zeros((P, 2), np.int64)
+    stpc = np.zeros((P, NB, len(CAUSES)), np.int64)
+    bpc = np.zeros((P, NB), np.int64)
+    opu = np.zeros((P, 2), np.int64)
+    opm = np.zeros((P, NM), np.int64)
+    ops = np.zeros((P, NB, MAXOPS, N_O), np.int64)
+    opf = np.zeros((P, NB, MAXOPS), np.float64)
+    bun = np.zeros((P, NB, N_B), np.int64)
+    recvq = np.full((P, 3), -1, np.int64)
+    sendq = np.full((P, 3), -1, np.int64)
+
+    # FIFOs, in each PE's fixed order
+    fifos = [f for pe in machine.pes for f in pe.ring.fifos()]
+    fid = {id(f): i for i, f in enumerate(fifos)}
+    cap = max(f.capacity for f in fifos)
+    fq = np.zeros((len(fifos), 8), np.int64)
+    fbt = np.zeros((len(fifos), cap), np.int64)
+    fbw = np.zeros((len(fifos), cap), np.int64)
+    for i, f in enumerate(fifos):
+        fq[i] = (f.capacity, f.delay, 0, len(f.q), f.pop_cycle, f.pops, f.peak, f.total)
+        for k, (t, w) in enumerate(f.q):
+            fbt[i, k] = t
+            fbw[i, k] = _as_signed(int(w) & mask)
+
+    # memories: one flat array of segments (local and resident per processor, ICGM, SCGM)
+    segs: list[np.ndarray] = []
+
+    def add_seg(words: np.ndarray) -> int:
+        segs.append(_words(words))
+        return len(segs) - 1
+
+    gseg = {stage: add_seg(g.words) for stage, g in machine.globals.items()}
+    region_names: list[str] = []
+    rg_parts: list[tuple[int, int, int, int]] = []
+    rmap = np.zeros((P, 3, 2), np.int64)
+    rmap[:, :, 1] = -1
+    max_prim = 0
+    tags: list[np.ndarray] = []
+    tag_off = 0
+
+    def name_id(name: str) -> int:
+        if name not in region_names:
+            region_names.append(name)
+        return region_names.index(name)
+
+    maps_of = []
+    for p, core in enumerate(cores):
+        mem = core.memory
+        maps_of.append((mem.local.regions, mem.resident.regions if mem.resident else None,
+                        mem.global_regions))
+        for counts in _counters(mem):
+            for name in counts.regions:
+                name_id(name)
+            for prim in counts.primitives:
+                max_prim = max(max_prim, prim + 1)
+    for p, maps in enumerate(maps_of):
+        for sp, rmap_obj in enumerate(maps):
+            if rmap_obj is None:
+                continue
+            rmap[p, sp] = (len(rg_parts), len(rmap_obj.regions))
+            for r in rmap_obj.regions:
+                prim = -1 if r.primitive is None else r.primitive
+                max_prim = max(max_prim, prim + 1)
+                rg_parts.append((r.start, r.end, name_id(r.name), prim))
+    rg = np.array(rg_parts, np.int64).T.copy() if rg_parts else np.zeros((4, 1), np.int64)
+    rcnt = np.zeros((P, 3, max(len(region_names), 1), 3), np.int64)
+    pcnt = np.zeros((P, 3, max(max_prim, 1)), np.int64)
+
+    for p, core in enumerate(cores):
+        mem = core.memory
+        proc = core.proc
+        units = list(proc.units)
+        for u, name in enumerate(units):
+            unitn[p, u] = proc.units[name]
+            for i, t in enumerate(core.busy[name]):
+                busy[p, u, i] = t
+                occ[p, u, i] = MN_ID.get(core.occupant[name][i], -1)
+            opu[p, u] = core.ops_by_unit.get(name, 0)
+        for m, n in core.ops_by_mnemonic.items():
+            opm[p, MN_ID[m]] = n
+        cs[p, C_PC] = core.pc
+        cs[p, C_HALTED] = core.halted
+        cs[p, C_HOLD_UNTIL] = core.hold_until
+        cs[p, C_HOLD_MEM_UNTIL] = core.hold_mem_until
+        cs[p, C_HOLD_CAUSE] = CAUSE_ID[core.hold_cause]
+        cs[p, C_HOLD_PC] = core.hold_pc
+        cs[p, C_CYCLES] = core.cycles
+        cs[p, C_BUNDLES] = core.bundles_issued
+        cs[p, C_OPS] = core.ops
+        cs[p, C_LAST_PC] = core.last_pc
+        cs[p, C_LAST_ISSUED] = core.last_issued
+        cs[p, C_CAUSE] = CAUSE_ID[core.cause]
+        cs[p, C_PRESENT] = core.present
+        cs[p, C_NB] = len(core.bundles)
+        cs[p, C_WPORTS] = core.write_ports
+        cs[p, C_PENALTY] = core.penalty
+        cs[p, C_PE] = p // 3
+        cs[p, C_T_LOCAL], cs[p, C_T_R], cs[p, C_T_C], cs[p, C_T_G] = \
+            mem.t_local, mem.t_r, mem.t_c, mem.t_g
+        cs[p, C_SEG_LOCAL] = add_seg(mem.local.words)
+        cs[p, C_SEG_RES] = add_seg(mem.resident.words) if mem.resident is not None else -1
+        cs[p, C_SEG_GLOBAL] = gseg[core.proc.name] if mem.global_memory is not None \
+            and core.proc.name in gseg else -1
+        cs[p, C_LOCAL_READS] = mem.local.reads
+        cs[p, C_LOCAL_WRITES] = mem.local.writes
+        cs[p, C_RES_READS] = mem.resident.reads if mem.resident is not None else 0
+        cs[p, C_GLOBAL_ACC] = mem.global_accesses
+        if mem.cache is not None:
+            c = mem.cache
+            cs[p, C_CACHE_SETS] = c.sets
+            cs[p, C_CACHE_OFF] = tag_off
+            cs[p, C_BLOCK_BYTES] = c.block_bytes
+            cs[p, C_WORD_BYTES] = c.word_bytes
+            cs[p, C_CACHE_ACC], cs[p, C_CACHE_HITS], cs[p, C_CACHE_MISSES] = \
+                c.accesses, c.hits, c.misses
+            tags.append(c.tags.astype(np.int64))
+            tag_off += c.sets
+        else:
+            cs[p, C_BLOCK_BYTES] = 1
+        for sp, counts in enumerate(_counters(mem)):
+            for name, (acc, hits, misses) in counts.regions.items():
+                rcnt[p, sp, region_names.index(name)] = (acc, hits, misses)
+            for prim, n in counts.primitives.items():
+                pcnt[p, sp, prim] = n
+        for r in range(64):
+            regs[p, r] = _as_signed(int(core.regs[r]) & mask)
+            ready[p, r] = core.ready_at[r]
+            prod[p, r] = MN_ID.get(core.producer[r], -1)
+        for t, lst in core.pending.items():
+            s = t & (W - 1)
+            for r, w in lst:
+                k = wbn[p, s]
+                wbr[p, s, k], wbw[p, s, k] = r, _as_signed(int(w) & mask)
+                wbn[p, s] = k + 1
+        for pc, causes in core.stalls_by_pc.items():
+            for cause, n in causes.items():
+                stpc[p, pc, CAUSE_ID[cause]] = n
+        for pc, n in core.bundles_by_pc.items():
+            bpc[p, pc] = n
+        for port, f in core.recv_ports.items():
+            recvq[p, PORTS.index(port)] = fid[id(f)]
+        for port, f in core.send_ports.items():
+            sendq[p, PORTS.index(port)] = fid[id(f)]
+        _decode(core, units, ops[p], opf[p], bun[p])
+
+    # CMUs and links
+    K = 3 * npes
+    nin = max(len(cmu.inputs) for pe in machine.pes for cmu in pe.ring.cmus)
+    cm = np.zeros((K, 8), np.int64)
+    cin = np.zeros((K, nin), np.int64)
+    cout = np.zeros((K, nin), np.int64)
+    route = np.full((K, nin), _ROUTE_NONE, np.int64)
+    rem = np.zeros((K, nin), np.int64)
+    lown = np.full((K, nin), -1, np.int64)
+    linkw = np.zeros(K, np.int64)
+    pes = np.zeros((npes, 6), np.int64)
+    for i, pe in enumerate(machine.pes):
+        for s, stage in enumerate(STAGES):
+            m = 3 * i + s
+            cmu = pe.ring.cmus[s]
+            linkw[m] = pe.ring.link_words[stage][0]
+            cm[m] = (len(cmu.inputs), cmu.recv_owner, cmu.moved, fid[id(cmu.recv)], cmu.dest_id,
+                     3 * i + STAGES.index(PREV[stage]), m, len(cmu.out_link))
+            for k, f in enumerate(cmu.inputs):
+                cin[m, k] = fid[id(f)]
+                route[m, k] = _ROUTE_NONE if cmu.route[k] is None else cmu.route[k]
+                rem[m, k] = cmu.remaining[k]
+            for k, f in enumerate(cmu.out_link):
+                cout[m, k] = fid[id(f)]
+                lown[m, k] = cmu.link_owner[k]
+        pes[i] = (pe._moved, pe.dis_moved, pe.col_moved, machine.no_progress[i],
+                  fid[id(pe.ring.host)], fid[id(pe.ring.col)])
+
+    d = machine.dis
+    moff = np.zeros(len(d.messages) + 1, np.int64)
+    for k, msg in enumerate(d.messages):
+        moff[k + 1] = moff[k] + len(msg)
+    mwords = np.array([_as_signed(int(w) & mask) for msg in d.messages for w in msg] or [0],
+                      np.int64)
+    col = machine.col
+    cpart = np.zeros((npes, 8), np.int64)
+    cplen = np.zeros(npes, np.int64)
+    for i, part in enumerate(col.partial):
+        cplen[i] = len(part)
+        for k, w in enumerate(part):
+            cpart[i, k] = _as_signed(int(w) & mask)
+
+    seg = np.zeros((len(segs), 2), np.int64)
+    off = 0
+    for i, s in enumerate(segs):
+        seg[i] = (off, len(s))
+        off += len(s)
+    a.update(
+        g=np.array([machine.cycle, cfg.ring.deadlock_cycles, cfg.ring.buffer_pool, npes, W],
+                   np.int64),
+        until=0, cs=cs, regs=regs, ready=ready, prod=prod, wbn=wbn, wbr=wbr, wbw=wbw, busy=busy,
+        occ=occ, unitn=unitn, stpc=stpc, bpc=bpc, opu=opu, opm=opm, ops=ops, opf=opf, bun=bun,
+        recvq=recvq, sendq=sendq, fq=fq, fbt=fbt, fbw=fbw,
+        mem=np.concatenate(segs) if segs else np.zeros(1, np.int64), seg=seg,
+        ctags=np.concatenate(tags) if tags else np.zeros(1, np.int64), rg=rg, rmap=rmap,
+        rcnt=rcnt, pcnt=pcnt, cm=cm, cin=cin, cout=cout, route=route, rem=rem, lown=lown,
+        linkw=linkw, pes=pes,
+        dis=np.array([d.dynamic, d.next_msg, len(d.messages), d.words_sent], np.int64),
+        dcur=np.array(d.current, np.int64), doff=np.array(d.offset, np.int64),
+        dup=np.array(d.upcoming, np.int64), dasg=np.array(d.assigned, np.int64),
+        moff=moff, mwords=mwords,
+        col=np.array([col.messages, col.words, col.width, col.height], np.int64),
+        cpart=cpart, cplen=cplen, frame=col.frame, ids=col.ids, cflags=CAUSE_FLAGS,
+        finfo=np.zeros(8, np.int64))
+    return State(a, fifos, region_names, mask)
+
+
+def _counters(mem) -> tuple:
+    """The region counters of a memory system by space (local, resident, global)."""
+    return (mem.local.region_counts,
+            mem.resident.region_counts if mem.resident is not None else _EMPTY,
+            mem.global_counts)
+
+
+class _Empty:
+    regions: dict = {}
+    primitives: dict = {}
+
+
+_EMPTY = _Empty()
+
+
+def _decode(core, units: list[str], ops: np.ndarray, opf: np.ndarray, bun: np.ndarray) -> None:
+    """The reference engine's decoded bundles (core.DBundle / DOp) as rows of integers."""
+    for pc, b in enumerate(core.bundles):
+        row = bun[pc]
+        row[B_NOPS] = len(b.ops)
+        row[B_NREADS] = len(b.reads)
+        row[B_READS:B_READS + len(b.reads)] = b.reads
+        row[B_NWRITES] = len(b.writes)
+        row[B_WRITES:B_WRITES + len(b.writes)] = b.writes
+        row[B_NUNITS] = len(b.units)
+        for k, (u, n) in enumerate(b.units):
+            row[B_UNITS + 2 * k], row[B_UNITS + 2 * k + 1] = units.index(u), n
+        row[B_HASLOAD] = bool(b.loads)
+        row[B_NRECVS] = len(b.recvs)
+        for k, (port, n) in enumerate(b.recvs):
+            row[B_RECVS + 2 * k], row[B_RECVS + 2 * k + 1] = PORTS.index(port), n
+        row[B_NSENDS] = len(b.sends)
+        for k, (port, n) in enumerate(b.sends):
+            row[B_SENDS + 2 * k], row[B_SENDS + 2 * k + 1] = PORTS.index(port), n
+        row[B_WAITS] = b.waits
+        row[B_NOPCOUNT] = b.n_ops
+        for j, d in enumerate(b.ops):
+            o = ops[pc, j]
+            o[O_KIND] = KINDS.index(d.kind)
+            o[O_MN] = MN_ID[d.m]
+            o[O_UNIT] = units.index(d.unit) if d.unit else -1
+            o[O_LAT] = d.lat
+            o[O_PIPE] = d.pipelined
+            o[O_RD] = -1 if d.rd is None else d.rd
+            o[O_SRC] = 0 if d.src is None else d.src
+            o[O_BASE] = 0 if d.base is None else d.base
+            o[O_OFF] = 0 if d.offset is None else d.offset
+            o[O_SPACE] = SPACES.index(d.space) if d.space else 0
+            o[O_PORT] = PORTS.index(d.port) if d.port else 0
+            o[O_TARGET] = 0 if d.target is None else d.target
+            o[O_NWRITES] = d.nwrites
+            nr = 0
+            for k, v, _t in d.args:
+                if k == "r":
+                    o[O_R + nr] = v
+                    nr += 1
+                elif any(x.kind == "fimm" for x in OPCODES[d.m].operands):
+                    opf[pc, j] = float(v)
+                else:
+                    o[O_KI] = int(v)
+
+
+def write_back(st: State, machine: Machine) -> None:
+    """Put the arrays' state back into the reference engine's objects."""
+    a = st.arrays
+    mask = st.mask
+    W = int(a["g"][G_W])
+    cycle = int(a["g"][G_CYCLE])
+    machine.cycle = cycle
+    seg = a["seg"]
+    mem_all = a["mem"]
+    names = st.region_names
+    for p, core in enumerate(machine.cores):
+        cs = a["cs"][p]
+        mem = core.memory
+        units = list(core.proc.units)
+        core.pc = int(cs[C_PC])
+        core.halted = bool(cs[C_HALTED])
+        core.hold_until = int(cs[C_HOLD_UNTIL])
+        core.hold_mem_until = int(cs[C_HOLD_MEM_UNTIL])
+        core.hold_cause = CAUSES[cs[C_HOLD_CAUSE]]
+        core.hold_pc = int(cs[C_HOLD_PC])
+        core.cycles = int(cs[C_CYCLES])
+        core.bundles_issued = int(cs[C_BUNDLES])
+        core.ops = int(cs[C_OPS])
+        core.last_pc = int(cs[C_LAST_PC])
+        core.last_issued = bool(cs[C_LAST_ISSUED])
+        core.cause = CAUSES[cs[C_CAUSE]]
+        core.regs = [int(w) & mask for w in a["regs"][p]]
+        core.ready_at = [int(t) for t in a["ready"][p]]
+        core.producer = [MNEMONICS[i] if i >= 0 else "" for i in a["prod"][p]]
+        pending: dict[int, list[tuple[int, int]]] = {}
+        for t in range(cycle, cycle + W):
+            s = t & (W - 1)
+            n = int(a["wbn"][p, s])
+            if n:
+                pending[t] = [(int(a["wbr"][p, s, k]), int(a["wbw"][p, s, k]) & mask)
+                              for k in range(n)]
+        core.pending = pending
+        for u, name in enumerate(units):
+            k = core.proc.units[name]
+            core.busy[name] = [int(t) for t in a["busy"][p, u, :k]]
+            core.occupant[name] = [MNEMONICS[i] if i >= 0 else "" for i in a["occ"][p, u, :k]]
+        core.ops_by_unit = {name: int(a["opu"][p, u]) for u, name in enumerate(units)
+                            if a["opu"][p, u]}
+        core.ops_by_mnemonic = {MNEMONICS[i]: int(n) for i, n in enumerate(a["opm"][p]) if n}
+        stpc = a["stpc"][p]
+        by_pc: dict[int, dict[str, int]] = {}
+        totals: dict[str, int] = {}
+        for pc, cause in zip(*np.nonzero(stpc)):
+            n = int(stpc[pc, cause])
+            by_pc.setdefault(int(pc), {})[CAUSES[cause]] = n
+            totals[CAUSES[cause]] = totals.get(CAUSES[cause], 0) + n
+        core.stalls_by_pc = by_pc
+        core.stalls = totals
+        core.bundles_by_pc = {int(pc): int(a["bpc"][p, pc]) for pc in np.nonzero(a["bpc"][p])[0]}
+        # memories: local words (the only ones a run writes) and every counter
+        sl = seg[cs[C_SEG_LOCAL]]
+        words = mem_all[sl[0]:sl[0] + sl[1]]
+        dt = mem.local.words.dtype
+        mem.local.words[:] = words.view(np.uint64) if dt == np.uint64 else words.astype(dt)
+        mem.local.reads = int(cs[C_LOCAL_READS])
+        mem.local.writes = int(cs[C_LOCAL_WRITES])
+        if mem.resident is not None:
+            mem.resident.reads = int(cs[C_RES_READS])
+        mem.global_accesses = int(cs[C_GLOBAL_ACC])
+        if mem.cache is not None:
+            c = mem.cache
+            c.accesses, c.hits, c.misses = (int(cs[C_CACHE_ACC]), int(cs[C_CACHE_HITS]),
+                                            int(cs[C_CACHE_MISSES]))
+            o = int(cs[C_CACHE_OFF])
+            c.tags[:] = a["ctags"][o:o + c.sets]
+        for sp, counts in enumerate(_counters(mem)):
+            if counts is _EMPTY:
+                continue
+            rc = a["rcnt"][p, sp]
+            counts.regions = {names[i]: [int(x) for x in rc[i]] for i in range(len(names))
+                              if rc[i, 0]}
+            pc_ = a["pcnt"][p, sp]
+            counts.primitives = {int(i): int(pc_[i]) for i in np.nonzero(pc_)[0]}
+    fq, fbt, fbw = a["fq"], a["fbt"], a["fbw"]
+    cap = fbt.shape[1]
+    for i, f in enumerate(st.fifos):
+        h, n = int(fq[i, Q_HEAD]), int(fq[i, Q_CNT])
+        f.q = deque((int(fbt[i, (h + k) % cap]), int(fbw[i, (h + k) % cap]) & mask)
+                    for k in range(n))
+        f.pop_cycle, f.pops, f.peak, f.total = (int(fq[i, Q_POPC]), int(fq[i, Q_POPS]),
+                                                int(fq[i, Q_PEAK]), int(fq[i, Q_TOTAL]))
+    for i, pe in enumerate(machine.pes):
+        for s, stage in enumerate(STAGES):
+            m = 3 * i + s
+            cmu = pe.ring.cmus[s]
+            pe.ring.link_words[stage][0] = int(a["linkw"][m])
+            cmu.recv_owner = int(a["cm"][m, M_RECV_OWNER])
+            cmu.moved = int(a["cm"][m, M_MOVED])
+            n = len(cmu.inputs)
+            cmu.route = [None if r == _ROUTE_NONE else int(r) for r in a["route"][m, :n]]
+            cmu.remaining = [int(r) for r in a["rem"][m, :n]]
+            cmu.link_owner = [int(o) for o in a["lown"][m, :len(cmu.out_link)]]
+        pr = a["pes"][i]
+        pe._moved, pe.dis_moved, pe.col_moved = (bool(pr[P_MOVED]), bool(pr[P_DIS_MOVED]),
+                                                 bool(pr[P_COL_MOVED]))
+        machine.no_progress[i] = int(pr[P_NO_PROGRESS])
+    d = machine.dis
+    d.next_msg, d.words_sent = int(a["dis"][D_NEXT]), int(a["dis"][D_WORDS_SENT])
+    d.current = [int(x) for x in a["dcur"]]
+    d.offset = [int(x) for x in a["doff"]]
+    d.upcoming = [int(x) for x in a["dup"]]
+    d.assigned = [int(x) for x in a["dasg"]]
+    col = machine.col
+    col.messages, col.words = int(a["col"][L_MESSAGES]), int(a["col"][L_WORDS])
+    col.partial = [[int(w) & mask for w in a["cpart"][i, :a["cplen"][i]]]
+                   for i in range(len(machine.pes))]

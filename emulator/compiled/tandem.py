@@ -1,0 +1,170 @@
+"""Tandem: the reference and the compiled engine in lock step (after TCE's ttasim-tandem).
+
+Both engines run the same machine in chunks of cycles; after each chunk their whole state —
+every register, result in flight, unit, hold, counter, memory word, cache tag, FIFO word, CMU
+lock, DIS and COL — is compared. On a difference the chunk is replayed cycle by cycle from its
+start (the reference engine's snapshot) to find the first cycle that differs, and the run stops
+with exit code 5 and a message naming that cycle, the processor, its PC and the field, with
+both values. A user runs it (`--engine tandem`) when a custom kernel behaves differently on the
+two engines; the tests run it to hold the compiled engine to the specification.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from netsushisen.errors import Diagnostic, NetsushisenError
+
+from netsushisen.emulator.engine import Engine, Progress
+from netsushisen.emulator.machine import Machine, RunResult
+
+CHUNK = 4096
+
+
+class TandemMismatch(NetsushisenError):
+    """The engines disagree (exit code 5)."""
+
+    exit_code = 5
+
+
+def canonical(machine: Machine) -> dict[str, object]:
+    """Every piece of state both engines must agree on, by a readable field name."""
+    out: dict[str, object] = {"cycle": machine.cycle, "status": machine.status,
+                              "no_progress": list(machine.no_progress)}
+    for core in machine.cores:
+        n = core.name
+        for f in ("pc", "halted", "hold_until", "hold_mem_until", "hold_cause", "hold_pc",
+                  "cycles", "bundles_issued", "ops", "last_pc", "last_issued", "cause"):
+            out[f"{n}.{f}"] = getattr(core, f)
+        out[f"{n}.regs"] = np.array(core.regs, dtype=object)
+        out[f"{n}.ready_at"] = np.array(core.ready_at, dtype=object)
+        out[f"{n}.producer"] = list(core.producer)
+        out[f"{n}.pending"] = sorted((t, tuple(v)) for t, v in core.pending.items())
+        out[f"{n}.busy"] = sorted(core.busy.items())
+        out[f"{n}.occupant"] = sorted(core.occupant.items())
+        for f in ("stalls", "ops_by_unit", "ops_by_mnemonic", "bundles_by_pc"):
+            out[f"{n}.{f}"] = sorted(getattr(core, f).items())
+        out[f"{n}.stalls_by_pc"] = sorted((pc, sorted(c.items()))
+                                          for pc, c in core.stalls_by_pc.items())
+        mem = core.memory
+        out[f"{n}.local"] = mem.local.words
+        out[f"{n}.local.counts"] = (mem.local.reads, mem.local.writes,
+                                    sorted(mem.local.region_counts.regions.items()),
+                                    sorted(mem.local.region_counts.primitives.items()))
+        if mem.resident is not None:
+            out[f"{n}.resident.counts"] = (mem.resident.reads,
+                                           sorted(mem.resident.region_counts.regions.items()),
+                                           sorted(mem.resident.region_counts.primitives.items()))
+        if mem.cache is not None:
+            c = mem.cache
+            out[f"{n}.cache"] = (c.accesses, c.hits, c.misses, mem.global_accesses)
+            out[f"{n}.cache.tags"] = c.tags
+            out[f"{n}.global.counts"] = (sorted(mem.global_counts.regions.items()),
+                                         sorted(mem.global_counts.primitives.items()))
+    for pe in machine.pes:
+        for f in pe.ring.fifos():
+            out[f"{f.name}"] = (list(f.q), f.pops if f.pop_cycle == machine.cycle - 1 else 0,
+                                f.peak, f.total)
+        for cmu in pe.ring.cmus:
+            out[f"{pe.name}.cmu.{cmu.stage}"] = (list(cmu.route), list(cmu.remaining),
+                                                 cmu.recv_owner, list(cmu.link_owner), cmu.moved)
+    d = machine.dis
+    out["dis"] = (d.next_msg, list(d.current), list(d.offset), list(d.upcoming),
+                  list(d.assigned), d.words_sent)
+    col = machine.col
+    out["col"] = (col.messages, col.words, [list(p) for p in col.partial])
+    out["col.frame"] = col.frame
+    out["col.ids"] = col.ids
+    return out
+
+
+def first_difference(a: dict, b: dict) -> tuple[str, str, str] | None:
+    """(field, reference value, compiled value) of the first field that differs, or None."""
+    for key, va in a.items():
+        vb = b.get(key)
+        if isinstance(va, np.ndarray):
+            if va.shape != np.shape(vb) or not np.array_equal(va, vb):
+                if va.shape == np.shape(vb):
+                    i = int(np.flatnonzero(np.asarray(va != vb).ravel())[0])
+                    return f"{key}[{i}]", _show(va.ravel()[i]), _show(np.asarray(vb).ravel()[i])
+                return key, str(va.shape), str(np.shape(vb))
+        elif va != vb:
+            return key, _show(va), _show(vb)
+    return None
+
+
+def _show(v) -> str:
+    return f"{int(v):#x}" if isinstance(v, (int, np.integer)) and not isinstance(v, bool) \
+        else str(v)[:200]
+
+
+class TandemEngine(Engine):
+    """The reference engine (its machine is this engine's) with a compiled twin beside it."""
+
+    name = "tandem"
+
+    def __init__(self, config, programs, image=None, chunk: int = CHUNK):
+        from netsushisen.emulator.compiled import CompiledEngine
+
+        super().__init__(config, programs, image)
+        self.twin = CompiledEngine(config, programs, image)
+        self.chunk = chunk
+
+    def run(self, max_cycles: int | None = None, progress: Progress | None = None,
+            every: int = 20000) -> RunResult:
+        m, t = self.machine, self.twin.machine
+        limit = self.config.max_cycles if max_cycles is None else max_cycles
+        while m.status is None:
+            if limit and m.cycle >= limit:
+                break
+            n = self.chunk if not limit else min(self.chunk, limit - m.cycle)
+            self._chunk(n)
+            if progress is not None:
+                progress(m.cycle)
+        if m.status is None:
+            m.run(max_cycles)
+            t.run(max_cycles)
+            self._compare(m.cycle)
+        return self.result()
+
+    def step(self, cycles: int = 1) -> str | None:
+        done = 0
+        while done < cycles and self.machine.status is None:
+            n = min(self.chunk, cycles - done)
+            self._chunk(n)
+            done += n
+        return self.machine.status
+
+    def _chunk(self, n: int) -> None:
+        m = self.machine
+        snap = m.snapshot()
+        start = m.cycle
+        for _ in range(n):
+            if m.step() is not None:
+                break
+        self.twin.step(m.cycle - start)
+        if first_difference(canonical(m), canonical(self.twin.machine)) is None:
+            return
+        # replay the chunk cycle by cycle from its start to find the first differing cycle
+        m.restore(snap)
+        self.twin.machine.restore(snap)
+        while True:
+            m.step()
+            self.twin.step(1)
+            self._compare(m.cycle)
+            if m.status is not None:
+                return
+
+    def _compare(self, cycle: int) -> None:
+        diff = first_difference(canonical(self.machine), canonical(self.twin.machine))
+        if diff is None:
+            return
+        field, ref, comp = diff
+        proc = field.split(".")[0] + "." + field.split(".")[1] if field.startswith("pe") else ""
+        where = ""
+        for core in self.machine.cores:
+            if core.name == proc:
+                where = f" ({core.name} {core.where(core.last_pc)})"
+        raise TandemMismatch(Diagnostic(
+            f"engines differ after cycle {cycle - 1}{where}: {field}: reference {ref}, "
+            f"compiled {comp}"))

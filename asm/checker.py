@@ -1,4 +1,4 @@
-"""The resource checker: what one bundle may ask of its processor (DESIGN.md principle 3).
+"""The resource checker: what one bundle may ask of its processor (README, "Assembly language").
 
 Per bundle: operations per unit class within the unit count, distinct register reads within the
 read ports, register writes within the write ports, no register written twice, at most one

@@ -1,4 +1,4 @@
-"""FIFOs, links and the CMU ring of one PE (MACHINE.md §2; header format in isa/ring.py).
+"""FIFOs, links and the CMU ring of one PE (the paper's CMU; header format in isa/ring.py).
 
 FIFO rule (every FIFO, link channel included)
 ---------------------------------------------

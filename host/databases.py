@@ -1,4 +1,4 @@
-"""The four databases laid out as the word images the emulated machine loads (MACHINE.md §4).
+"""The four databases laid out as the word images the emulated machine loads (docs/databases.md).
 
     voxel_data      OS local memory, from `os_base`: top header, top voxel words, sub-grids
     primitive_list  ICGM from word 1 (word 0 is the null cell): 2-word cells [P, shape pointer], one list per leaf
@@ -136,7 +136,8 @@ def ic_capacities(config: MachineConfig, primitive_database_words: int) -> tuple
 
 
 def resident_fill(sizes_in_priority_order: np.ndarray, capacity_words: int) -> int:
-    """M: records are copied in priority order until the next one does not fit (MACHINE.md §5)."""
+    """M: records are copied in priority order until the next one does not fit (the paper's
+    pre-pass; docs/databases.md)."""
     used = np.cumsum(np.asarray(sizes_in_priority_order, dtype=np.int64))
     return int(np.searchsorted(used, capacity_words, side="right"))
 

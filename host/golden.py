@@ -5,7 +5,7 @@ Same grid (`host.grid`), same intersection formulas (`host.shapes`), same traver
 float32 (fp32, the machine's) or float64 (fp64). It runs as a wavefront: all rays of one depth
 are traced together, their hits shaded together, their shadow rays traced together.
 
-Ray-tree rules (DESIGN.md, SPD rendering rules): eye ray depth 1, at most
+Ray-tree rules (the SPD rendering conventions; docs/golden.md): eye ray depth 1, at most
 `config.render.max_depth`; a hit on Ks > 0 spawns a reflection ray, on T > 0 a refraction ray
 (none on total internal reflection; the reflection ray is still spawned if Ks > 0); one shadow
 ray per light the shading normal faces (n.l > 0); each ray carries an RGB weight and its eye

@@ -1,4 +1,5 @@
-"""The resident pre-pass (MACHINE.md §5): which shape records IC keeps in resident memory.
+"""The resident pre-pass (the paper's; docs/databases.md): which shape records IC keeps in
+resident memory.
 
 The host renders the scene once at a coarse resolution with the golden model (same grid, same
 rules as the main pass), counts intersection tests per primitive over every ray kind, sorts the

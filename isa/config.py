@@ -34,7 +34,8 @@ class CoreConfig:
 
 @dataclass
 class MemoryConfig:
-    """IC's and SC's two-level memory (MACHINE.md §5): resident memory + direct-mapped cache in
+    """IC's and SC's two-level memory (the paper's memory structure; docs/timing.md §2): resident
+    memory + direct-mapped cache in
     front of the shared global memory (ICGM for IC, SCGM for SC)."""
 
     t_r: int = 1
@@ -57,7 +58,7 @@ class MemoryConfig:
 
 @dataclass
 class RingConfig:
-    """The CMU ring joining OS → IC → SC → OS inside a PE (MACHINE.md §2)."""
+    """The CMU ring joining OS → IC → SC → OS inside a PE (the paper's CMU; docs/timing.md §3)."""
 
     fifo_depth: int = 64
     """Depth of every send and receive FIFO, in words."""
@@ -78,7 +79,7 @@ class RingConfig:
 
 @dataclass
 class GridConfig:
-    """The two-level uniform space subdivision OS traverses (MACHINE.md §3)."""
+    """The two-level uniform space subdivision OS traverses (the paper's grid; docs/golden.md)."""
 
     top_resolution: int = 0
     """Voxels per axis of the top level; 0 = choose from the primitive count and OS memory."""
@@ -90,7 +91,8 @@ class GridConfig:
 
 @dataclass
 class PrepassConfig:
-    """The resident pre-pass (MACHINE.md §5): a coarse render counts references per primitive."""
+    """The resident pre-pass (the paper's; docs/databases.md "Pre-pass"): a coarse render counts
+    references per primitive."""
 
     share: float = 0.01
     """Share of the main pass's eye rays the pre-pass shoots (paper: about 1 %)."""
@@ -98,7 +100,7 @@ class PrepassConfig:
 
 @dataclass
 class RenderConfig:
-    """Ray-tree rules (DESIGN.md, SPD rendering rules)."""
+    """Ray-tree rules (the SPD rendering conventions; docs/golden.md "Shading (SC) and ray spawning")."""
 
     max_depth: int = 5
     """Maximum ray-tree depth; the eye ray has depth 1."""

@@ -1,4 +1,4 @@
-"""The three stage processors of a PE (MACHINE.md §2), as data.
+"""The three stage processors of a PE (the paper's OS, IC and SC; docs/isa.md), as data.
 
 | processor | kind       | units                 | register-file ports |
 | OS        | VLIW       | 2 integer + 2 FP      | 5 read, 2 write     |

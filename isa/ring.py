@@ -1,4 +1,4 @@
-"""CMU messages: the header word the ring hardware reads (MACHINE.md §2, "open" choices ours).
+"""CMU messages: the header word the ring hardware reads (the paper leaves the formats open: ours).
 
 FIFO operations move one word at a time; a message is a header word followed by `length`
 payload words, and travels by wormhole routing: the CMU reads the header, routes the message

@@ -1,5 +1,5 @@
-"""Resident pre-pass (MACHINE.md §5): coarse resolution, priorities from reference counts, the
-resident fill, and the images built from it."""
+"""Resident pre-pass (docs/databases.md "Pre-pass"): coarse resolution, priorities from
+reference counts, the resident fill, and the images built from it."""
 
 from __future__ import annotations
 

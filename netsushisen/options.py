@@ -87,6 +87,19 @@ def add_include_dirs(parser: argparse.ArgumentParser) -> None:
 # The machine configuration
 
 
+SHORTHANDS: dict[str, tuple[str, str, dict]] = {
+    "pes": ("--pes", "pes", dict(type=int, metavar="N", help="number of PEs (default: the config's, 1)")),
+    "precision": ("--precision", "precision", dict(choices=("fp32", "fp64"), help="machine "
+                  "floating-point format (default: the config's, fp32)")),
+    "max_cycles": ("--max-cycles", "max_cycles", dict(type=int, metavar="N",
+                   help="stop after N cycles")),
+    "depth": ("--depth", "render.max_depth", dict(type=int, metavar="D", help="maximum ray-tree "
+              "depth, eye ray = 1 (default: the config's, 5)")),
+}
+"""The configuration shorthands: attribute -> (option, configuration field it sets, argparse
+keywords). Each is `--set FIELD=VALUE` in disguise, applied after every --set."""
+
+
 def add_config_options(parser: argparse.ArgumentParser, *, pes: bool = False,
                        precision: bool = False, max_cycles: bool = False,
                        depth: bool = False) -> None:
@@ -96,30 +109,20 @@ def add_config_options(parser: argparse.ArgumentParser, *, pes: bool = False,
     parser.add_argument("--set", dest="sets", action="append", default=[], metavar="PATH=VALUE",
                         help="override one configuration field, e.g. --set ic_memory.t_g=16 "
                              "(repeatable)")
-    if pes:
-        parser.add_argument("--pes", type=int, metavar="N",
-                            help="number of PEs (same as --set pes=N; default: the config's, 1)")
-    if precision:
-        parser.add_argument("--precision", choices=("fp32", "fp64"),
-                            help="machine floating-point format (same as --set precision=...; "
-                                 "default: the config's, fp32)")
-    if max_cycles:
-        parser.add_argument("--max-cycles", type=int, metavar="N",
-                            help="stop after N cycles (same as --set max_cycles=N)")
-    if depth:
-        parser.add_argument("--depth", type=int, metavar="D",
-                            help="maximum ray-tree depth, eye ray = 1 (same as --set "
-                                 "render.max_depth=D; default: the config's, 5)")
+    wanted = {"pes": pes, "precision": precision, "max_cycles": max_cycles, "depth": depth}
+    for attr, (option, field, kwargs) in SHORTHANDS.items():
+        if wanted[attr]:
+            parser.add_argument(option, dest=attr, **(kwargs | {
+                "help": f"{kwargs['help']}; same as --set {field}=VALUE"}))
 
 
 def config_overrides(args: argparse.Namespace) -> list[str]:
-    """Every --set, then the shorthands given, as `path=value` overrides."""
+    """Every --set, then the shorthands given, as `field=value` overrides."""
     overrides = list(args.sets)
-    for attr, path in (("pes", "pes"), ("precision", "precision"), ("max_cycles", "max_cycles"),
-                       ("depth", "render.max_depth")):
+    for attr, (_, field, _) in SHORTHANDS.items():
         value = getattr(args, attr, None)
         if value is not None:
-            overrides.append(f"{path}={value}")
+            overrides.append(f"{field}={value}")
     return overrides
 
 

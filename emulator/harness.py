@@ -6,6 +6,11 @@ ring (so the host stream can hold messages for IC or SC: the CMU routes them by 
 and stores every word that reaches OS into its local memory; IC and SC stubs store what reaches
 them. After the run the stored words come back split into messages per stage. Everything goes
 through the machine's real CMUs, FIFOs and timing.
+
+The bench builds its machine through the engine interface (emulator/engine.py) and reads the run
+back only through it, so every bench test runs unchanged on any engine (`engine=`). The same holds
+for `run_machine`, the whole-machine runner the emulator tests share, and `ProcessorView`, their
+shorthand for one processor's counters and registers.
 """
 
 from __future__ import annotations
@@ -16,12 +21,13 @@ import numpy as np
 
 from netsushisen.asm.assembler import assemble_text
 from netsushisen.asm.objects import Program
-from netsushisen.isa.images import MemoryImage, Segment
-from netsushisen.emulator.machine import Machine, RunResult
+from netsushisen.emulator.engine import DEFAULT_ENGINE, Engine, make_engine
+from netsushisen.emulator.machine import RunResult
 from netsushisen.isa.config import MachineConfig
+from netsushisen.isa.images import MemoryImage, Segment
 from netsushisen.isa.processors import STAGES
 from netsushisen.isa.ring import DESTS, make_header, parse_header
-from netsushisen.isa.words import WordFormat, wrap32
+from netsushisen.isa.words import WordFormat, word_format, wrap32
 
 SINK_REGISTER = 60  # the stubs count stored words here
 
@@ -71,26 +77,73 @@ def split_words(words: list[int]) -> list[list[int]]:
     return out
 
 
+def run_machine(engine: str, config: MachineConfig, programs: dict[str, Program | None],
+                image: MemoryImage | None = None, max_cycles: int | None = None) -> Engine:
+    """Build engine `engine` for (config, programs, image) and run it to its end or `max_cycles`;
+    the run's result is `.result()`, everything else is read through the interface."""
+    e = make_engine(engine, config, programs, image)
+    e.run(max_cycles)
+    return e
+
+
+class ProcessorView:
+    """One processor after a run, read through the engine interface: its statistics
+    (`cycles`, `bundles`, `stalls`, `stalls_by_pc` keyed by int pc, the whole entry as `stats`)
+    and its registers (`raw(r)`, `int(r)`, `float(r)` in the machine's precision)."""
+
+    def __init__(self, engine: Engine, processor: str, statistics: dict | None = None):
+        s = (statistics or engine.statistics())["processors"][processor]
+        self.name = processor
+        self.stats = s
+        self.cycles: int = s["cycles"]
+        self.bundles: int = s["bundles"]
+        self.stalls: dict[str, int] = s["stalls"]
+        self.stalls_by_pc = {int(pc): e["stalls"] for pc, e in s["stalls_by_pc"].items()}
+        self.regs = engine.registers(processor)
+        self.wf = word_format(engine.config.precision)
+
+    def raw(self, r: int) -> int:
+        return self.regs[r]
+
+    def int(self, r: int) -> int:
+        return self.wf.to_int(self.regs[r])
+
+    def float(self, r: int):
+        return self.wf.to_float(self.regs[r])
+
+
 @dataclass
 class StageRun:
     result: RunResult
-    machine: Machine
+    engine: Engine
     received: dict[str, list[list[int]]] = field(default_factory=dict)
     """Messages that reached each stubbed stage, in arrival order."""
 
     @property
     def frame(self) -> np.ndarray:
-        return self.machine.col.frame
+        return self.engine.frame
 
     @property
     def ids(self) -> np.ndarray:
-        return self.machine.col.ids
+        return self.engine.ids
+
+    def statistics(self) -> dict:
+        return self.engine.statistics()
+
+    def processor(self, stage: str) -> ProcessorView:
+        """The stage's processor of PE 0 (the one the bench runs)."""
+        return ProcessorView(self.engine, f"pe0.{stage}")
+
+    def memory(self, stage: str, space: str = "local") -> np.ndarray:
+        """Raw words of PE 0's `stage` memory `space` (local, resident, global)."""
+        return self.engine.memory(f"pe0.{stage}", space)
 
 
 def run_stage(stage: str, program: Program, host_messages: list[list[int]], config: MachineConfig,
-              image: MemoryImage | None = None, max_cycles: int = 2_000_000) -> StageRun:
-    """Run `program` on `stage` of PE 0 with stubs elsewhere; `host_messages` (raw words, e.g.
-    from `encode_message`) are the host stream."""
+              image: MemoryImage | None = None, max_cycles: int = 2_000_000,
+              engine: str = DEFAULT_ENGINE) -> StageRun:
+    """Run `program` on `stage` of PE 0 with stubs elsewhere, on engine `engine`;
+    `host_messages` (raw words, e.g. from `encode_message`) are the host stream."""
     if program.proc != stage:
         raise ValueError(f"a {program.proc.upper()} program cannot run on {stage.upper()}")
     programs = {s: assemble_text(_OS_SOURCE_SINK if s == "os" else _SINK, proc=s,
@@ -98,14 +151,13 @@ def run_stage(stage: str, program: Program, host_messages: list[list[int]], conf
     programs[stage] = program
     image = image or MemoryImage()
     image.host = [Segment(0, [("w", np.asarray([w for m in host_messages for w in m], dtype=np.uint64))])]
-    machine = Machine(config, programs, image)
-    result = machine.run(max_cycles=max_cycles)
+    e = make_engine(engine, config, programs, image)
+    result = e.run(max_cycles)
     received = {}
     for s in STAGES:
         if s == stage:
             continue
-        core = machine.pes[0].cores[s]
-        n = wrap32(core.regs[SINK_REGISTER])
-        words = [int(w) for w in machine.pes[0].memories[s].local.words[:n]]
+        n = wrap32(e.register(f"pe0.{s}", SINK_REGISTER))
+        words = [int(w) for w in e.memory(f"pe0.{s}", "local")[:n]]
         received[s] = split_words(words)
-    return StageRun(result, machine, received)
+    return StageRun(result, e, received)

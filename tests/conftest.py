@@ -1,5 +1,13 @@
 """Shared fixtures. Tests that read ../shared skip with a reason when it is absent: users clone
-only the project."""
+only the project.
+
+Engines (PyMTL3 style: a behaviour test is written once and rerun on every model of the machine):
+a test that takes `engine_name` runs once per engine of `emulator/engine.py` — ids `[reference]`,
+`[compiled]`, `[tandem]` — and builds its machine with `make_engine(engine_name, ...)`,
+`harness.run_machine(engine_name, ...)` or `harness.run_stage(..., engine=engine_name)`, reading
+the run only through the engine interface. `pytest --engine compiled` (repeatable) restricts
+the runs to the named engines.
+"""
 
 from __future__ import annotations
 
@@ -9,6 +17,30 @@ import pytest
 
 PROJECT = Path(__file__).resolve().parents[1]
 SHARED = PROJECT.parent / "shared"
+
+
+def pytest_addoption(parser):
+    parser.addoption("--engine", action="append", default=[], metavar="NAME",
+                     help="run the engine-parametrised tests on this engine only (repeatable; "
+                          "default: every engine that imports)")
+
+
+def engines(config) -> list[str]:
+    from netsushisen.emulator.engine import check_engine, engine_names
+    from netsushisen.errors import ConfigError
+
+    chosen = config.getoption("--engine")
+    try:
+        return [check_engine(name) for name in chosen] if chosen else engine_names()
+    except ConfigError as err:
+        raise pytest.UsageError(f"--engine: {err.format()}") from None
+
+
+def pytest_generate_tests(metafunc):
+    """`engine_name`: one run of the test per engine."""
+    if "engine_name" in metafunc.fixturenames:
+        names = engines(metafunc.config)
+        metafunc.parametrize("engine_name", names, ids=names)
 
 
 @pytest.fixture

@@ -1,5 +1,10 @@
 """The whole machine: DIS, COL and the frame buffer, several PEs, statistics, determinism,
-snapshot/restore and per-cycle events."""
+snapshot/restore and per-cycle events.
+
+The behaviour tests run once per engine (`engine_name`, tests/conftest.py) and read the frame,
+the id buffer, statistics and registers through the engine interface. Snapshot/restore, the
+tracer and per-cycle events are the reference engine's (the debugger's) own machinery: those
+tests build a reference `Machine` directly."""
 
 from __future__ import annotations
 
@@ -10,6 +15,8 @@ import pytest
 
 from netsushisen.asm.assembler import assemble_text
 from netsushisen.emulator import stats
+from netsushisen.emulator.engine import make_engine
+from netsushisen.emulator.harness import ProcessorView, run_machine
 from netsushisen.isa.images import image_from_json
 from netsushisen.emulator.machine import Machine
 from netsushisen.emulator.trace import Tracer
@@ -48,10 +55,17 @@ def image(n=N_PIXELS):
     return image_from_json({"host": host, "frame": {"width": 3, "height": 2}})
 
 
+def programs():
+    return {"os": assemble_text(OS_SRC, proc="os"), "sc": assemble_text(SC_SRC, proc="sc")}
+
+
 def machine(sets=()):
-    return Machine(load_config(None, list(sets)),
-                   {"os": assemble_text(OS_SRC, proc="os"), "sc": assemble_text(SC_SRC, proc="sc")},
-                   image())
+    """A reference Machine (for the snapshot, trace and event tests)."""
+    return Machine(load_config(None, list(sets)), programs(), image())
+
+
+def engine(engine_name, sets=()):
+    return make_engine(engine_name, load_config(None, list(sets)), programs(), image())
 
 
 def expected_frame():
@@ -61,27 +75,30 @@ def expected_frame():
     return f
 
 
-def test_dis_col_frame_buffer_one_pe():
-    m = machine()
+def test_dis_col_frame_buffer_one_pe(engine_name):
+    m = engine(engine_name)
     r = m.run(max_cycles=5000)
     assert r.status == "finished" and r.exit_code == 0
-    assert np.array_equal(m.col.frame, expected_frame())
-    assert m.col.messages == N_PIXELS and m.dis.assigned == [N_PIXELS]
+    assert np.array_equal(m.frame, expected_frame())
+    s = m.statistics()
+    assert s["col"]["pixel_messages"] == N_PIXELS and s["dis"]["messages_per_pe"] == [N_PIXELS]
 
 
-def test_static_distribution_interleaves_over_pes():
-    m = machine(["pes=2"])
+def test_static_distribution_interleaves_over_pes(engine_name):
+    m = engine(engine_name, ["pes=2"])
     assert m.run(max_cycles=5000).status == "finished"
-    assert m.dis.assigned == [3, 3]
-    assert m.pes[0].cores["sc"].ops_by_mnemonic["itof"] == 3
-    assert np.array_equal(m.col.frame, expected_frame())
+    s = m.statistics()
+    assert s["dis"]["messages_per_pe"] == [3, 3]
+    assert s["processors"]["pe0.sc"]["ops_by_mnemonic"]["itof"] == 3
+    assert np.array_equal(m.frame, expected_frame())
 
 
-def test_dynamic_distribution_hands_out_every_message():
-    m = machine(["pes=3", "distribution=dynamic"])
+def test_dynamic_distribution_hands_out_every_message(engine_name):
+    m = engine(engine_name, ["pes=3", "distribution=dynamic"])
     assert m.run(max_cycles=5000).status == "finished"
-    assert sum(m.dis.assigned) == N_PIXELS and min(m.dis.assigned) >= 1
-    assert np.array_equal(m.col.frame, expected_frame())
+    assigned = m.statistics()["dis"]["messages_per_pe"]
+    assert sum(assigned) == N_PIXELS and min(assigned) >= 1
+    assert np.array_equal(m.frame, expected_frame())
 
 
 # OS spins `work` iterations per ray; even rays are heavy (40), odd ones free. Static
@@ -101,29 +118,30 @@ done:   li r3, (DEST_SC << HDR_DEST_SHIFT) | 1
 """
 
 
-def test_dynamic_distribution_balances_uneven_work():
+def test_dynamic_distribution_balances_uneven_work(engine_name):
     host = []
     for i in range(8):
         host += [{"header": {"length": 2, "dest": "os"}}, i, 40 if i % 2 == 0 else 0]
     img = {"host": host, "frame": {"width": 4, "height": 2}}
     runs = {}
     for mode in ("static", "dynamic"):
-        m = Machine(load_config(None, ["pes=2", f"distribution={mode}"]),
-                    {"os": assemble_text(OS_WORK, proc="os"), "sc": assemble_text(SC_SRC, proc="sc")},
-                    image_from_json(img))
-        r = m.run(max_cycles=20_000)
-        assert r.status == "finished" and m.col.messages == 8
-        runs[mode] = (r.cycles, m.dis.assigned)
+        m = run_machine(engine_name, load_config(None, ["pes=2", f"distribution={mode}"]),
+                        {"os": assemble_text(OS_WORK, proc="os"),
+                         "sc": assemble_text(SC_SRC, proc="sc")},
+                        image_from_json(img), max_cycles=20_000)
+        r, s = m.result(), m.statistics()
+        assert r.status == "finished" and s["col"]["pixel_messages"] == 8
+        runs[mode] = (r.cycles, s["dis"]["messages_per_pe"])
     assert runs["static"][1] == [4, 4]
     assert runs["dynamic"][1][1] > runs["dynamic"][1][0]
     assert runs["dynamic"][0] < runs["static"][0]
 
 
-def test_statistics_are_deterministic_and_complete():
-    a = stats.dumps(stats.collect(_ran(machine(["pes=2"]))))
-    b = stats.dumps(stats.collect(_ran(machine(["pes=2"]))))
+def test_statistics_are_deterministic_and_complete(engine_name):
+    a = stats.dumps(_ran(engine(engine_name, ["pes=2"])).statistics())
+    b = stats.dumps(_ran(engine(engine_name, ["pes=2"])).statistics())
     assert a == b
-    s = stats.collect(_ran(machine(["pes=2"])))
+    s = _ran(engine(engine_name, ["pes=2"])).statistics()
     assert s["schema"] == {"name": "netsushisen-stats", "version": 1}
     assert s["config"]["pes"] == 2 and s["config"]["ring"]["buffer_pool"] is True
     assert set(s["processors"]) == {f"pe{i}.{p}" for i in range(2) for p in ("os", "ic", "sc")}
@@ -193,32 +211,30 @@ def test_trace_filter_and_cycle_range():
     assert [int(line.split()[0]) for line in lines] == [5, 6, 7]
 
 
-def test_col_rejects_a_malformed_pixel_message():
+def test_col_rejects_a_malformed_pixel_message(engine_name):
     sc = assemble_text("""
         li r1, (DEST_COL << HDR_DEST_SHIFT) | 3
         send col, r1
         halt
     """, proc="sc")
-    m = Machine(load_config(), {"sc": sc}, image())
-    r = m.run(max_cycles=100)
+    r = run_machine(engine_name, load_config(), {"sc": sc}, image(), max_cycles=100).result()
     assert r.status == "fault" and "COL takes pixel messages" in r.error.format()
 
 
-def test_incomplete_pixel_message_at_quiescence_is_reported():
+def test_incomplete_pixel_message_at_quiescence_is_reported(engine_name):
     sc = assemble_text("""
         li r1, (DEST_COL << HDR_DEST_SHIFT) | 4
         send col, r1
         send col, r0
         recv r2, ring       # waits forever; nothing else can ever arrive
     """, proc="sc")
-    m = Machine(load_config(), {"sc": sc}, image(0))
-    r = m.run(max_cycles=1000)
+    r = run_machine(engine_name, load_config(), {"sc": sc}, image(0), max_cycles=1000).result()
     assert r.status == "deadlock" and r.exit_code == 3
     assert "COL holds an incomplete pixel message" in r.error.format()
     assert "from pe0: 2 of 5 words received" in r.error.format()
 
 
-def test_pixel_outside_the_frame_is_a_fault():
+def test_pixel_outside_the_frame_is_a_fault(engine_name):
     sc = assemble_text("""
         li r1, (DEST_COL << HDR_DEST_SHIFT) | 4
         li r2, 6
@@ -229,8 +245,7 @@ def test_pixel_outside_the_frame_is_a_fault():
         send col, r0
         halt
     """, proc="sc")
-    m = Machine(load_config(), {"sc": sc}, image(0))
-    r = m.run(max_cycles=100)
+    r = run_machine(engine_name, load_config(), {"sc": sc}, image(0), max_cycles=100).result()
     assert r.status == "fault" and "pixel 6 outside the 3x2 frame" in r.error.format()
 
 
@@ -246,14 +261,15 @@ loop:   recv r1, ring
 """
 
 
-def test_col_id_messages_fill_the_hit_id_buffer():
+def test_col_id_messages_fill_the_hit_id_buffer(engine_name):
     # SC sends (pixel, 100 + pixel) as ID messages for pixels 0..3 of a 3x2 frame; the rest stay -1
-    m = Machine(load_config(None, []),
-                {"os": assemble_text(OS_SRC, proc="os"), "sc": assemble_text(ID_SC_SRC, proc="sc")},
-                image(4))
-    assert m.run(max_cycles=5000).status == "finished"
-    assert m.col.ids.tolist() == [[100, 101, 102], [103, -1, -1]]
-    assert not m.col.frame.any()
+    m = run_machine(engine_name, load_config(None, []),
+                    {"os": assemble_text(OS_SRC, proc="os"),
+                     "sc": assemble_text(ID_SC_SRC, proc="sc")},
+                    image(4), max_cycles=5000)
+    assert m.status == "finished"
+    assert m.ids.tolist() == [[100, 101, 102], [103, -1, -1]]
+    assert not m.frame.any()
 
 
 WAIT_OS_SRC = """
@@ -273,14 +289,15 @@ host_msg:
 """
 
 
-def test_wait_sleeps_until_a_fifo_has_a_word_and_counts_as_idle():
-    m = Machine(load_config(None, []),
-                {"os": assemble_text(WAIT_OS_SRC, proc="os"), "sc": assemble_text(SC_SRC, proc="sc")},
-                image())
-    r = m.run(max_cycles=5000)
+def test_wait_sleeps_until_a_fifo_has_a_word_and_counts_as_idle(engine_name):
+    m = run_machine(engine_name, load_config(None, []),
+                    {"os": assemble_text(WAIT_OS_SRC, proc="os"),
+                     "sc": assemble_text(SC_SRC, proc="sc")},
+                    image(), max_cycles=5000)
+    r = m.result()
     assert r.status == "finished"  # quiescence is reached with OS asleep in `wait`
-    assert np.array_equal(m.col.frame, expected_frame())
-    stalls = m.pes[0].cores["os"].stats()["stalls"]
+    assert np.array_equal(m.frame, expected_frame())
+    stalls = m.statistics()["processors"]["pe0.os"]["stalls"]
     assert stalls.get("fifo_empty:any", 0) > 0
 
 
@@ -296,12 +313,13 @@ loop:   recv r1, host
 """
 
 
-def test_room_reports_free_send_fifo_words():
-    m = Machine(load_config(None, ["ring.fifo_depth=16"]),
-                {"os": assemble_text(ROOM_OS_SRC, proc="os"), "sc": assemble_text(SC_SRC, proc="sc")},
-                image())
-    assert m.run(max_cycles=5000).status == "finished"
-    assert m.pes[0].cores["os"].regs[7] == 16
+def test_room_reports_free_send_fifo_words(engine_name):
+    m = run_machine(engine_name, load_config(None, ["ring.fifo_depth=16"]),
+                    {"os": assemble_text(ROOM_OS_SRC, proc="os"),
+                     "sc": assemble_text(SC_SRC, proc="sc")},
+                    image(), max_cycles=5000)
+    assert m.status == "finished"
+    assert ProcessorView(m, "pe0.os").raw(7) == 16
     with pytest.raises(Exception) as exc:  # room names a send FIFO: host is a receive FIFO
         assemble_text("room r1, host\n halt\n", proc="os")
     assert "expected a FIFO port of OS: ring" in str(exc.value)

@@ -1,5 +1,6 @@
-"""Operation semantics as executed by the reference engine: they come from the opcode table
-(isa/opcodes.py), applied to raw words of the machine's precision (fp32 or fp64)."""
+"""Operation semantics as executed by every engine (`engine_name`, tests/conftest.py): they come
+from the opcode table (isa/opcodes.py), applied to raw words of the machine's precision (fp32 or
+fp64). Registers are read through the engine interface."""
 
 from __future__ import annotations
 
@@ -12,36 +13,28 @@ from hypothesis import strategies as st
 
 from netsushisen.asm.assembler import assemble_text
 from netsushisen.isa.images import image_from_json
-from netsushisen.emulator.machine import Machine
+from netsushisen.emulator.harness import ProcessorView, run_machine
 from netsushisen.isa.config import load_config
 from netsushisen.isa.opcodes import OPCODES
 from netsushisen.isa.words import INT_MAX, INT_MIN, word_format, wrap32
 
 
-class Regs:
-    def __init__(self, core):
-        self.core = core
-
-    def raw(self, r):
-        return self.core.regs[r]
-
-    def int(self, r):
-        return self.core.value(self.core.regs[r], "i")
-
+class Regs(ProcessorView):
     def float(self, r):
-        return float(self.core.value(self.core.regs[r], "f"))
+        return float(super().float(r))
 
 
-def run_sc(src, precision="fp32", image=None):
-    m = Machine(load_config(None, [f"precision={precision}"]),
-                {"sc": assemble_text(src, proc="sc")}, image_from_json(image or {}))
-    r = m.run(max_cycles=10_000)
+def run_sc(engine, src, precision="fp32", image=None):
+    m = run_machine(engine, load_config(None, [f"precision={precision}"]),
+                    {"sc": assemble_text(src, proc="sc")}, image_from_json(image or {}),
+                    max_cycles=10_000)
+    r = m.result()
     assert r.status == "halted", r.error
-    return Regs(m.pes[0].cores["sc"])
+    return Regs(m, "pe0.sc")
 
 
-def test_integer_wrap_and_shifts():
-    r = run_sc("""
+def test_integer_wrap_and_shifts(engine_name):
+    r = run_sc(engine_name, """
         li r1, 0x7fffffff
         addi r2, r1, 1          # INT_MAX + 1 wraps to INT_MIN
         li r3, 0x10000
@@ -64,8 +57,8 @@ def test_integer_wrap_and_shifts():
     assert (r.int(13), r.int(14)) == (1, 0)
 
 
-def test_division_corner_cases():
-    r = run_sc("""
+def test_division_corner_cases(engine_name):
+    r = run_sc(engine_name, """
         li r1, 7
         div r2, r1, r0          # x / 0 = -1
         rem r3, r1, r0          # x % 0 = x
@@ -88,8 +81,8 @@ def _bits(x, precision):
 
 
 @pytest.mark.parametrize("precision", ["fp32", "fp64"])
-def test_fp_corner_cases(precision):
-    r = run_sc("""
+def test_fp_corner_cases(precision, engine_name):
+    r = run_sc(engine_name, """
         lf r1, 1.0
         lf r2, 0.0
         lf r3, -0.0
@@ -131,8 +124,8 @@ def test_fp_corner_cases(precision):
 
 @pytest.mark.parametrize("precision, word, width", [("fp32", "0x7fc00123", 32),
                                                     ("fp64", "0x7ff0000000000123", 64)])
-def test_raw_word_moves_keep_every_bit(precision, word, width):
-    r = run_sc("""
+def test_raw_word_moves_keep_every_bit(precision, word, width, engine_name):
+    r = run_sc(engine_name, """
         ld r1, [r0]             # a NaN with a payload
         mov r2, r1
         fmov r3, r1
@@ -149,13 +142,13 @@ def test_raw_word_moves_keep_every_bit(precision, word, width):
 
 
 @pytest.mark.parametrize("precision, raw", [("fp32", 0xFFFFFFFF), ("fp64", 0xFFFFFFFFFFFFFFFF)])
-def test_integers_are_sign_extended_words(precision, raw):
-    r = run_sc("li r1, -1\nhalt", precision)
+def test_integers_are_sign_extended_words(precision, raw, engine_name):
+    r = run_sc(engine_name, "li r1, -1\nhalt", precision)
     assert r.raw(1) == raw and r.int(1) == -1
 
 
-def test_fpow_and_conversions_follow_the_table():
-    r = run_sc("""
+def test_fpow_and_conversions_follow_the_table(engine_name):
+    r = run_sc(engine_name, """
         lf r1, 2.0
         lf r2, 10.0
         fpow r3, r1, r2
@@ -171,22 +164,22 @@ INT3 = [m for m, o in OPCODES.items()
 
 @settings(max_examples=15, deadline=None)
 @given(st.integers(INT_MIN, INT_MAX), st.integers(INT_MIN, INT_MAX))
-def test_every_integer_op_matches_the_table(a, b):
+def test_every_integer_op_matches_the_table(engine_name, a, b):
     lines = [f"li r1, {a}", f"li r2, {b}"]
     lines += [f"{m} r{3 + i}, r1, r2" for i, m in enumerate(INT3)]
-    r = run_sc("\n".join(lines + ["halt"]))
+    r = run_sc(engine_name, "\n".join(lines + ["halt"]))
     for i, m in enumerate(INT3):
         assert r.int(3 + i) == wrap32(int(OPCODES[m].semantics(None, a, b))), m
 
 
 @settings(max_examples=10, deadline=None)
 @given(st.floats(width=32), st.floats(width=32))
-def test_fp32_arithmetic_matches_numpy_float32(x, y):
+def test_fp32_arithmetic_matches_numpy_float32(engine_name, x, y):
     import numpy as np
 
     fx = struct.unpack("<I", struct.pack("<f", x))[0]
     fy = struct.unpack("<I", struct.pack("<f", y))[0]
-    r = run_sc("""
+    r = run_sc(engine_name, """
         ld r1, [r0]
         ld r2, [r0 + 1]
         fadd r3, r1, r2

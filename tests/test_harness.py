@@ -1,4 +1,5 @@
-"""The stage test bench: one real stage program, stubs on the other processors."""
+"""The stage test bench: one real stage program, stubs on the other processors; on every engine
+(`engine_name`, tests/conftest.py)."""
 
 from __future__ import annotations
 
@@ -29,17 +30,17 @@ loop:   recv r1, ring            # header
 """
 
 
-def test_ic_alone_with_stubs():
+def test_ic_alone_with_stubs(engine_name):
     config = load_config(None, [])
     msgs = [encode_message(FP32, "ic", 3, [slot, 100 + slot, 0.5 + slot]) for slot in range(4)]
-    run = run_stage("ic", assemble_text(IC_ECHO), msgs, config)
+    run = run_stage("ic", assemble_text(IC_ECHO), msgs, config, engine=engine_name)
     assert run.result.status == "finished"
     to_os = run.received["os"]
     assert [parse_header(m[0]).tag for m in to_os] == [4, 4, 4, 4]
     assert [FP32.to_int(m[1]) for m in to_os] == [0, 1, 2, 3]
     to_sc = run.received["sc"]
     assert [(FP32.to_int(m[1]), float(FP32.to_float(m[2]))) for m in to_sc] == [(1, 3.0), (3, 7.0)]
-    assert run.machine.pes[0].cores["ic"].stats()["bundles"] > 0
+    assert run.statistics()["processors"]["pe0.ic"]["bundles"] > 0
 
 
 def test_split_words_keeps_a_cut_off_tail():

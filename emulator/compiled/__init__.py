@@ -43,8 +43,7 @@ class CompiledEngine(Engine):
         if m.tracer is not None:  # per-cycle tracing is the reference engine's job
             return super().run(max_cycles, progress)
         limit = self.config.max_cycles if max_cycles is None else max_cycles
-        loop = load()
-        F = np.float32 if self.config.precision == "fp32" else np.float64
+        loop = load(self.config.precision)
         st = S.flatten(m)
         g = st.arrays["g"]
         code = S.S_RUNNING
@@ -54,7 +53,7 @@ class CompiledEngine(Engine):
                 if limit:
                     until = min(until, limit)
                 st.arrays["until"] = int(until)
-                code = loop.run_loop(F, *st.args())
+                code = loop.run_loop(*st.args())
                 if code != S.S_RUNNING:
                     break
                 if progress is not None:

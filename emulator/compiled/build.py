@@ -50,16 +50,17 @@ def dispatchers() -> str:
         "from netsushisen.isa.opcodes import OPCODES",
         "from netsushisen.emulator.compiled.bits import as_f, as_i, word_f, word_i, word_w",
         "",
-        "_SEM = dict(nogil=True, error_model='numpy')",
+        "_SEM = dict(nogil=True, error_model='numpy', inline='always')",
     ]
     names = {}
     for i, (m, oc) in enumerate(OPCODES.items()):
         if oc.kind in ("alu", "branch"):
             names[m] = f"S_{i}"
             lines.append(f"S_{i} = njit(**_SEM)(OPCODES[{m!r}].semantics)  # {m}")
-    for kind, head, ret in (("alu", "def exec_alu(F, mn, w0, w1, w2, ki, kf):", "0"),
-                            ("branch", "def exec_branch(F, mn, w0, w1):", "False")):
-        lines += ["", "", "@njit(cache=True, nogil=True, error_model='numpy')", head]
+    for kind, head, ret in (("alu", "def exec_alu(mn, w0, w1, w2, ki, kf):", "0"),
+                            ("branch", "def exec_branch(mn, w0, w1):", "False")):
+        lines += ["", "", "@njit(cache=True, nogil=True, error_model='numpy', inline='always')",
+                  head]
         for i, (m, oc) in enumerate(OPCODES.items()):
             if oc.kind != kind:
                 continue
@@ -90,10 +91,11 @@ def _cache_root() -> Path:
     raise OSError("no writable cache folder for the compiled engine (set NETSUSHISEN_CACHE)")
 
 
-def source() -> tuple[str, str]:
-    """(module text, its hash)."""
+def source(precision: str) -> tuple[str, str]:
+    """(module text, its hash) for a precision ("fp32" or "fp64")."""
     loop = (HERE / "loop.py").read_text(encoding="utf-8")
-    text = dispatchers() + "\n\n" + loop
+    ftype = "float32" if precision == "fp32" else "float64"
+    text = dispatchers() + f"\nF = np.{ftype}  # the machine's float type, a constant\n\n" + loop
     h = hashlib.sha256(text.encode())
     for path in (HERE / "bits.py", HERE / "state.py", ISA / "opcodes.py", ISA / "words.py",
                  ISA / "libm.py"):
@@ -102,9 +104,10 @@ def source() -> tuple[str, str]:
     return text, h.hexdigest()[:16]
 
 
-def load():
-    """The compiled loop module (generated, written and imported once per process)."""
-    text, key = source()
+def load(precision: str):
+    """The compiled loop module of a precision (generated, written and imported once per
+    process)."""
+    text, key = source(precision)
     if key in _loaded:
         return _loaded[key]
     folder = _cache_root() / key

@@ -1,7 +1,8 @@
 """The compiled engine's machine loop: the reference engine's cycle, line for line, over arrays.
 
-This file is never imported as it stands: `build.py` puts the opcode dispatchers it generates
-from the opcode table (`exec_alu`, `exec_branch`) in front of this text, writes the whole into a
+This file is never imported as it stands: `build.py` puts the machine's float type `F`
+(numpy.float32 or numpy.float64, a compile-time constant) and the opcode dispatchers it
+generates from the opcode table (`exec_alu`, `exec_branch`) in front of this text, writes the whole into a
 cache folder named by a hash of everything it depends on, and imports that (so numba's on-disk
 cache can never serve code compiled from an older opcode table or loop). Every rule here is the
 reference engine's: core.py (T1–T10, the issue checks in their order), memories.py, cmu.py,
@@ -39,22 +40,23 @@ from netsushisen.emulator.compiled.state import (
     SP_LOCAL, SP_RESIDENT, SP_GLOBAL,
 )
 
-_OPTS = dict(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+_OPTS = dict(cache=True, nogil=True, error_model="numpy", boundscheck=False, _nrt=False)
+_INLINE = dict(_OPTS, inline="always")  # one function: array arguments are costly to pass
 
 # -- FIFOs (cmu.Fifo) ---------------------------------------------------------------------------
 
 
-@njit(**_OPTS)
+@njit(**_INLINE)
 def q_free(fq, q, c):
     return fq[q, Q_CAP] - fq[q, Q_CNT] - (fq[q, Q_POPS] if fq[q, Q_POPC] == c else 0)
 
 
-@njit(**_OPTS)
+@njit(**_INLINE)
 def q_ready(fq, fbt, q, c):
     return fq[q, Q_CNT] > 0 and fbt[q, fq[q, Q_HEAD]] <= c
 
 
-@njit(**_OPTS)
+@njit(**_INLINE)
 def q_visible(fq, fbt, q, c):
     n = 0
     cap = fbt.shape[1]
@@ -66,7 +68,7 @@ def q_visible(fq, fbt, q, c):
     return n
 
 
-@njit(**_OPTS)
+@njit(**_INLINE)
 def q_push(fq, fbt, fbw, q, c, w):
     cap = fbt.shape[1]
     k = (fq[q, Q_HEAD] + fq[q, Q_CNT]) % cap
@@ -79,7 +81,7 @@ def q_push(fq, fbt, fbw, q, c, w):
         fq[q, Q_PEAK] = occ
 
 
-@njit(**_OPTS)
+@njit(**_INLINE)
 def q_pop(fq, fbw, q, c):
     if fq[q, Q_POPC] != c:
         fq[q, Q_POPC] = c
@@ -95,7 +97,7 @@ def q_pop(fq, fbw, q, c):
 # -- memories (memories.py) -------------------------------------------------------------------
 
 
-@njit(**_OPTS)
+@njit(**_INLINE)
 def count_region(rg, rmap, rcnt, pcnt, p, space, addr, hit):
     """RegionMap.lookup + RegionCounters.count; hit: -1 none, 0 miss, 1 hit."""
     off = rmap[p, space, 0]
@@ -117,7 +119,7 @@ def count_region(rg, rmap, rcnt, pcnt, p, space, addr, hit):
         pcnt[p, space, prim] += 1
 
 
-@njit(**_OPTS)
+@njit(**_INLINE)
 def cache_probe(cs, ctags, p, addr):
     sets = cs[p, C_CACHE_SETS]
     if sets == 0:
@@ -129,14 +131,14 @@ def cache_probe(cs, ctags, p, addr):
 # -- one processor's cycle (core.Core.step) -------------------------------------------------------
 
 
-@njit(**_OPTS)
+@njit(**_INLINE)
 def stall(cs, stpc, p, cause, pc):
     stpc[p, pc, cause] += 1
     cs[p, C_CAUSE] = cause
     cs[p, C_LAST_PC] = pc
 
 
-@njit(**_OPTS)
+@njit(**_INLINE)
 def schedule(cs, regs_ready, prod, wbn, wbr, wbw, W, p, rd, word, t, mn):
     if rd <= 0:
         return
@@ -149,11 +151,12 @@ def schedule(cs, regs_ready, prod, wbn, wbr, wbw, W, p, rd, word, t, mn):
     prod[p, rd] = mn
 
 
-@njit(**_OPTS)
-def core_step(F, c, p, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, opu,
-              opm, ops, opf, bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rcnt,
-              pcnt, W, finfo):
-    """Returns 0, or a fault code (finfo filled)."""
+@njit(**_INLINE)
+def core_step(c, p, A, W, finfo):
+    """Returns 0, or a fault code (finfo filled). A: the state arrays (a tuple, so the call
+    stays short enough for numba to inline it)."""
+    (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, opu, opm, ops, opf, bun,
+     recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rcnt, pcnt) = A
     # write back results due now
     s = c & (W - 1)
     n = wbn[p, s]
@@ -305,7 +308,7 @@ def core_step(F, c, p, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
         kind = ops[p, pc, j, O_KIND]
         mn = ops[p, pc, j, O_MN]
         if kind == K_ALU:
-            w = exec_alu(F, mn, regs[p, ops[p, pc, j, O_R]], regs[p, ops[p, pc, j, O_R + 1]],
+            w = exec_alu(mn, regs[p, ops[p, pc, j, O_R]], regs[p, ops[p, pc, j, O_R + 1]],
                          regs[p, ops[p, pc, j, O_R + 2]], ops[p, pc, j, O_KI], opf[p, pc, j])
             schedule(cs, ready, prod, wbn, wbr, wbw, W, p, ops[p, pc, j, O_RD], w,
                      c + ops[p, pc, j, O_LAT], mn)
@@ -359,7 +362,7 @@ def core_step(F, c, p, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
                 hold_mem = c + t_acc
                 mem_cause = cause
         elif kind == K_BRANCH:
-            if exec_branch(F, mn, regs[p, ops[p, pc, j, O_R]], regs[p, ops[p, pc, j, O_R + 1]]):
+            if exec_branch(mn, regs[p, ops[p, pc, j, O_R]], regs[p, ops[p, pc, j, O_R + 1]]):
                 next_pc = ops[p, pc, j, O_TARGET]
                 taken = True
         elif kind == K_JUMP:
@@ -441,7 +444,7 @@ def core_step(F, c, p, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
 # -- the CMU (cmu.Cmu.step) -------------------------------------------------------------------
 
 
-@njit(**_OPTS)
+@njit(**_INLINE)
 def cmu_step(c, m, cm, cin, cout, route, rem, lown, linkw, fq, fbt, fbw, pooled, finfo):
     """Returns 1 if a word moved, 0 if none, -1 on a fault (finfo filled)."""
     n = cm[m, M_N]
@@ -523,7 +526,7 @@ def cmu_step(c, m, cm, cin, cout, route, rem, lown, linkw, fq, fbt, fbw, pooled,
 # -- the whole machine (machine.Machine.step, Dis.step, Col.step, _check_end) --------------------
 
 
-@njit(**_OPTS)
+@njit(**_INLINE)
 def ring_words(pe, pes, cm, cin, cout, fq):
     """cmu.Ring.ring_words: send, receive FIFOs and links of a PE."""
     n = 0
@@ -535,13 +538,13 @@ def ring_words(pe, pes, cm, cin, cout, fq):
     return n
 
 
-@njit(**_OPTS)
+@njit(**_INLINE)
 def core_idle(cs, stpc_flags, p):
     """core.Core.idle: halted, or waiting on an empty receive FIFO."""
     return cs[p, C_HALTED] or (not cs[p, C_LAST_ISSUED] and stpc_flags[cs[p, C_CAUSE]] == 2)
 
 
-@njit(**_OPTS)
+@njit(**_INLINE)
 def pe_idle(pe, cs, cflags, pes, cm, cin, cout, fq):
     for s in range(3):
         p = pe * 3 + s
@@ -551,7 +554,7 @@ def pe_idle(pe, cs, cflags, pes, cm, cin, cout, fq):
         + fq[pes[pe, P_COL], Q_CNT] == 0
 
 
-@njit(**_OPTS)
+@njit(**_INLINE)
 def pe_issued(pe, cs):
     for s in range(3):
         p = pe * 3 + s
@@ -560,7 +563,7 @@ def pe_issued(pe, cs):
     return False
 
 
-@njit(**_OPTS)
+@njit(**_INLINE)
 def pe_progressed(pe, cs, cflags, pes):
     if pes[pe, P_MOVED] or pes[pe, P_DIS_MOVED] or pes[pe, P_COL_MOVED]:
         return True
@@ -574,13 +577,15 @@ def pe_progressed(pe, cs, cflags, pes):
 
 
 @njit(**_OPTS)
-def run_loop(F, g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, opu,
+def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, opu,
              opm, ops, opf, bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rcnt,
              pcnt, cm, cin, cout, route, rem, lown, linkw, pes, dis, dcur, doff, dup, dasg,
              moff, mwords, col, cpart, cplen, frame, ids, cflags, finfo):
     """Run cycles from g[G_CYCLE] until the run ends or the cycle `until` is reached; returns
     the status code (S_*). The cycle counter in g is advanced like machine.cycle."""
     W = g[G_W]
+    A = (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, opu, opm, ops, opf,
+         bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rcnt, pcnt)
     npes = g[G_NPES]
     pooled = g[G_POOLED]
     limit = g[G_DEADLOCK_CYCLES]
@@ -625,9 +630,7 @@ def run_loop(F, g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn
             for s in range(3):
                 p = pe * 3 + s
                 if cs[p, C_PRESENT]:
-                    if core_step(F, c, p, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn,
-                                 stpc, bpc, opu, opm, ops, opf, bun, recvq, sendq, fq, fbt, fbw,
-                                 mem, seg, ctags, rg, rmap, rcnt, pcnt, W, finfo):
+                    if core_step(c, p, A, W, finfo):
                         g[G_CYCLE] = c + 1
                         return S_FAULT
             moved = 0

@@ -12,6 +12,9 @@ The expected leaves come from the golden `trace` with IC never hitting (its inte
 stubbed out): every visited leaf (`keep_visits`), its voxel word from the image layout, and the
 leaf's t_exit recomputed with traversal.py's own crossing function. Everything is compared bit
 for bit, in fp32 and fp64.
+
+Every machine run goes through the engine interface and runs once per engine (`engine_name`,
+tests/conftest.py): the stubs' logs are read back as registers and local memory words.
 """
 
 from __future__ import annotations
@@ -23,8 +26,7 @@ import numpy as np
 import pytest
 
 from netsushisen.asm.assembler import assemble_file, assemble_text
-from netsushisen.emulator.harness import encode_message, run_stage, split_words
-from netsushisen.emulator.machine import Machine
+from netsushisen.emulator.harness import encode_message, run_machine, run_stage, split_words
 from netsushisen.host import traversal
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.databases import build_images
@@ -250,8 +252,9 @@ idle:   recv r4, ring
 """
 
 
-def run_with_next(images, program, host=(), ring=()):
-    """OS with the NEXT-answering IC stub; `ring`: RAY messages SC sends OS first."""
+def run_with_next(images, program, host=(), ring=(), engine="reference"):
+    """OS with the NEXT-answering IC stub; `ring`: RAY messages SC sends OS first. Returns the
+    engine that ran, the leaves and the ends."""
     wf = word_format(images.config.precision)
     programs = {"os": program, "ic": assemble_text(IC_NEXT, proc="ic", filename="<ic stub>"),
                 "sc": assemble_text(SC_RECORD, proc="sc", filename="<sc stub>")}
@@ -260,11 +263,11 @@ def run_with_next(images, program, host=(), ring=()):
     ring_words = [w for m in ring for w in m]
     image.memories["sc.local"] = image.memories.get("sc.local", []) + [
         Segment(0, [("w", np.asarray([wf.from_int(len(ring_words))] + ring_words, dtype=np.uint64))])]
-    machine = Machine(images.config, programs, image)
-    result = machine.run(max_cycles=2_000_000)
+    machine = run_machine(engine, images.config, programs, image, max_cycles=2_000_000)
+    result = machine.result()
     assert result.status == "finished", result.error and result.error.format()
-    n = machine.pes[0].cores["sc"].regs[60] - SC_BASE_WORDS
-    words = machine.pes[0].memories["sc"].local.words[SC_BASE_WORDS:SC_BASE_WORDS + n]
+    n = machine.register("pe0.sc", 60) - SC_BASE_WORDS
+    words = machine.memory("pe0.sc", "local")[SC_BASE_WORDS:SC_BASE_WORDS + n]
     leaves: dict[int, list[tuple[int, int]]] = {}
     ends: dict[int, tuple[int, list[int]]] = {}
     for msg in split_words([int(w) for w in words]):
@@ -298,14 +301,15 @@ FIRST_VISIT_CASES = [("tetra:3", 8, "fp32"), ("balls:2", 8, "fp32"), ("rings:2",
 
 
 @pytest.mark.parametrize("spec,res,precision", FIRST_VISIT_CASES)
-def test_first_visit_of_every_eye_ray_matches_the_golden_traversal(spec, res, precision):
+def test_first_visit_of_every_eye_ray_matches_the_golden_traversal(spec, res, precision, engine_name):
     """Stage bench: IC and SC only record, so each ray gets as far as its first non-empty
     leaf (VISIT_FIRST: slot, list pointer, t_exit, record) or misses (MISS: pixel, weight)."""
     images, messages, o, d, t_min = eye_rays(spec, res, precision)
     wf = word_format(precision)
     n = len(messages)
     expected = golden_leaves(images, o, d, t_min)
-    run = run_stage("os", os_program(images, slots=n), messages, images.config, images.memory_image())
+    run = run_stage("os", os_program(images, slots=n), messages, images.config, images.memory_image(),
+                    engine=engine_name)
     assert run.result.status == "finished", run.result.error and run.result.error.format()
     visits, slots = {}, set()
     for msg in run.received["ic"]:
@@ -332,21 +336,21 @@ def test_first_visit_of_every_eye_ray_matches_the_golden_traversal(spec, res, pr
 
 @pytest.mark.parametrize("spec,res,slots", [(SCENES + "axis_parallel.nff", 9, 8), ("balls:2", 8, 8),
                                             ("rings:2", 8, 8), ("tetra:3", 8, 3), ("balls:2", 6, 1)])
-def test_leaf_sequences_of_eye_rays_with_ic_answering_next(spec, res, slots):
+def test_leaf_sequences_of_eye_rays_with_ic_answering_next(spec, res, slots, engine_name):
     """With IC answering NEXT, every eye ray walks all its non-empty leaves, in the golden order
     and with the golden t_exit (sub-grids included), then leaves the grid as MISS."""
     images, messages, o, d, t_min = eye_rays(spec, res, "fp32")
     wf = word_format("fp32")
     expected = golden_leaves(images, o, d, t_min)
     assert sum(len(x) for x in expected) > len(messages)  # several leaves per ray on average
-    _, leaves, ends = run_with_next(images, os_program(images, slots), host=messages)
+    _, leaves, ends = run_with_next(images, os_program(images, slots), host=messages, engine=engine_name)
     check_sequences(wf, expected, leaves, ends, P["TAG_MISS"], np.ones((3, len(messages))))
 
 
-def test_one_slot_and_eight_slots_give_the_same_leaf_sequences():
+def test_one_slot_and_eight_slots_give_the_same_leaf_sequences(engine_name):
     images, messages, *_ = eye_rays("rings:2", 6, "fp32")
-    one = run_with_next(images, os_program(images, 1), host=messages)
-    eight = run_with_next(images, os_program(images, 8), host=messages)
+    one = run_with_next(images, os_program(images, 1), host=messages, engine=engine_name)
+    eight = run_with_next(images, os_program(images, 8), host=messages, engine=engine_name)
     assert one[1] == eight[1] and one[2] == eight[2]
     assert one[0].cycle > eight[0].cycle  # eight rays in flight overlap OS, IC and SC
 
@@ -361,7 +365,7 @@ def test_one_slot_and_eight_slots_give_the_same_leaf_sequences():
     ("tetra:3", "fp64", False, True, 2),
     ("mount:2", "fp32", True, False, 4),
 ])
-def test_rays_starting_inside_the_grid(spec, precision, shadow, via_ring, slots):
+def test_rays_starting_inside_the_grid(spec, precision, shadow, via_ring, slots, engine_name):
     """Secondary and shadow rays (`crafted_rays`: inside the grid, on voxel boundaries, from
     outside) from the host or from SC over the ring (few slots: the overflow queue fills).
     Surface rays end in MISS with their weight; shadow rays in COLOR with their contribution
@@ -383,17 +387,17 @@ def test_rays_starting_inside_the_grid(spec, precision, shadow, via_ring, slots)
     messages = ray_messages(wf, o, d, t_min, t_max, weight, info)
     program = os_program(images, slots)
     if via_ring:
-        machine, leaves, ends = run_with_next(images, program, ring=messages)
+        machine, leaves, ends = run_with_next(images, program, ring=messages, engine=engine_name)
         queue = images.symbols["OS_FREE_BASE"] + slots * SLOT_WORDS
-        assert machine.pes[0].memories["os"].local.words[queue + 2] != 0, "the overflow queue was used"
+        assert machine.memory("pe0.os", "local")[queue + 2] != 0, "the overflow queue was used"
     else:
-        machine, leaves, ends = run_with_next(images, program, host=messages)
+        machine, leaves, ends = run_with_next(images, program, host=messages, engine=engine_name)
     check_sequences(wf, expected, leaves, ends, end, weight)
     if shadow:
         assert any(not e for e in expected) and any(len(e) > 1 for e in expected)
 
 
-def test_specialised_and_generic_kernels_agree():
+def test_specialised_and_generic_kernels_agree(engine_name):
     """Without sub-grids (HAS_SUBGRIDS = 0) and without secondary rays the kernel drops that
     code; the generic kernel (every HAS_* = 1) gives the same leaves and ends."""
     spec = SCENES + "axis_parallel.nff"
@@ -402,8 +406,9 @@ def test_specialised_and_generic_kernels_agree():
     lean = os_program(images, 8, NLIGHTS=0, HAS_REFLECTION=0, HAS_REFRACTION=0)
     generic = os_program(images, 8, HAS_SUBGRIDS=1, HAS_REFLECTION=1, HAS_REFRACTION=1)
     assert len(lean.bundles) < len(generic.bundles)
-    (_, lean_leaves, lean_ends), (_, leaves, ends) = (run_with_next(images, p, host=messages)
-                                                     for p in (lean, generic))
+    (_, lean_leaves, lean_ends), (_, leaves, ends) = (run_with_next(images, p, host=messages,
+                                                                    engine=engine_name)
+                                                      for p in (lean, generic))
     assert (lean_leaves, lean_ends) == (leaves, ends)
     expected = golden_leaves(images, o, d, t_min)
     check_sequences(word_format("fp32"), expected, leaves, ends, P["TAG_MISS"], np.ones((3, len(messages))))
@@ -541,7 +546,7 @@ word:   ld r11, [r8]
 """
 
 
-def run_trees(images, messages, serial: bool):
+def run_trees(images, messages, serial: bool, engine: str = "reference"):
     """OS (SLOTS=1) with the tree stubs: IC's log of first visits and SC's log of ray ends."""
     wf = word_format(images.config.precision)
     defines = {"SERIAL_TREES": 1} if serial else {}
@@ -550,18 +555,18 @@ def run_trees(images, messages, serial: bool):
                 "sc": assemble_text(SC_TREE, proc="sc", filename="<sc stub>", defines=defines)}
     image = images.memory_image()
     image.host = [Segment(0, [("w", np.asarray([w for m in messages for w in m], dtype=np.uint64))])]
-    machine = Machine(images.config, programs, image)
-    result = machine.run(max_cycles=3_000_000)
+    machine = run_machine(engine, images.config, programs, image, max_cycles=3_000_000)
+    result = machine.result()
     assert result.status == "finished", result.error and result.error.format()
 
     def log(stage):
-        n = machine.pes[0].cores[stage].regs[60] - LOG_BASE
-        words = machine.pes[0].memories[stage].local.words[LOG_BASE:LOG_BASE + n]
+        n = machine.register(f"pe0.{stage}", 60) - LOG_BASE
+        words = machine.memory(f"pe0.{stage}", "local")[LOG_BASE:LOG_BASE + n]
         return [(wf.to_int(words[k]), wf.to_int(words[k + 1])) for k in range(0, n, 2)]
     return log("ic"), log("sc")
 
 
-def test_serial_mode_finishes_each_ray_tree_before_the_next_eye_ray():
+def test_serial_mode_finishes_each_ray_tree_before_the_next_eye_ray(engine_name):
     """SERIAL_TREES=1, SLOTS=1: OS takes the next host ray only once every ray of the current
     tree is finished — whichever way each ends: MISS (eye rays that miss the grid), COLOR (odd
     pixels' shadow rays, at OS), DONE of an occluded shadow ray (even pixels), DONE + SHADED of a
@@ -570,8 +575,8 @@ def test_serial_mode_finishes_each_ray_tree_before_the_next_eye_ray():
     ray overtakes the tree's younger rays."""
     images, messages, *_ = eye_rays("tetra:3", 6, "fp32")
     n = len(messages)
-    serial_ic, serial_sc = run_trees(images, messages, serial=True)
-    normal_ic, normal_sc = run_trees(images, messages, serial=False)
+    serial_ic, serial_sc = run_trees(images, messages, serial=True, engine=engine_name)
+    normal_ic, normal_sc = run_trees(images, messages, serial=False, engine=engine_name)
     eye_hit = sorted({p for p, info in serial_ic if info == P["KIND_EYE"] + (1 << P["INFO_DEPTH_SHIFT"])})
     assert 0 < len(eye_hit) < n, "some eye rays reach a leaf, some miss the grid"
 
@@ -601,7 +606,7 @@ def test_serial_mode_kernel_assembles_only_when_asked():
     assert "on_shaded" in lean.labels and "on_ray" not in lean.labels  # SHADED without secondary rays
 
 
-def test_serial_mode_renders_what_normal_mode_renders():
+def test_serial_mode_renders_what_normal_mode_renders(engine_name):
     """The whole machine (render), serial mode with one slot against normal mode with eight: the
     same image bit for bit, hit ids, ray counts and IC references (accesses per primitive, per
     region, resident and cache) — only the order of the work differs."""
@@ -609,8 +614,8 @@ def test_serial_mode_renders_what_normal_mode_renders():
     from netsushisen.isa.config import load_config
 
     config = load_config()
-    serial = render("mount:2", config, res=6, slots=1, defines={"SERIAL_TREES": 1})
-    normal = render("mount:2", config, res=6, slots=8)
+    serial = render("mount:2", config, res=6, slots=1, defines={"SERIAL_TREES": 1}, engine=engine_name)
+    normal = render("mount:2", config, res=6, slots=8, engine=engine_name)
     for r in (serial, normal):
         assert r.run.status == "finished", r.run
     assert serial.setup.defines["SERIAL_TREES"] == 1 and "SERIAL_TREES" not in normal.setup.defines

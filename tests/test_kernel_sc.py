@@ -19,6 +19,9 @@ rays `_shade` returns before the next wavefront is traced and shaded (golden the
 so a kernel that mixes up weight components fails. Besides the paper's scenes (reduced sizes) and
 tests/scenes, three small inline NFF scenes cover refraction with total internal reflection in
 one scene, patches (shading normal != geometric normal) and a scene without lights.
+
+The bench runs once per engine (`engine_name`, tests/conftest.py) and reads the run back through
+the engine interface (messages, SC's local memory, frame and id buffers).
 """
 
 from __future__ import annotations
@@ -288,16 +291,16 @@ class Outcome:
     cycles: int
 
 
-def run_sc(case: Case, generic: bool = False, serial: bool = False) -> Outcome:
+def run_sc(case: Case, generic: bool = False, serial: bool = False, engine: str = "reference") -> Outcome:
     program = assemble_sc(case, generic, serial)
     case.images.check_programs({"sc": program})
     image = case.images.memory_image()
     image.frame = (case.res, case.res)
-    run = run_stage("sc", program, case.host, bench_config(case.config), image)
+    run = run_stage("sc", program, case.host, bench_config(case.config), image, engine=engine)
     assert run.result.status == "finished", run.result
     assert not run.received["ic"], "SC sent something to IC"
     wf = word_format(case.config.precision)
-    local = run.machine.pes[0].memories["sc"].local.words
+    local = run.memory("sc", "local")
     counts = {}
     for name in COUNTERS:
         section, addr = program.labels[f"count_{name}"]
@@ -370,10 +373,10 @@ def _case_id(c) -> str:
 
 
 @pytest.mark.parametrize("spec,precision,res,min_weight,tint", CASES, ids=[_case_id(c) for c in CASES])
-def test_sc_matches_the_golden_shading(spec, precision, res, min_weight, tint):
+def test_sc_matches_the_golden_shading(spec, precision, res, min_weight, tint, engine_name):
     case = build_case(spec, precision, res, min_weight, tint)
     assert case.hits and case.rays, "the case exercises nothing"
-    check_all(case, run_sc(case))
+    check_all(case, run_sc(case, engine=engine_name))
 
 
 def test_the_cases_exercise_every_branch():
@@ -409,12 +412,12 @@ def test_the_cases_exercise_every_branch():
     assert any(len({m[9], m[10], m[11]}) == 3 for m in hits)
 
 
-def test_specialised_and_generic_kernels_agree():
+def test_specialised_and_generic_kernels_agree(engine_name):
     for spec in ("tetra:3", "balls:2"):
         case = build_case(spec, "fp32", 8)
         special, generic = assemble_sc(case), assemble_sc(case, generic=True)
         assert len(generic.bundles) > len(special.bundles)
-        a, b = run_sc(case), run_sc(case, generic=True)
+        a, b = run_sc(case, engine=engine_name), run_sc(case, generic=True, engine=engine_name)
         check_all(case, a)
         assert a.rays == b.rays and a.counts == b.counts
         np.testing.assert_array_equal(a.frame, b.frame)
@@ -430,7 +433,7 @@ def test_tetra_assembles_no_reflection_or_refraction():
     assert {"reflection", "refraction"} <= set(assemble_sc(case, generic=True).labels)
 
 
-def test_unknown_messages_are_skipped():
+def test_unknown_messages_are_skipped(engine_name):
     """A message SC does not know is drained by its length; COLOR and MISS around it still work."""
     case = build_case("tetra:3", "fp32", 10)
     wf = word_format("fp32")
@@ -439,7 +442,7 @@ def test_unknown_messages_are_skipped():
             encode_message(wf, "sc", 13, []),
             encode_message(wf, "sc", P["TAG_MISS"], [5, np.float32(1.0), np.float32(0.5), np.float32(0.25)])]
     small = dataclasses.replace(case, host=host)
-    out = run_sc(small)
+    out = run_sc(small, engine=engine_name)
     assert out.rays == [] and out.counts == dict.fromkeys(COUNTERS, 0)
     bg = golden.Luminance.of(load_scene("tetra:3"), np.float32).background
     expected = np.zeros_like(out.frame)
@@ -456,12 +459,13 @@ SERIAL_CASES = [CASES[1], CASES[2], CASES[4], CASES[7], CASES[9]]  # mount, tetr
 
 @pytest.mark.parametrize("spec,precision,res,min_weight,tint", SERIAL_CASES,
                          ids=[_case_id(c) for c in SERIAL_CASES])
-def test_serial_mode_sends_shaded_after_each_hits_rays(spec, precision, res, min_weight, tint):
+def test_serial_mode_sends_shaded_after_each_hits_rays(spec, precision, res, min_weight, tint,
+                                                       engine_name):
     """Every HIT, whichever way its shading ends (no light faced, depth limit, T = 0, total
     internal reflection, min_weight cut, no mirrors or glass assembled), is followed on the ring
     to OS by exactly its spawned RAYs, then SHADED (its pixel); nothing else changes."""
     case = build_case(spec, precision, res, min_weight, tint)
-    out = run_sc(case, serial=True)
+    out = run_sc(case, serial=True, engine=engine_name)
     wf = word_format(precision)
     rays, k = [], 0
     for pixel, n in case.spawned:

@@ -5,7 +5,8 @@ deadlocked: OS blocked sending a VISIT to IC, IC sending a HIT to SC, SC sending
 whose receive FIFO was full — a cycle of full FIFOs. Now OS checks `room` before every message and,
 while it does not fit, drains the ring (RAY into the overflow queue, DONE frees its slot, NEXT is
 put aside for `main`). The renders must still agree with the golden model exactly: ray counts, hit
-ids, IC references per primitive.
+ids, IC references per primitive. The renders run once per engine (`engine_name`,
+tests/conftest.py); results are read from the render's statistics and buffers.
 """
 
 from __future__ import annotations
@@ -38,9 +39,9 @@ def _golden(spec: str):
     return golden_render(load_scene(spec), load_config(None, []), res=RES)
 
 
-def _check(spec: str, sets: list[str], **kw):
+def _check(spec: str, sets: list[str], engine: str, **kw):
     scene = load_scene(spec)
-    machine = render(scene, load_config(None, sets), res=RES, **kw)
+    machine = render(scene, load_config(None, sets), res=RES, engine=engine, **kw)
     golden = _golden(spec)
     assert machine.run.status == "finished", machine.run.error and machine.run.error.format()
     assert machine.rays == golden.rays
@@ -60,17 +61,19 @@ def _os_bundles_at(machine, label: str) -> int:
 
 @pytest.mark.parametrize("pool", [True, False], ids=["buffer_pool", "no_buffer_pool"])
 @pytest.mark.parametrize("spec", ["rings:2", "balls:2"])
-def test_shallowest_fifos_do_not_deadlock(spec, pool):
+def test_shallowest_fifos_do_not_deadlock(spec, pool, engine_name):
     """These configurations deadlocked before; now OS drains the ring while its send FIFO is full
     (the drain really runs: rays queued, DONEs taken, NEXTs deferred and resumed)."""
-    machine = _check(spec, [f"ring.fifo_depth={MIN_DEPTH}", f"ring.buffer_pool={str(pool).lower()}"])
+    machine = _check(spec, [f"ring.fifo_depth={MIN_DEPTH}", f"ring.buffer_pool={str(pool).lower()}"],
+                     engine_name)
     assert _os_bundles_at(machine, "drain_next") > 0
     assert _os_bundles_at(machine, "from_defer") == _os_bundles_at(machine, "drain_next")
     assert _os_bundles_at(machine, "drain_done") > 0
 
 
-def test_serial_mode_with_the_shallowest_fifos():
-    _check("mount:2", [f"ring.fifo_depth={MIN_DEPTH}"], slots=1, defines={"SERIAL_TREES": 1})
+def test_serial_mode_with_the_shallowest_fifos(engine_name):
+    _check("mount:2", [f"ring.fifo_depth={MIN_DEPTH}"], engine_name, slots=1,
+           defines={"SERIAL_TREES": 1})
 
 
 def test_fifos_shallower_than_the_longest_message_are_rejected():

@@ -1,4 +1,8 @@
-"""`netsushisen run` and `netsushisen config`: outputs, exit codes, located errors, no tracebacks."""
+"""`netsushisen run` and `netsushisen config`: outputs, exit codes, located errors, no tracebacks.
+
+The tests of what a run does (statistics, outputs, exit codes of its end) run once per engine
+(`engine_name`, tests/conftest.py) with `run --engine`; the trace is the reference engine's own
+(`run --trace` takes only it), and input errors are found before any engine is built."""
 
 from __future__ import annotations
 
@@ -27,11 +31,11 @@ def files(tmp_path):
     return tmp_path
 
 
-def test_run_source_and_object_with_statistics(files, capsys):
+def test_run_source_and_object_with_statistics(files, capsys, engine_name):
     for prog in ("ic.s", "ic.o"):
         out = files / f"stats-{prog}.json"
         code = main(["run", "--ic", str(files / prog), "--image", str(files / "img.json"),
-                     "--json", str(out)])
+                     "--json", str(out), "--engine", engine_name])
         assert code == 0
         s = json.loads(out.read_text())
         assert s["run"]["status"] == "halted"
@@ -42,11 +46,11 @@ def test_run_source_and_object_with_statistics(files, capsys):
     assert "pe0.ic: 10 cycles, 3 bundles" in capsys.readouterr().out
 
 
-def test_statistics_files_are_byte_identical(files):
+def test_statistics_files_are_byte_identical(files, engine_name):
     paths = [files / "a.json", files / "b.json"]
     for p in paths:
         assert main(["run", "--ic", str(files / "ic.s"), "--image", str(files / "img.json"),
-                     "--pes", "2", "--json", str(p), "-q"]) == 0
+                     "--pes", "2", "--json", str(p), "-q", "--engine", engine_name]) == 0
     assert paths[0].read_bytes() == paths[1].read_bytes()
 
 
@@ -90,12 +94,13 @@ tail:
 """
 
 
-def test_deadlock_exit_3_with_report_and_outputs(tmp_path, capsys):
+def test_deadlock_exit_3_with_report_and_outputs(tmp_path, capsys, engine_name):
     for name, src in (("os", DL_OS), ("ic", DL_IC), ("sc", DL_SC)):
         (tmp_path / f"{name}.s").write_text(src)
     args = ["run", "--os", str(tmp_path / "os.s"), "--ic", str(tmp_path / "ic.s"),
             "--sc", str(tmp_path / "sc.s"), "--set", "ring.deadlock_cycles=100",
-            "--json", str(tmp_path / "s.json"), "--frame", str(tmp_path / "f.npy")]
+            "--json", str(tmp_path / "s.json"), "--frame", str(tmp_path / "f.npy"),
+            "--engine", engine_name]
     code = main(args + ["--set", "ring.buffer_pool=false"])
     err = capsys.readouterr().err
     assert code == 3
@@ -110,18 +115,20 @@ def test_deadlock_exit_3_with_report_and_outputs(tmp_path, capsys):
     assert main(args + ["--set", "ring.buffer_pool=true"]) == 0
 
 
-def test_run_time_fault_exit_2_statistics_written(tmp_path, capsys):
+def test_run_time_fault_exit_2_statistics_written(tmp_path, capsys, engine_name):
     (tmp_path / "ic.s").write_text("start: nop\n ldg r1, [r0 + 99]\n halt\n")
-    code = main(["run", "--ic", str(tmp_path / "ic.s"), "--json", str(tmp_path / "s.json")])
+    code = main(["run", "--ic", str(tmp_path / "ic.s"), "--json", str(tmp_path / "s.json"),
+                 "--engine", engine_name])
     err = capsys.readouterr().err
     assert code == 2 and "Traceback" not in err
     assert "pe0.ic pc 1 (start+1) cycle 1: error: run-time fault: ICGM address 99" in err
     assert json.loads((tmp_path / "s.json").read_text())["run"]["status"] == "fault"
 
 
-def test_max_cycles_exit_4(tmp_path, capsys):
+def test_max_cycles_exit_4(tmp_path, capsys, engine_name):
     (tmp_path / "os.s").write_text("loop: j loop\n")
-    assert main(["run", "--os", str(tmp_path / "os.s"), "--max-cycles", "100", "-q"]) == 4
+    assert main(["run", "--os", str(tmp_path / "os.s"), "--max-cycles", "100", "-q",
+                 "--engine", engine_name]) == 4
     assert "cycle limit reached: 100" in capsys.readouterr().err
 
 
@@ -168,13 +175,13 @@ def test_host_stream_must_hold_whole_messages(files, tmp_path, capsys):
     assert "announces 3 payload words but only 1 follow" in _err(capsys)
 
 
-def test_npz_image(tmp_path, capsys):
+def test_npz_image(tmp_path, capsys, engine_name):
     (tmp_path / "ic.s").write_text("ldg r1, [r0 + 2]\nldr r2, [r0]\nhalt\n")
     np.savez(tmp_path / "img.npz", **{"icgm": np.array([0.0, 1.0, 2.5], dtype=np.float32),
                                       "ic.resident": np.array([-3], dtype=np.int32),
                                       "sizes.icgm": np.array(16)})
     assert main(["run", "--ic", str(tmp_path / "ic.s"), "--image", str(tmp_path / "img.npz"),
-                 "--json", str(tmp_path / "s.json"), "-q"]) == 0
+                 "--json", str(tmp_path / "s.json"), "-q", "--engine", engine_name]) == 0
     s = json.loads((tmp_path / "s.json").read_text())
     assert s["global_memory"]["icgm"]["words"] == 16
 

@@ -76,6 +76,12 @@ class Engine:
                 break
         return status
 
+    def progress_counts(self) -> tuple[int, int, int]:
+        """(cycle, host messages DIS has started handing out, messages COL has taken): cheap
+        live counters for a progress display, valid during a run (from a progress callback)."""
+        m = self.machine
+        return m.cycle, sum(m.dis.assigned), m.col.messages
+
     # -- reading -------------------------------------------------------------------------------
 
     @property

@@ -45,7 +45,10 @@ class CompiledEngine(Engine):
         limit = self.config.max_cycles if max_cycles is None else max_cycles
         loop = load(self.config.precision)
         st = S.flatten(m)
+        self._live = st
         g = st.arrays["g"]
+        if self._stop is not None:
+            g[S.G_STOP_P], g[S.G_STOP_PC] = self._stop
         code = S.S_RUNNING
         try:
             while True:
@@ -61,13 +64,40 @@ class CompiledEngine(Engine):
                 if limit and g[S.G_CYCLE] >= limit:
                     break
         finally:  # Ctrl-C between chunks leaves a consistent machine behind
+            self._live = None
             S.write_back(st, m)
+        if code == S.S_STOPPED:
+            return self.result()
         if code == S.S_RUNNING:
             return m.run(max_cycles)  # the cycle limit: the reference words its end
         self._finish(code, st)
         if progress is not None:
             progress(m.cycle)
         return self.result()
+
+    _live: S.State | None = None
+    _stop: tuple[int, int] | None = None
+
+    def run_to_pc(self, processor: str, pc: int, max_cycles: int | None = None) -> str | None:
+        """Run until `processor`'s next bundle is the one at `pc` (checked after each cycle,
+        so a PC it starts at does not count), the run ends, or `max_cycles` is reached. The
+        machine's status after (None: stopped at the PC or at the limit)."""
+        self._stop = (self.processors().index(processor), pc)
+        try:
+            self.run(max_cycles)
+        finally:
+            self._stop = None
+        m = self.machine
+        if m.status == "max_cycles" and max_cycles is not None:
+            m.status, m.error = None, None
+        return m.status
+
+    def progress_counts(self) -> tuple[int, int, int]:
+        st = self._live
+        if st is None:
+            return super().progress_counts()
+        a = st.arrays
+        return int(a["g"][S.G_CYCLE]), int(a["dasg"].sum()), int(a["col"][S.L_MESSAGES])
 
     def step(self, cycles: int = 1) -> str | None:
         """Run `cycles` cycles in compiled code (the run may end sooner)."""

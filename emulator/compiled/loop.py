@@ -34,8 +34,8 @@ from netsushisen.emulator.compiled.state import (
     P_MOVED, P_DIS_MOVED, P_COL_MOVED, P_NO_PROGRESS, P_HOST, P_COL,
     D_DYNAMIC, D_NEXT, D_NMSGS, D_WORDS_SENT,
     L_MESSAGES, L_WORDS, L_WIDTH, L_HEIGHT,
-    G_CYCLE, G_DEADLOCK_CYCLES, G_POOLED, G_NPES, G_W,
-    S_RUNNING, S_HALTED, S_FINISHED, S_DEADLOCK_PE, S_DEADLOCK_COL, S_FAULT, S_LIMIT,
+    G_CYCLE, G_DEADLOCK_CYCLES, G_POOLED, G_NPES, G_W, G_STOP_P, G_STOP_PC,
+    S_RUNNING, S_HALTED, S_FINISHED, S_DEADLOCK_PE, S_DEADLOCK_COL, S_FAULT, S_STOPPED,
     F_PC, F_MEMORY, F_RING_COL, F_COL_HEADER, F_COL_PIXEL,
     SP_LOCAL, SP_RESIDENT, SP_GLOBAL,
 )
@@ -736,4 +736,8 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
             if pes[i, P_NO_PROGRESS] >= limit:
                 finfo[1] = i
                 return S_DEADLOCK_PE
+        # a stop point (debugger fast-forward): this processor's next bundle is at that PC
+        sp = g[G_STOP_P]
+        if sp >= 0 and cs[sp, C_PC] == g[G_STOP_PC] and not cs[sp, C_HALTED]:
+            return S_STOPPED
     return S_RUNNING

@@ -93,10 +93,10 @@ P_MOVED, P_DIS_MOVED, P_COL_MOVED, P_NO_PROGRESS, P_HOST, P_COL = range(6)
 # DIS, COL, globals
 D_DYNAMIC, D_NEXT, D_NMSGS, D_WORDS_SENT = range(4)
 L_MESSAGES, L_WORDS, L_WIDTH, L_HEIGHT = range(4)
-G_CYCLE, G_DEADLOCK_CYCLES, G_POOLED, G_NPES, G_W = range(5)
+G_CYCLE, G_DEADLOCK_CYCLES, G_POOLED, G_NPES, G_W, G_STOP_P, G_STOP_PC = range(7)
 
 # run-loop status codes and fault kinds (finfo[0])
-S_RUNNING, S_HALTED, S_FINISHED, S_DEADLOCK_PE, S_DEADLOCK_COL, S_FAULT, S_LIMIT = range(7)
+S_RUNNING, S_HALTED, S_FINISHED, S_DEADLOCK_PE, S_DEADLOCK_COL, S_FAULT, S_STOPPED = range(7)
 F_PC, F_MEMORY, F_RING_COL, F_COL_HEADER, F_COL_PIXEL = range(1, 6)
 
 _ROUTE_NONE = -2
@@ -359,7 +359,7 @@ def flatten(machine: Machine) -> State:
         seg[i] = (off, len(s))
         off += len(s)
     a.update(
-        g=np.array([machine.cycle, cfg.ring.deadlock_cycles, cfg.ring.buffer_pool, npes, W],
+        g=np.array([machine.cycle, cfg.ring.deadlock_cycles, cfg.ring.buffer_pool, npes, W, -1, 0],
                    np.int64),
         until=0, cs=cs, regs=regs, ready=ready, prod=prod, wbn=wbn, wbr=wbr, wbw=wbw, busy=busy,
         occ=occ, unitn=unitn, stpc=stpc, bpc=bpc, opu=opu, opm=opm, ops=ops, opf=opf, bun=bun,

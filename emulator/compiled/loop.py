@@ -25,11 +25,11 @@ from netsushisen.emulator.compiled.state import (
     C_BUNDLES, C_OPS, C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY,
     C_PE, C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL,
     C_CACHE_SETS, C_CACHE_OFF, C_BLOCK_BYTES, C_WORD_BYTES, C_LOCAL_READS, C_LOCAL_WRITES, C_RES_READS,
-    C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC,
+    C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE,
     CAUSE_NONE, CAUSE_HALTED, CAUSE_BRANCH, CAUSE_LOCAL, CAUSE_RESIDENT, CAUSE_CACHE_HIT,
     CAUSE_CACHE_MISS, CAUSE_WRITE_PORT, CAUSE_FIFO_ANY, CAUSE_FIFO_EMPTY, CAUSE_FIFO_FULL,
     CAUSE_OPERAND, CAUSE_WAW, CAUSE_UNIT,
-    Q_CAP, Q_DELAY, Q_HEAD, Q_CNT, Q_POPC, Q_POPS, Q_PEAK, Q_TOTAL,
+    Q_CAP, Q_DELAY, Q_HEAD, Q_CNT, Q_POPC, Q_POPS, Q_PEAK, Q_TOTAL, Q_PE, Q_RING, W_ALL, W_RING,
     M_N, M_RECV_OWNER, M_MOVED, M_RECV, M_DEST, M_LINK_IN, M_LINK_OUT, M_NOUT,
     P_MOVED, P_DIS_MOVED, P_COL_MOVED, P_NO_PROGRESS, P_HOST, P_COL,
     D_DYNAMIC, D_NEXT, D_NMSGS, D_WORDS_SENT,
@@ -69,7 +69,10 @@ def q_visible(fq, fbt, q, c):
 
 
 @njit(**_INLINE)
-def q_push(fq, fbt, fbw, q, c, w):
+def q_push(fq, fbt, fbw, pw, q, c, w):
+    pe = fq[q, Q_PE]
+    pw[pe, W_ALL] += 1
+    pw[pe, W_RING] += fq[q, Q_RING]
     cap = fbt.shape[1]
     k = (fq[q, Q_HEAD] + fq[q, Q_CNT]) % cap
     fbt[q, k] = c + fq[q, Q_DELAY]
@@ -82,7 +85,10 @@ def q_push(fq, fbt, fbw, q, c, w):
 
 
 @njit(**_INLINE)
-def q_pop(fq, fbw, q, c):
+def q_pop(fq, fbw, pw, q, c):
+    pe = fq[q, Q_PE]
+    pw[pe, W_ALL] -= 1
+    pw[pe, W_RING] -= fq[q, Q_RING]
     if fq[q, Q_POPC] != c:
         fq[q, Q_POPC] = c
         fq[q, Q_POPS] = 0
@@ -156,7 +162,7 @@ def core_step(c, p, A, W, finfo):
     """Returns 0, or a fault code (finfo filled). A: the state arrays (a tuple, so the call
     stays short enough for numba to inline it)."""
     (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, opu, opm, ops, opf, bun,
-     recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rcnt, pcnt) = A
+     recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rcnt, pcnt, pw) = A
     # write back results due now
     s = c & (W - 1)
     n = wbn[p, s]
@@ -173,6 +179,9 @@ def core_step(c, p, A, W, finfo):
               cs[p, C_HOLD_PC])
         return 0
     pc = cs[p, C_PC]
+    if c < cs[p, C_WAKE]:  # still waiting for an operand, destination or unit (see state.py)
+        stall(cs, stpc, p, cs[p, C_WAKE_CAUSE], pc)
+        return 0
     if pc < 0 or pc >= cs[p, C_NB]:
         finfo[0] = F_PC
         finfo[1] = p
@@ -187,13 +196,19 @@ def core_step(c, p, A, W, finfo):
             worst = r
             worst_t = ready[p, r]
     if worst >= 0:
-        stall(cs, stpc, p, CAUSE_OPERAND + prod[p, worst] + 1, pc)
+        cause = CAUSE_OPERAND + prod[p, worst] + 1
+        stall(cs, stpc, p, cause, pc)
+        cs[p, C_WAKE] = worst_t
+        cs[p, C_WAKE_CAUSE] = cause
         return 0
     # 3. destinations (WAW)
     for k in range(bun[p, pc, B_NWRITES]):
         r = bun[p, pc, B_WRITES + k]
         if ready[p, r] > c:
-            stall(cs, stpc, p, CAUSE_WAW + prod[p, r] + 1, pc)
+            cause = CAUSE_WAW + prod[p, r] + 1
+            stall(cs, stpc, p, cause, pc)
+            cs[p, C_WAKE] = ready[p, r]
+            cs[p, C_WAKE_CAUSE] = cause
             return 0
     # 4. units
     for k in range(bun[p, pc, B_NUNITS]):
@@ -201,13 +216,20 @@ def core_step(c, p, A, W, finfo):
         need = bun[p, pc, B_UNITS + 2 * k + 1]
         free = 0
         first = -1
+        soonest = 0
         for i in range(unitn[p, u]):
             if busy[p, u, i] <= c:
                 free += 1
-            elif first < 0:
-                first = i
+            else:
+                if first < 0:
+                    first = i
+                if soonest == 0 or busy[p, u, i] < soonest:
+                    soonest = busy[p, u, i]
         if free < need:
-            stall(cs, stpc, p, CAUSE_UNIT + occ[p, u, first] + 1, pc)
+            cause = CAUSE_UNIT + occ[p, u, first] + 1
+            stall(cs, stpc, p, cause, pc)
+            cs[p, C_WAKE] = soonest
+            cs[p, C_WAKE_CAUSE] = cause
             return 0
     nops = bun[p, pc, B_NOPS]
     # load timing (memories.MemorySystem.access_time); the base register is ready
@@ -393,11 +415,12 @@ def core_step(c, p, A, W, finfo):
     for j in range(nops):
         kind = ops[p, pc, j, O_KIND]
         if kind == K_RECV:
-            w = q_pop(fq, fbw, recvq[p, ops[p, pc, j, O_PORT]], c)
+            w = q_pop(fq, fbw, pw, recvq[p, ops[p, pc, j, O_PORT]], c)
             schedule(cs, ready, prod, wbn, wbr, wbw, W, p, ops[p, pc, j, O_RD], w,
                      c + ops[p, pc, j, O_LAT], ops[p, pc, j, O_MN])
         elif kind == K_SEND:
-            q_push(fq, fbt, fbw, sendq[p, ops[p, pc, j, O_PORT]], c, regs[p, ops[p, pc, j, O_SRC]])
+            q_push(fq, fbt, fbw, pw, sendq[p, ops[p, pc, j, O_PORT]], c,
+                   regs[p, ops[p, pc, j, O_SRC]])
         elif kind == K_STORE:
             addr = as_i(regs[p, ops[p, pc, j, O_BASE]]) + ops[p, pc, j, O_OFF]
             sg = cs[p, C_SEG_LOCAL]
@@ -445,7 +468,7 @@ def core_step(c, p, A, W, finfo):
 
 
 @njit(**_INLINE)
-def cmu_step(c, m, cm, cin, cout, route, rem, lown, linkw, fq, fbt, fbw, pooled, finfo):
+def cmu_step(c, m, cm, cin, cout, route, rem, lown, linkw, fq, fbt, fbw, pw, pooled, finfo):
     """Returns 1 if a word moved, 0 if none, -1 on a fault (finfo filled)."""
     n = cm[m, M_N]
     lin = cm[m, M_LINK_IN]
@@ -489,14 +512,14 @@ def cmu_step(c, m, cm, cin, cout, route, rem, lown, linkw, fq, fbt, fbw, pooled,
             if not recv_free or (cm[m, M_RECV_OWNER] != -1 and cm[m, M_RECV_OWNER] != i) \
                     or q_free(fq, recv, c) <= 0:
                 continue
-            q_push(fq, fbt, fbw, recv, c, q_pop(fq, fbw, f, c))
+            q_push(fq, fbt, fbw, pw, recv, c, q_pop(fq, fbw, pw, f, c))
             recv_free = False
         else:
             out = cout[m, target]
             if not link_free or (lown[m, target] != -1 and lown[m, target] != i) \
                     or q_free(fq, out, c) <= 0:
                 continue
-            q_push(fq, fbt, fbw, out, c, q_pop(fq, fbw, f, c))
+            q_push(fq, fbt, fbw, pw, out, c, q_pop(fq, fbw, pw, f, c))
             linkw[lout] += 1
             link_free = False
         if i:
@@ -527,15 +550,9 @@ def cmu_step(c, m, cm, cin, cout, route, rem, lown, linkw, fq, fbt, fbw, pooled,
 
 
 @njit(**_INLINE)
-def ring_words(pe, pes, cm, cin, cout, fq):
+def ring_words(pe, pw):
     """cmu.Ring.ring_words: send, receive FIFOs and links of a PE."""
-    n = 0
-    for s in range(3):
-        m = pe * 3 + s
-        n += fq[cin[m, 0], Q_CNT] + fq[cm[m, M_RECV], Q_CNT]
-        for k in range(cm[m, M_NOUT]):
-            n += fq[cout[m, k], Q_CNT]
-    return n
+    return pw[pe, W_RING]
 
 
 @njit(**_INLINE)
@@ -545,13 +562,12 @@ def core_idle(cs, stpc_flags, p):
 
 
 @njit(**_INLINE)
-def pe_idle(pe, cs, cflags, pes, cm, cin, cout, fq):
+def pe_idle(pe, cs, cflags, pw):
     for s in range(3):
         p = pe * 3 + s
         if cs[p, C_PRESENT] and not core_idle(cs, cflags, p):
             return False
-    return ring_words(pe, pes, cm, cin, cout, fq) + fq[pes[pe, P_HOST], Q_CNT] \
-        + fq[pes[pe, P_COL], Q_CNT] == 0
+    return pw[pe, W_ALL] == 0
 
 
 @njit(**_INLINE)
@@ -580,12 +596,12 @@ def pe_progressed(pe, cs, cflags, pes):
 def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, opu,
              opm, ops, opf, bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rcnt,
              pcnt, cm, cin, cout, route, rem, lown, linkw, pes, dis, dcur, doff, dup, dasg,
-             moff, mwords, col, cpart, cplen, frame, ids, cflags, finfo):
+             moff, mwords, col, cpart, cplen, frame, ids, cflags, pw, finfo):
     """Run cycles from g[G_CYCLE] until the run ends or the cycle `until` is reached; returns
     the status code (S_*). The cycle counter in g is advanced like machine.cycle."""
     W = g[G_W]
     A = (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, opu, opm, ops, opf,
-         bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rcnt, pcnt)
+         bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rcnt, pcnt, pw)
     npes = g[G_NPES]
     pooled = g[G_POOLED]
     limit = g[G_DEADLOCK_CYCLES]
@@ -598,7 +614,7 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
             best_load = 0
             for i in range(npes):
                 if dcur[i] < 0 and fq[pes[i, P_HOST], Q_CNT] == 0:
-                    ld = ring_words(i, pes, cm, cin, cout, fq)
+                    ld = ring_words(i, pw)
                     if best < 0 or ld < best_load:
                         best = i
                         best_load = ld
@@ -619,7 +635,7 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
             hq = pes[i, P_HOST]
             if q_free(fq, hq, c) > 0:
                 msg = dcur[i]
-                q_push(fq, fbt, fbw, hq, c, mwords[moff[msg] + doff[i]])
+                q_push(fq, fbt, fbw, pw, hq, c, mwords[moff[msg] + doff[i]])
                 doff[i] += 1
                 if doff[i] == moff[msg + 1] - moff[msg]:
                     dcur[i] = -1
@@ -636,7 +652,7 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
             moved = 0
             for s in range(3):
                 r = cmu_step(c, pe * 3 + s, cm, cin, cout, route, rem, lown, linkw, fq, fbt,
-                             fbw, pooled, finfo)
+                             fbw, pw, pooled, finfo)
                 if r < 0:
                     finfo[3] = pe
                     g[G_CYCLE] = c + 1
@@ -650,7 +666,7 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
             cq = pes[i, P_COL]
             if not q_ready(fq, fbt, cq, c):
                 continue
-            w = q_pop(fq, fbw, cq, c)
+            w = q_pop(fq, fbw, pw, cq, c)
             pes[i, P_COL_MOVED] = 1
             col[L_WORDS] += 1
             cpart[i, cplen[i]] = w
@@ -704,7 +720,7 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
         if not any_issued:
             all_idle = True
             for i in range(npes):
-                if not pe_idle(i, cs, cflags, pes, cm, cin, cout, fq):
+                if not pe_idle(i, cs, cflags, pw):
                     all_idle = False
                     break
             exhausted = True
@@ -729,7 +745,7 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
                     return S_DEADLOCK_COL
         for i in range(npes):
             if (pe_issued(i, cs) or pe_progressed(i, cs, cflags, pes)
-                    or pe_idle(i, cs, cflags, pes, cm, cin, cout, fq)):
+                    or pe_idle(i, cs, cflags, pw)):
                 pes[i, P_NO_PROGRESS] = 0
                 continue
             pes[i, P_NO_PROGRESS] += 1

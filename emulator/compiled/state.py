@@ -31,12 +31,15 @@ def _enum(names: str) -> dict[str, int]:
 _C = _enum("PC HALTED HOLD_UNTIL HOLD_MEM_UNTIL HOLD_CAUSE HOLD_PC CYCLES BUNDLES OPS LAST_PC "
            "LAST_ISSUED CAUSE PRESENT NB WPORTS PENALTY PE T_LOCAL T_R T_C T_G SEG_LOCAL "
            "SEG_RES SEG_GLOBAL CACHE_SETS CACHE_OFF BLOCK_BYTES WORD_BYTES LOCAL_READS "
-           "LOCAL_WRITES RES_READS CACHE_ACC CACHE_HITS CACHE_MISSES GLOBAL_ACC")
+           "LOCAL_WRITES RES_READS CACHE_ACC CACHE_HITS CACHE_MISSES GLOBAL_ACC WAKE WAKE_CAUSE")
 (C_PC, C_HALTED, C_HOLD_UNTIL, C_HOLD_MEM_UNTIL, C_HOLD_CAUSE, C_HOLD_PC, C_CYCLES, C_BUNDLES,
  C_OPS, C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY, C_PE,
  C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL, C_CACHE_SETS,
  C_CACHE_OFF, C_BLOCK_BYTES, C_WORD_BYTES, C_LOCAL_READS, C_LOCAL_WRITES, C_RES_READS,
- C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC) = range(len(_C))
+ C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE) = range(len(_C))
+"""C_WAKE, C_WAKE_CAUSE: derived, not written back — a processor stalled on an operand, a
+destination or a busy unit stalls for that same cause until the cycle C_WAKE (nothing but its
+own issue changes what those checks read), so the loop charges those cycles without checking."""
 N_C = len(_C)
 
 # decoded bundles: bun[processor, pc, B_*]; reads up to 8, writes up to 4, (class, count) pairs
@@ -85,7 +88,9 @@ CAUSE_FLAGS = np.array([2 if c.startswith("fifo_empty") else 1 if c.startswith("
 """0: not a FIFO wait; 1: a FIFO wait (`fifo_full`); 2: waiting on an empty receive FIFO."""
 
 # FIFOs: fq[fifo, Q_*]
-Q_CAP, Q_DELAY, Q_HEAD, Q_CNT, Q_POPC, Q_POPS, Q_PEAK, Q_TOTAL = range(8)
+Q_CAP, Q_DELAY, Q_HEAD, Q_CNT, Q_POPC, Q_POPS, Q_PEAK, Q_TOTAL, Q_PE, Q_RING = range(10)
+# words in flight per PE (derived, kept up to date by every push and pop): pw[pe, W_*]
+W_ALL, W_RING = range(2)
 # CMUs: cm[cmu, M_*]
 M_N, M_RECV_OWNER, M_MOVED, M_RECV, M_DEST, M_LINK_IN, M_LINK_OUT, M_NOUT = range(8)
 # PEs: pes[pe, P_*]
@@ -120,7 +125,7 @@ ARG_ORDER = ("g", "until", "cs", "regs", "ready", "prod", "wbn", "wbr", "wbw", "
              "unitn", "stpc", "bpc", "opu", "opm", "ops", "opf", "bun", "recvq", "sendq", "fq",
              "fbt", "fbw", "mem", "seg", "ctags", "rg", "rmap", "rcnt", "pcnt", "cm", "cin",
              "cout", "route", "rem", "lown", "linkw", "pes", "dis", "dcur", "doff", "dup",
-             "dasg", "moff", "mwords", "col", "cpart", "cplen", "frame", "ids", "cflags",
+             "dasg", "moff", "mwords", "col", "cpart", "cplen", "frame", "ids", "cflags", "pw",
              "finfo")
 
 
@@ -181,11 +186,18 @@ def flatten(machine: Machine) -> State:
     fifos = [f for pe in machine.pes for f in pe.ring.fifos()]
     fid = {id(f): i for i, f in enumerate(fifos)}
     cap = max(f.capacity for f in fifos)
-    fq = np.zeros((len(fifos), 8), np.int64)
+    fq = np.zeros((len(fifos), 10), np.int64)
     fbt = np.zeros((len(fifos), cap), np.int64)
     fbw = np.zeros((len(fifos), cap), np.int64)
+    pw = np.zeros((npes, 2), np.int64)
+    per_pe = len(fifos) // npes
     for i, f in enumerate(fifos):
-        fq[i] = (f.capacity, f.delay, 0, len(f.q), f.pop_cycle, f.pops, f.peak, f.total)
+        pe = machine.pes[i // per_pe]
+        ring = f is not pe.ring.host and f is not pe.ring.col
+        fq[i] = (f.capacity, f.delay, 0, len(f.q), f.pop_cycle, f.pops, f.peak, f.total,
+                 i // per_pe, ring)
+        pw[i // per_pe, W_ALL] += len(f.q)
+        pw[i // per_pe, W_RING] += len(f.q) if ring else 0
         for k, (t, w) in enumerate(f.q):
             fbt[i, k] = t
             fbw[i, k] = _as_signed(int(w) & mask)
@@ -373,7 +385,7 @@ def flatten(machine: Machine) -> State:
         dup=np.array(d.upcoming, np.int64), dasg=np.array(d.assigned, np.int64),
         moff=moff, mwords=mwords,
         col=np.array([col.messages, col.words, col.width, col.height], np.int64),
-        cpart=cpart, cplen=cplen, frame=col.frame, ids=col.ids, cflags=CAUSE_FLAGS,
+        cpart=cpart, cplen=cplen, frame=col.frame, ids=col.ids, cflags=CAUSE_FLAGS, pw=pw,
         finfo=np.zeros(8, np.int64))
     return State(a, fifos, region_names, mask)
 

@@ -7,6 +7,7 @@ its command language, expressions, screen and terminal front end.
     help.py         usage, help texts, aliases
     expressions.py  expressions, places (registers, memory words, PCs), locations
     reverse.py      checkpoints, replay, reverse-step / -stepi / -continue
+    fastforward.py  `--fast-forward`: the compiled engine runs to a cycle or a location first
     state.py        `freeze` / `thaw` (checkpoints) and `state_dump` (the canonical state dump)
     view.py         the rich panels of the screen
     frontend.py     the batch and interactive front ends (prompt, history, tab completion)
@@ -21,6 +22,6 @@ mutable state of the machine (state.py pickles the same parts `Machine.snapshot`
 replays cycle by cycle. Widening the engine interface to all of that would make every engine
 model the reference engine's objects; instead the reference engine is the one the debugger
 steps (an engine that computes elsewhere writes its state back into a reference `Machine`,
-which the debugger can then take over). The debugger has no timing rules of its own: every
-cycle it shows is one `Machine.step()`.
+which the debugger can then take over: `--fast-forward` does exactly that, fastforward.py). The
+debugger has no timing rules of its own: every cycle it shows is one `Machine.step()`.
 """

@@ -151,7 +151,9 @@ class Commands:
 
     def cmd_restart(self, arg: str) -> Outcome:
         self.session.restart()
-        return Outcome([Text("restarted: cycle 0")], redraw=True, moved=True)
+        c = self.session.machine.cycle
+        what = "" if self.session.origin == 0 else ", where --fast-forward handed over"
+        return Outcome([Text(f"restarted: cycle {c}{what}")], redraw=True, moved=True)
 
     # -- breakpoints --------------------------------------------------------------------------
 

@@ -75,6 +75,8 @@ class FrontEnd:
                                 f"{'s' if len(m.pes) != 1 else ''}; viewing pe{s.pe}.{s.stage}; "
                                 f"checkpoint every {s.interval} cycles. `help` lists the commands."),
                            soft_wrap=True)
+        for line in s.start_messages:  # --fast-forward: where the session starts
+            self.console.print(Text(line), soft_wrap=True)
 
     def interactive_loop(self) -> None:
         _setup_readline(self.session)

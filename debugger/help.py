@@ -50,7 +50,8 @@ HELP: dict[str, tuple[str, str, str]] = {
             "are read-only (the host writes them). An edit becomes part of the run's history: "
             "reverse steps before it undo it."),
     "reverse-step": ("reverse-step [N]", "go back N cycles (exactly: checkpoints + replay)",
-                     "Alias: rs."),
+                     "Not before the start of the history: cycle 0, or the cycle where "
+                     "--fast-forward handed the machine over. Alias: rs."),
     "reverse-stepi": ("reverse-stepi [N]",
                       "go back to the stop after the viewed processor's N-th previous bundle",
                       "Alias: rsi."),
@@ -60,7 +61,8 @@ HELP: dict[str, tuple[str, str, str]] = {
     "trace": ("trace on|off", "print a line per cycle per processor of the PE while running", ""),
     "screen": ("screen [on|off]", "draw the panels now; on/off: draw them after every stop", ""),
     "restart": ("restart", "start the run again from a freshly built machine",
-                "Breakpoints and watchpoints stay; edits are lost."),
+                "Breakpoints and watchpoints stay; edits are lost. After --fast-forward: back "
+                "to the state it handed over."),
     "source": ("source FILE", "run the commands in FILE", "Lines starting with # are comments."),
     "help": ("help [COMMAND]", "list the commands, or explain one", "Alias: h."),
     "quit": ("quit", "leave the debugger", "Also: q, exit, end of input."),

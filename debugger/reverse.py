@@ -11,6 +11,11 @@ gone) and a *pinned* checkpoint of the edited state is kept at C. Whenever a rep
 step arrives at C again, the machine continues from that checkpoint, so the edit is re-applied:
 an edit is part of the history, undone by going back before it and redone by stepping over it.
 
+History start. The history begins at `origin`: cycle 0, or the cycle where `--fast-forward`
+handed the machine over (its state is the first checkpoint; the cycles before it ran in the
+compiled engine and are not recorded). Going back stops there with gdb's "no more
+reverse-execution history".
+
 Memory. Beyond `max_checkpoints` unpinned checkpoints the interval doubles and the checkpoints
 off the new grid go: memory stays bounded and a step back replays at most K cycles. Backward
 searches (reverse-continue, reverse-stepi) replay one checkpoint interval at a time, latest
@@ -57,7 +62,26 @@ class Checkpoint:
 
 class ReverseExecution:
     """Mixed into `debugger.Session`, which provides machine, aux, checkpoints, interval,
-    max_checkpoints, _cycle, _index and set_view."""
+    max_checkpoints, origin, _cycle, _index and set_view."""
+
+    origin = 0  # the first cycle of the history
+
+    def _history_start(self, arrived: bool, found_none: str = "") -> str:
+        """What to say when going back reaches (arrived) or stands at the history's start;
+        `found_none`: what a backward search did not find before it."""
+        o = self.origin
+        if o == 0:
+            if found_none:
+                return f"{found_none} before: back at cycle 0"
+            return ("reached the start of the run (cycle 0)" if arrived
+                    else "already at cycle 0, the start of the run")
+        where = (f"cycle {o}, where --fast-forward handed the machine over (the cycles before "
+                 f"it ran in the compiled engine and are not recorded)")
+        if found_none:
+            return f"no more reverse-execution history: {found_none} since {where}; back there"
+        if arrived:
+            return f"no more reverse-execution history: back at {where}"
+        return f"no more reverse-execution history: it starts at {where}"
 
     def _take_checkpoint(self, pinned: bool = False) -> None:
         c = self.machine.cycle
@@ -90,7 +114,7 @@ class ReverseExecution:
     def goto_cycle(self, target: int) -> None:
         """Put the machine exactly in its state after `target` cycles (target ≤ now, or on the
         recorded future after a reverse step)."""
-        target = max(0, target)
+        target = max(self.origin, target)
         self._restore_before(target)
         m = self.machine
         index = self._index()
@@ -101,11 +125,11 @@ class ReverseExecution:
         if n < 1:
             raise DebugError("reverse-step takes a positive number of cycles")
         now = self.machine.cycle
-        if now == 0:
-            return Stop(["already at cycle 0, the start of the run"])
-        target = max(0, now - n)
+        if now <= self.origin:
+            return Stop([self._history_start(False)])
+        target = max(self.origin, now - n)
         self.goto_cycle(target)
-        msg = [] if target == now - n else ["reached the start of the run (cycle 0)"]
+        msg = [] if target == now - n else [self._history_start(True)]
         return Stop(msg, moved=True)
 
     def _search_back(self, matches: Callable[[int, list[Hit]], int], count: int = 1) -> int | None:
@@ -115,7 +139,7 @@ class ReverseExecution:
         hi = self.machine.cycle - 1  # cycles strictly before the last one
         found: list[int] = []
         index = self._index()
-        while hi > 0:
+        while hi > self.origin:
             start = self._restore_before(hi - 1)
             m = self.machine
             seen: list[int] = []
@@ -131,8 +155,8 @@ class ReverseExecution:
 
     def reverse_continue(self) -> Stop:
         now = self.machine.cycle
-        if now == 0:
-            return Stop(["already at cycle 0, the start of the run"])
+        if now <= self.origin:
+            return Stop([self._history_start(False)])
         hits_at: dict[int, list[Hit]] = {}
 
         def matches(c: int, hits: list[Hit]) -> int:
@@ -142,8 +166,9 @@ class ReverseExecution:
 
         c = self._search_back(matches)
         if c is None:
-            self.goto_cycle(0)
-            return Stop(["no breakpoint or watchpoint fired earlier: back at cycle 0"], moved=True)
+            self.goto_cycle(self.origin)
+            return Stop([self._history_start(True, "no breakpoint or watchpoint fired")],
+                        moved=True)
         self.goto_cycle(c + 1)
         hits = hits_at[c]
         h = hits[0]
@@ -155,8 +180,8 @@ class ReverseExecution:
         if n < 1:
             raise DebugError("reverse-stepi takes a positive number of bundles")
         now = self.machine.cycle
-        if now == 0:
-            return Stop(["already at cycle 0, the start of the run"])
+        if now <= self.origin:
+            return Stop([self._history_start(False)])
         pe, stage = self.pe, self.stage
 
         def matches(c: int, hits) -> int:
@@ -164,9 +189,9 @@ class ReverseExecution:
 
         c = self._search_back(matches, n)
         if c is None:
-            self.goto_cycle(0)
-            return Stop([f"pe{pe}.{stage} issued fewer than {n} bundles before: back at cycle 0"],
-                        moved=True)
+            self.goto_cycle(self.origin)
+            return Stop([self._history_start(True, f"pe{pe}.{stage} issued fewer than {n} "
+                                                   "bundles")], moved=True)
         self.goto_cycle(c + 1)
         return Stop(moved=True)
 
@@ -179,4 +204,6 @@ class ReverseExecution:
                 f"{size / 1024:.1f} KiB compressed",
                 f"cycles: {', '.join(str(k) for k in sorted(cps)[:12])}"
                 + (" ..." if len(cps) > 12 else ""),
-                f"pinned by edits or the start: {', '.join(map(str, pinned))}"]
+                f"pinned by edits or the start: {', '.join(map(str, pinned))}"
+                + ("" if self.origin == 0 else
+                   f" (the history starts at cycle {self.origin}: --fast-forward)")]

@@ -19,6 +19,11 @@ count is done.
 Reverse execution (reverse.py): checkpoints every K cycles (default 2048) and exact
 deterministic replay; `set` edits are pinned checkpoints, so they stay part of the history that
 replays and forward steps go through.
+
+Fast-forward (fastforward.py, `--fast-forward CYCLE|LOCATION`): the factory's compiled engine
+runs the machine to a cycle or to a processor's arrival at a location, and the session takes
+over the machine it wrote its state back into. The history starts there (`origin`): the first
+checkpoint is the hand-off state, reverse execution stops at it, and `restart` returns to it.
 """
 
 from __future__ import annotations
@@ -27,7 +32,9 @@ from dataclasses import dataclass
 from typing import Callable, Protocol
 
 from netsushisen.debugger.expressions import Context, DebugError, Place, short_word
+from netsushisen.debugger.fastforward import fast_forward
 from netsushisen.debugger.reverse import Checkpoint, Hit, ReverseExecution, Stop
+from netsushisen.debugger.state import Frozen, thaw
 from netsushisen.emulator.machine import CycleLimit, Machine
 from netsushisen.isa.processors import STAGES
 
@@ -36,6 +43,8 @@ class MachineFactory(Protocol):
     description: str
 
     def build(self) -> Machine: ...
+
+    def engine(self, name: str): ...
 
 
 @dataclass
@@ -49,6 +58,12 @@ class ProgramsFactory:
 
     def build(self) -> Machine:
         return Machine(self.config, self.programs, self.image)
+
+    def engine(self, name: str):
+        """Engine `name` (emulator/engine.py) over the same inputs: `--fast-forward`."""
+        from netsushisen.emulator.engine import make_engine
+
+        return make_engine(name, self.config, self.programs, self.image)
 
 
 class SceneFactory:
@@ -64,6 +79,9 @@ class SceneFactory:
 
     def build(self):
         return self.setup.machine()
+
+    def engine(self, name: str):
+        return self.setup.engine(name)
 
 
 @dataclass
@@ -104,7 +122,8 @@ END_TEXT = {"halted": "every processor halted", "finished": "quiescent: nothing 
 
 class Session(ReverseExecution):
     def __init__(self, factory: MachineFactory, *, pe: int = 0, stage: str | None = None,
-                 checkpoint_interval: int = 2048, max_checkpoints: int = 256):
+                 checkpoint_interval: int = 2048, max_checkpoints: int = 256,
+                 fast_forward: str | None = None):
         if checkpoint_interval < 1:
             raise DebugError("the checkpoint interval must be at least 1 cycle")
         self.factory = factory
@@ -115,30 +134,65 @@ class Session(ReverseExecution):
         self._next_number = 1
         self.interrupt = False  # set by a signal handler: stop between cycles
         self.trace_out: Callable[[str], None] | None = None  # `trace on`: one line per cycle
+        self.fast_forward = fast_forward  # `--fast-forward` target text, or None
+        self.handoff: Frozen | None = None  # the fast-forward's hand-off state (`restart`)
+        self.origin = 0  # the first cycle of the history: 0, or where the fast-forward stopped
+        self.start_messages: list[str] = []  # notes for the front end to show at the start
         self._build(pe, stage)
 
     # -- the machine and the view --------------------------------------------------------------
 
+    @staticmethod
+    def _first_stage(machine) -> str:
+        present = [s for s in STAGES if machine.programs.get(s) is not None]
+        return present[0] if present else "os"
+
     def _build(self, pe: int = 0, stage: str | None = None) -> None:
-        self.machine = self.factory.build()
+        if self.handoff is not None:  # restart after a fast-forward: back to the hand-off
+            thaw(self.machine, self.handoff)
+        elif self.fast_forward is not None:
+            self.machine, target, self.start_messages = fast_forward(
+                self.factory, self.fast_forward, pe, stage, self._first_stage)
+            if target.cycle is None:  # view the processor that was fast-forwarded
+                pe, stage = target.pe, target.stage
+            if self.machine.error is not None:  # the run ended first: what ended it
+                self.start_messages += self.machine.error.format().splitlines()
+        else:
+            self.machine = self.factory.build()
         self.machine.record_events(True)
         if not 0 <= pe < len(self.machine.pes):
             raise DebugError(f"no PE {pe} (the machine has {len(self.machine.pes)})")
         self.pe = pe
-        present = [s for s in STAGES if self.machine.programs.get(s) is not None]
-        self.stage = stage or (present[0] if present else "os")
+        self.stage = stage or self._first_stage(self.machine)
+        self.origin = self.machine.cycle
         self.interval = self.base_interval
         self.checkpoints: dict[int, Checkpoint] = {}
         # per core: last ldg (addr, set, hit, cycle), last ldr (addr, cycle), and, per register,
         # the (pc, cycle) of the bundle whose result it waits for or last received
         self.aux: dict = {c.name: {"ldg": None, "ldr": None, "origin": {}}
                           for c in self.machine.cores}
+        if self.machine.cycle:  # after a fast-forward: what the last cycle tells
+            self._seed_notes()
         self.previous_regs: dict[str, list[int]] = {}
         self.mark_stop()
         self._take_checkpoint(pinned=True)
+        if self.fast_forward is not None and self.handoff is None:
+            self.handoff = self.checkpoints[self.origin].frozen
+
+    def _seed_notes(self) -> None:
+        """The session's notes start empty at a fast-forward's hand-off (the compiled engine
+        keeps none); the bundle each processor issued in the last cycle gives the origin of
+        the results it has in flight."""
+        c = self.machine.cycle - 1
+        for core in self.machine.cores:
+            if core.present and core.last_issued:
+                origin = self.aux[core.name]["origin"]
+                for r in core.bundles[core.last_pc].writes:
+                    origin[r] = (core.last_pc, c)
 
     def restart(self) -> None:
-        """A fresh machine from the factory (breakpoints and watchpoints stay)."""
+        """A fresh machine from the factory, or back to the fast-forward's hand-off state
+        (breakpoints and watchpoints stay, edits are lost)."""
         self._build(self.pe, self.stage)
 
     def context(self, pe: int | None = None, stage: str | None = None) -> Context:

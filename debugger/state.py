@@ -12,7 +12,10 @@ after it: the engine is deterministic, so the result is exactly the state the ma
 Canonical dump. `state_dump` walks the same state into plain, comparable data — every
 register, scoreboard entry, memory word, cache tag, FIFO word, counter, and the aliasing
 between objects — so two dumps are equal iff the machine states are; tests compare them, and
-`info state` prints its digest.
+`info state` prints its digest. Dicts are dumped as mappings, sorted by key: their insertion
+order is not machine state (the engine never depends on it; statistics sort), and the compiled
+engine's write-back (`--fast-forward`) builds its counter dicts in another order than the
+reference engine's first-use order.
 """
 
 from __future__ import annotations
@@ -143,9 +146,10 @@ def _canon(obj, shared, memo, keep):
         return ("deque", [_canon(v, shared, memo, keep) for v in obj])
     if isinstance(obj, (set, frozenset)):
         return ("set", sorted(repr(_canon(v, shared, memo, keep)) for v in obj))
-    if isinstance(obj, dict):
-        return ("dict", [(_canon(k, shared, memo, keep), _canon(v, shared, memo, keep))
-                         for k, v in obj.items()])
+    if isinstance(obj, dict):  # a mapping: insertion order is not state (see the docstring)
+        keys = [(repr(ck), ck, k) for k in obj for ck in (_canon(k, shared, memo, keep),)]
+        keys.sort(key=lambda t: t[0])
+        return ("dict", [(ck, _canon(obj[k], shared, memo, keep)) for _, ck, k in keys])
     fields = dict(getattr(obj, "__dict__", {}))
     for s in _slots(type(obj)):
         if hasattr(obj, s):

@@ -572,6 +572,157 @@ def test_an_edit_is_part_of_history():
 
 
 # ---------------------------------------------------------------------------------------------
+# --fast-forward: the compiled engine runs there, the session steps the reference engine on
+
+
+@pytest.fixture
+def compiled():
+    from netsushisen.emulator.engine import engine_names
+
+    if "compiled" not in engine_names():
+        pytest.skip("the compiled engine does not import (numba missing)")
+
+
+def pipe_args(files):
+    return ["--os", files / "os.s", "--ic", files / "ic.s", "--sc", files / "sc.s",
+            "--image", files / "image.json", "--pes", "2"]
+
+
+def digests(out: str) -> list[str]:
+    return [line.split(": ")[1] for line in lines_with(out, "state digest after")]
+
+
+def test_fast_forward_to_a_cycle_is_the_state_stepping_reaches(debug, files, compiled):
+    shown = ["info state", "print pc", "print f:r6", "info registers", "info scoreboard",
+             "info fifo", "step 9", "info state", "print r2"]
+    code, ff = debug(shown, *pipe_args(files), "--proc", "ic", "--fast-forward", "40")
+    assert code == 0 and "fast-forward: cycle 40 reached with the compiled engine" in ff
+    code, ref = debug(["step 40", *shown], *pipe_args(files), "--proc", "ic")
+    assert code == 0
+    assert digests(ff) == digests(ref) and len(digests(ff)) == 2
+    assert "state digest after 40 cycles" in ff and "state digest after 49 cycles" in ff
+
+    def answers(out):  # what the commands print, without the `*` marks of the first stop
+        out = out[out.index("(nss) info state"):]
+        return [line.replace("*", " ") for line in out.splitlines()]
+
+    assert answers(ff) == answers(ref)
+    # the whole canonical state, at the hand-off and after stepping on (a breakpoint on the way)
+    programs = {s: assemble_text(src, proc=s) for s, src in
+                (("os", OS_PIPE), ("ic", IC_PIPE), ("sc", SC_PIPE))}
+    factory = ProgramsFactory(load_config(None, ["pes=2"]), programs,
+                              image_from_json(pipe_image()))
+    for n in (1, 33, 61):
+        fast = Session(factory, fast_forward=str(n), checkpoint_interval=8)
+        slow = pipe_session(pes=2, checkpoint_interval=8)
+        slow.step(n)
+        assert fast.machine.cycle == n and fast.origin == n
+        diff = dump_differences(state_dump(fast.machine), state_dump(slow.machine))
+        assert not diff, diff
+        for s in (fast, slow):
+            s.add_breakpoint("ic.loop+9")
+            s.cont()
+        assert fast.machine.cycle == slow.machine.cycle
+        assert state_dump(fast.machine) == state_dump(slow.machine)
+
+
+def test_fast_forward_in_scene_mode(cli, files, compiled):
+    # the scene's machine (RenderSetup.engine("compiled")) with the small kernels of
+    # test_scene_mode: the same state as the reference engine stepped there
+    script = files / "scene.txt"
+    scene = ["tetra:1", "--res", "2", "--os", files / "os.s", "--ic", files / "ic.s", "--sc",
+             files / "sc.s", "--batch", script, "--no-screen"]
+    script.write_text("info state\nstep 7\ninfo state\n")
+    code, ff, err = cli("debug", *scene, "--fast-forward", "33")
+    assert code == 0, err
+    script.write_text("step 33\ninfo state\nstep 7\ninfo state\n")
+    code, ref, err = cli("debug", *scene)
+    assert code == 0, err
+    assert digests(ff) == digests(ref) and len(digests(ff)) == 2
+
+
+def test_fast_forward_to_a_label_stops_with_the_pc_at_it(debug, files, compiled):
+    code, out = debug(["screen", "print pc", "print cycle", "stepi", "print pc"],
+                      *pipe_args(files), "--fast-forward", "ic:loop+5", screen=True)
+    assert code == 0
+    assert "fast-forward: pe0.ic pc 5 (loop+5) reached after " in out
+    assert "viewing pe0.ic" in out  # the processor fast-forwarded is the one viewed
+    assert listing_rows(out, "->")[0][1] == "5"  # the next bundle: the label's
+    assert "pc = 5 (loop+5)" in out and "pc = 6 (loop+6)" in out
+    assert "*IC  issued pc 5 (loop+5)" in out  # stepi issues it
+    # the same place as stepping the reference engine gets to: PC first at loop+5
+    at = int(out.split("cycle = ")[1].split()[0])
+    assert f"reached after {at} cycles" in out
+    s = pipe_session(pes=2, pe=0, stage="ic")
+    s.until("loop+4")
+    while s.core.pc != 5:
+        s.step()
+    assert s.machine.cycle == at
+    ff = Session(s.factory, fast_forward="pe0.ic.loop+5")
+    assert state_dump(ff.machine) == state_dump(s.machine)
+    # unqualified: the processor of --pe/--proc; `*ADDRESS`; another PE; PROC.LABEL
+    code, out = debug(["print pc"], *pipe_args(files), "--pe", "1", "--proc", "sc",
+                      "--fast-forward", "*4")
+    assert code == 0 and "pe1.sc pc 4 (loop+2) reached" in out and "pc = 4 (loop+2)" in out
+    code, out = debug(["print pc"], *pipe_args(files), "--fast-forward", "pe1.ic.loop")
+    assert code == 0 and "viewing pe1.ic" in out and "pc = 0 (loop)" in out
+    # every program starts at 0: a label there is reached when the processor comes back to it
+    cycle = int(out.split("reached after ")[1].split()[0])
+    assert cycle > 10 and "(nss) print pc" in out
+
+
+def test_reverse_execution_stops_at_the_fast_forward_point(debug, files, compiled):
+    code, out = debug(["info state", "reverse-step", "step 30", "info state", "reverse-step 10",
+                       "step 10", "info state", "reverse-step 100", "info state", "break loop+9",
+                       "continue", "continue", "reverse-continue", "reverse-continue",
+                       "reverse-continue", "print cycle", "step 5", "restart", "info state",
+                       "info checkpoints"],
+                      *pipe_args(files), "--proc", "ic", "--fast-forward", "40",
+                      "--checkpoint-interval", "8")
+    assert code == 0
+    d = digests(out)
+    assert d[0] == d[3] == d[4] and d[1] == d[2] and d[0] != d[1]
+    assert ("no more reverse-execution history: it starts at cycle 40, where --fast-forward "
+            "handed the machine over") in out
+    assert "no more reverse-execution history: back at cycle 40" in out
+    assert ("no more reverse-execution history: no breakpoint or watchpoint fired since cycle "
+            "40") in out
+    assert "restarted: cycle 40, where --fast-forward handed over" in out
+    assert "pinned by edits or the start: 40 (the history starts at cycle 40" in out
+    # in the session: going back lands exactly on the hand-off state
+    s = loop_session(fast_forward="5", checkpoint_interval=4)
+    handoff = state_dump(s.machine)
+    s.step(6)
+    stop = s.reverse_step(8)
+    assert s.machine.cycle == 5 and state_dump(s.machine) == handoff
+    assert "no more reverse-execution history" in stop.messages[0]
+    stop = s.reverse_stepi()
+    assert "it starts at cycle 5" in stop.messages[0] and s.machine.cycle == 5
+
+
+def test_fast_forward_errors_and_a_run_that_ends_first(debug, cli, files, compiled):
+    for target, message in (("nope", "error: --fast-forward nope: unknown name 'nope'"),
+                            ("ic:nope", "error: --fast-forward ic:nope: unknown name 'nope'"),
+                            ("os:loop", "OS has no program"),
+                            ("pe3.ic:loop", "no PE 3 (the machine has 1)"),
+                            ("-5", "a cycle is at least 0")):
+        code, out, err = cli("debug", "--program", files / "loop.s", "--fast-forward", target,
+                             "--batch", "-")
+        assert code == 1 and message in err, (target, err)
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    # the run ends (halts after 15 cycles) first: a note, and the session starts at the end
+    code, out = debug(["info state", "step", "reverse-step"], "--program", files / "loop.s",
+                      "--fast-forward", "1000")
+    assert code == 0
+    assert ("fast-forward: the run ended at cycle 15 (halted) before reaching cycle 1000: the "
+            "session starts at the end of the run") in out
+    assert "state digest after 15 cycles" in out and "nothing more to run" in out
+    code, out = debug(["info state"], "--program", files / "loop.s", "--max-cycles", "10",
+                      "--fast-forward", "done")
+    assert code == 0 and "ended at cycle 10 (max_cycles) before reaching pe0.ic pc 5 (done)" in out
+
+
+# ---------------------------------------------------------------------------------------------
 # A real terminal (tmux)
 
 

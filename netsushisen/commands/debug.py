@@ -5,11 +5,19 @@
     netsushisen debug --ic ic.s --batch commands.txt        (or --batch - : commands on stdin)
     netsushisen debug SCENE [--res N] [--corners] [--generic] [--kernels DIR] [--pes N] ...
                                                             (scene mode: as `netsushisen render`)
+    netsushisen debug ... --fast-forward CYCLE|LOCATION     (the compiled engine runs there first)
 
 `--program` takes object files or `.s` sources that name their processor (`.proc`); `--os`,
 `--ic`, `--sc` and the image/config options are those of `netsushisen run`. Scene mode prepares
 the scene as `netsushisen render` does (grid, pre-pass, databases, kernels, eye rays); there
 `--os/--ic/--sc FILE` are your own kernel sources.
+
+`--fast-forward 250000` or `--fast-forward LOCATION` (`loop`, `loop+3`, `*12`, `ic:loop`,
+`pe1.sc:color`; unqualified: the processor of --pe/--proc) builds the machine through the compiled
+engine and runs it to that cycle, or until the processor arrives at the location (its PC, the
+next bundle, is there; the PC at cycle 0 does not count); the session then steps the reference
+engine from that state, and its reverse-execution history starts there. An unknown location is
+a one-line error (exit 1); a run that ends first starts the session at its end, with a note.
 
 Interactive: a screen of panels after every stop, a `(nss)` prompt with history and tab
 completion; Enter repeats the last command; `help` lists the commands. `--batch` runs commands
@@ -49,6 +57,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         "without a terminal, printing the panels as text")
     parser.add_argument("-x", "--commands", metavar="FILE",
                         help="run the commands in FILE first, then go on interactively")
+    parser.add_argument("--fast-forward", metavar="CYCLE|LOCATION",
+                        help="run with the compiled engine to cycle CYCLE, or until a processor "
+                             "arrives at LOCATION (loop, *12, ic:loop, pe1.sc:color; unqualified: "
+                             "--pe/--proc's), then debug from there")
     parser.add_argument("--checkpoint-interval", type=int, default=2048, metavar="K",
                         help="cycles between checkpoints for reverse execution (2048)")
     parser.add_argument("--max-checkpoints", type=int, default=256, metavar="N",
@@ -106,10 +118,13 @@ def run(args: argparse.Namespace) -> int:
         raise NetsushisenError("--res, --corners, --generic, --slots and --kernels are for scene "
                                "mode (debug SCENE ...)")
     factory = scene_factory(args) if args.scene else programs_factory(args)
+    if args.fast_forward is not None and sys.stderr.isatty():
+        print(f"fast-forwarding to {args.fast_forward} with the compiled engine (its first use "
+              "compiles it: about a minute) ...", file=sys.stderr, flush=True)
     try:
         session = Session(factory, pe=args.pe, stage=args.proc,
                           checkpoint_interval=args.checkpoint_interval,
-                          max_checkpoints=args.max_checkpoints)
+                          max_checkpoints=args.max_checkpoints, fast_forward=args.fast_forward)
     except DebugError as err:
         raise NetsushisenError(str(err)) from None
     batch = args.batch

@@ -16,7 +16,7 @@ from numba import njit
 from netsushisen.emulator.compiled.bits import as_f, as_i, word_f, word_i, word_w
 from netsushisen.emulator.compiled.state import (
     B_NOPS, B_NREADS, B_READS, B_NWRITES, B_WRITES, B_NUNITS, B_UNITS, B_HASLOAD,
-    B_NRECVS, B_RECVS, B_NSENDS, B_SENDS, B_WAITS, B_NOPCOUNT,
+    B_NRECVS, B_RECVS, B_NSENDS, B_SENDS, B_WAITS, B_NOPCOUNT, B_LOAD0, B_LOAD1, B_NWLAT, B_WLAT,
     O_KIND, O_MN, O_UNIT, O_LAT, O_PIPE, O_RD, O_SRC, O_R, O_KI, O_BASE, O_OFF, O_SPACE,
     O_PORT, O_TARGET, O_NWRITES,
     K_ALU, K_LOAD, K_STORE, K_BRANCH, K_JUMP, K_JUMPR, K_CALL, K_RET, K_SEND, K_RECV, K_POLL,
@@ -25,11 +25,11 @@ from netsushisen.emulator.compiled.state import (
     C_BUNDLES, C_OPS, C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY,
     C_PE, C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL,
     C_CACHE_SETS, C_CACHE_OFF, C_BLOCK_BYTES, C_WORD_BYTES, C_LOCAL_READS, C_LOCAL_WRITES, C_RES_READS,
-    C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE,
+    C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE, C_NPEND,
     CAUSE_NONE, CAUSE_HALTED, CAUSE_BRANCH, CAUSE_LOCAL, CAUSE_RESIDENT, CAUSE_CACHE_HIT,
     CAUSE_CACHE_MISS, CAUSE_WRITE_PORT, CAUSE_FIFO_ANY, CAUSE_FIFO_EMPTY, CAUSE_FIFO_FULL,
     CAUSE_OPERAND, CAUSE_WAW, CAUSE_UNIT,
-    Q_CAP, Q_DELAY, Q_HEAD, Q_CNT, Q_POPC, Q_POPS, Q_PEAK, Q_TOTAL, Q_PE, Q_RING, W_ALL, W_RING,
+    Q_CAP, Q_DELAY, Q_HEAD, Q_CNT, Q_POPC, Q_POPS, Q_PEAK, Q_TOTAL, Q_PE, Q_RING, Q_CSTAGE, Q_CIN, W_ALL, W_RING, W_LASTVIS, W_MASK,
     M_N, M_RECV_OWNER, M_MOVED, M_RECV, M_DEST, M_LINK_IN, M_LINK_OUT, M_NOUT,
     P_MOVED, P_DIS_MOVED, P_COL_MOVED, P_NO_PROGRESS, P_HOST, P_COL,
     D_DYNAMIC, D_NEXT, D_NMSGS, D_WORDS_SENT,
@@ -73,6 +73,10 @@ def q_push(fq, fbt, fbw, pw, q, c, w):
     pe = fq[q, Q_PE]
     pw[pe, W_ALL] += 1
     pw[pe, W_RING] += fq[q, Q_RING]
+    if c + fq[q, Q_DELAY] > pw[pe, W_LASTVIS]:
+        pw[pe, W_LASTVIS] = c + fq[q, Q_DELAY]
+    if fq[q, Q_CSTAGE] >= 0:
+        pw[pe, W_MASK + fq[q, Q_CSTAGE]] |= 1 << fq[q, Q_CIN]
     cap = fbt.shape[1]
     k = (fq[q, Q_HEAD] + fq[q, Q_CNT]) % cap
     fbt[q, k] = c + fq[q, Q_DELAY]
@@ -97,6 +101,8 @@ def q_pop(fq, fbw, pw, q, c):
     w = fbw[q, h]
     fq[q, Q_HEAD] = (h + 1) % fbw.shape[1]
     fq[q, Q_CNT] -= 1
+    if fq[q, Q_CNT] == 0 and fq[q, Q_CSTAGE] >= 0:
+        pw[pe, W_MASK + fq[q, Q_CSTAGE]] &= ~(1 << fq[q, Q_CIN])
     return w
 
 
@@ -153,6 +159,7 @@ def schedule(cs, regs_ready, prod, wbn, wbr, wbw, W, p, rd, word, t, mn):
     wbr[p, s, k] = rd
     wbw[p, s, k] = word
     wbn[p, s] = k + 1
+    cs[p, C_NPEND] += 1
     regs_ready[p, rd] = t
     prod[p, rd] = mn
 
@@ -170,6 +177,7 @@ def core_step(c, p, A, W, finfo):
         for k in range(n):
             regs[p, wbr[p, s, k]] = wbw[p, s, k]
         wbn[p, s] = 0
+        cs[p, C_NPEND] -= n
     cs[p, C_LAST_ISSUED] = 0
     if cs[p, C_HALTED]:
         return 0
@@ -239,61 +247,60 @@ def core_step(c, p, A, W, finfo):
     lc1 = 0
     la0 = 0
     la1 = 0
-    if bun[p, pc, B_HASLOAD]:
-        nl = 0
-        for j in range(nops):
-            if ops[p, pc, j, O_KIND] == K_LOAD:
-                addr = as_i(regs[p, ops[p, pc, j, O_BASE]]) + ops[p, pc, j, O_OFF]
-                sp = ops[p, pc, j, O_SPACE]
-                if sp == SP_LOCAL:
-                    t = cs[p, C_T_LOCAL]
-                    cause = CAUSE_LOCAL
-                elif sp == SP_RESIDENT:
-                    t = cs[p, C_T_R]
-                    cause = CAUSE_RESIDENT
-                elif cache_probe(cs, ctags, p, addr):
-                    t = cs[p, C_T_C]
-                    cause = CAUSE_CACHE_HIT
-                else:
-                    t = cs[p, C_T_G]
-                    cause = CAUSE_CACHE_MISS
-                if nl == 0:
-                    lt0, lc0, la0 = t, cause, addr
-                else:
-                    lt1, lc1, la1 = t, cause, addr
-                nl += 1
-    # 5. write ports
-    wp = cs[p, C_WPORTS]
-    nl = 0
-    for j in range(nops):
-        nw = ops[p, pc, j, O_NWRITES]
-        kind = ops[p, pc, j, O_KIND]
-        if kind == K_LOAD:
-            t = c + (lt0 if nl == 0 else lt1)
-            nl += 1
+    nloads = 0
+    for k in range(2):
+        j = bun[p, pc, B_LOAD0 + k]
+        if j < 0:
+            break
+        nloads += 1
+        addr = as_i(regs[p, ops[p, pc, j, O_BASE]]) + ops[p, pc, j, O_OFF]
+        sp = ops[p, pc, j, O_SPACE]
+        if sp == SP_LOCAL:
+            t = cs[p, C_T_LOCAL]
+            cause = CAUSE_LOCAL
+        elif sp == SP_RESIDENT:
+            t = cs[p, C_T_R]
+            cause = CAUSE_RESIDENT
+        elif cache_probe(cs, ctags, p, addr):
+            t = cs[p, C_T_C]
+            cause = CAUSE_CACHE_HIT
         else:
-            t = c + ops[p, pc, j, O_LAT]
-        if nw == 0:
+            t = cs[p, C_T_G]
+            cause = CAUSE_CACHE_MISS
+        if k == 0:
+            lt0, lc0, la0 = t, cause, addr
+        else:
+            lt1, lc1, la1 = t, cause, addr
+    # 5. write ports: results due per cycle (the other writers' by latency, plus the loads')
+    wp = cs[p, C_WPORTS]
+    nw = bun[p, pc, B_NWLAT]
+    for k in range(nw):
+        lat = bun[p, pc, B_WLAT + 2 * k]
+        due = bun[p, pc, B_WLAT + 2 * k + 1]
+        for k2 in range(nloads):
+            j = bun[p, pc, B_LOAD0 + k2]
+            if ops[p, pc, j, O_NWRITES] and (lt0 if k2 == 0 else lt1) == lat:
+                due += 1
+        if wbn[p, (c + lat) & (W - 1)] + due > wp:
+            stall(cs, stpc, p, CAUSE_WRITE_PORT, pc)
+            return 0
+    for k2 in range(nloads):
+        j = bun[p, pc, B_LOAD0 + k2]
+        if not ops[p, pc, j, O_NWRITES]:
             continue
-        # writes of this bundle due at t, counted once per distinct t (at its first writer)
-        dup = False
-        due = 0
-        nl2 = 0
-        for j2 in range(nops):
-            k2 = ops[p, pc, j2, O_KIND]
-            if k2 == K_LOAD:
-                t2 = c + (lt0 if nl2 == 0 else lt1)
-                nl2 += 1
-            else:
-                t2 = c + ops[p, pc, j2, O_LAT]
-            if ops[p, pc, j2, O_NWRITES] and t2 == t:
-                if j2 < j:
-                    dup = True
-                    break
-                due += ops[p, pc, j2, O_NWRITES]
-        if dup:
+        t = lt0 if k2 == 0 else lt1
+        counted = False
+        for k in range(nw):
+            if bun[p, pc, B_WLAT + 2 * k] == t:
+                counted = True
+        if k2 == 1 and ops[p, pc, bun[p, pc, B_LOAD0], O_NWRITES] and lt0 == t:
+            counted = True
+        if counted:
             continue
-        if wbn[p, t & (W - 1)] + due > wp:
+        due = 1
+        if k2 == 0 and nloads > 1 and ops[p, pc, bun[p, pc, B_LOAD1], O_NWRITES] and lt1 == t:
+            due = 2
+        if wbn[p, (c + t) & (W - 1)] + due > wp:
             stall(cs, stpc, p, CAUSE_WRITE_PORT, pc)
             return 0
     # 6. FIFOs
@@ -442,15 +449,9 @@ def core_step(c, p, A, W, finfo):
                     busy[p, u, i] = c + ops[p, pc, j, O_LAT]
                     occ[p, u, i] = ops[p, pc, j, O_MN]
                     break
-    # counters
+    # counters (operations by unit and mnemonic follow from bpc: state.write_back)
     cs[p, C_BUNDLES] += 1
     bpc[p, pc] += 1
-    cs[p, C_OPS] += bun[p, pc, B_NOPCOUNT]
-    for j in range(nops):
-        u = ops[p, pc, j, O_UNIT]
-        if u >= 0:
-            opu[p, u] += 1
-            opm[p, ops[p, pc, j, O_MN]] += 1
     cs[p, C_LAST_ISSUED] = 1
     cs[p, C_LAST_PC] = pc
     cs[p, C_CAUSE] = CAUSE_HALTED if cs[p, C_HALTED] else CAUSE_NONE
@@ -470,25 +471,25 @@ def core_step(c, p, A, W, finfo):
 @njit(**_INLINE)
 def cmu_step(c, m, cm, cin, cout, route, rem, lown, linkw, fq, fbt, fbw, pw, pooled, finfo):
     """Returns 1 if a word moved, 0 if none, -1 on a fault (finfo filled)."""
+    # the inputs holding words (a bit each), offered in round-robin order from input c mod n
+    mask = pw[m // 3, W_MASK + m % 3]
+    if mask == 0:
+        return 0
     n = cm[m, M_N]
     lin = cm[m, M_LINK_IN]
     lout = cm[m, M_LINK_OUT]
-    if linkw[lin] == 0:
-        if fq[cin[m, 0], Q_CNT] == 0:
-            return 0
-        ncand = 1
-    else:
-        ncand = n
     start = c % n
     recv_free = True
     link_free = True
     moved = 0
     recv = cm[m, M_RECV]
-    for jj in range(ncand):
-        i = 0 if ncand == 1 else (start + jj) % n
-        f = cin[m, i]
-        if fq[f, Q_CNT] == 0:
+    for jj in range(n):
+        i = start + jj
+        if i >= n:
+            i -= n
+        if not (mask >> i) & 1:
             continue
+        f = cin[m, i]
         if fbt[f, fq[f, Q_HEAD]] > c:
             continue
         target = route[m, i]
@@ -608,6 +609,7 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
     nmsgs = dis[D_NMSGS]
     while g[G_CYCLE] < until:
         c = g[G_CYCLE]
+        dis_changed = False
         # DIS (machine.Dis.step)
         if dis[D_DYNAMIC] and dis[D_NEXT] < nmsgs:
             best = -1
@@ -619,6 +621,7 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
                         best = i
                         best_load = ld
             if best >= 0:
+                dis_changed = True
                 dcur[best] = dis[D_NEXT]
                 doff[best] = 0
                 dasg[best] += 1
@@ -628,12 +631,14 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
             if dcur[i] < 0:
                 if dis[D_DYNAMIC] or dup[i] >= nmsgs:
                     continue
+                dis_changed = True
                 dcur[i] = dup[i]
                 doff[i] = 0
                 dasg[i] += 1
                 dup[i] += npes
             hq = pes[i, P_HOST]
             if q_free(fq, hq, c) > 0:
+                dis_changed = True
                 msg = dcur[i]
                 q_push(fq, fbt, fbw, pw, hq, c, mwords[moff[msg] + doff[i]])
                 doff[i] += 1
@@ -756,4 +761,75 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
         sp = g[G_STOP_P]
         if sp >= 0 and cs[sp, C_PC] == g[G_STOP_PC] and not cs[sp, C_HALTED]:
             return S_STOPPED
+        if not any_issued and not dis_changed:
+            skip_quiet(c, until, limit, npes, W, cs, regs, wbn, wbr, wbw, stpc, pes, pw, cflags,
+                       g)
     return S_RUNNING
+
+
+@njit(**_INLINE)
+def skip_quiet(c, until, limit, npes, W, cs, regs, wbn, wbr, wbw, stpc, pes, pw, cflags, g):
+    """After a quiet cycle c — no bundle issued, no word moved, DIS unchanged, every word in
+    every FIFO already visible — nothing can change until some processor's stall runs out (a
+    hold, an operand, a destination, a busy unit: each knows its cycle) or the deadlock
+    detector's count reaches its limit. Charge the cycles until then at once, each to the
+    cause the cycle-by-cycle rule would charge (the same as in cycle c), and apply the results
+    that fall due meanwhile. A processor waiting on a FIFO with results still in flight, or
+    one stalled on write ports, ends the skip (its checks depend on the cycle)."""
+    for i in range(npes):
+        if pes[i, P_MOVED] or pes[i, P_COL_MOVED] or pw[i, W_LASTVIS] > c:
+            return
+    c1 = c + 1
+    T = until
+    for p in range(npes * 3):
+        if not cs[p, C_PRESENT] or cs[p, C_HALTED]:
+            continue
+        if c1 < cs[p, C_HOLD_UNTIL]:
+            w = cs[p, C_HOLD_MEM_UNTIL] if c1 < cs[p, C_HOLD_MEM_UNTIL] else cs[p, C_HOLD_UNTIL]
+        elif c1 < cs[p, C_WAKE]:
+            w = cs[p, C_WAKE]
+        elif cflags[cs[p, C_CAUSE]] != 0 and cs[p, C_NPEND] == 0:
+            continue
+        else:
+            return
+        if w < T:
+            T = w
+    for i in range(npes):
+        if not pe_progressed(i, cs, cflags, pes) and not pe_idle(i, cs, cflags, pw):
+            b = c1 + limit - 1 - pes[i, P_NO_PROGRESS]
+            if b < T:
+                T = b
+    if T <= c1:
+        return
+    k = T - c1
+    for p in range(npes * 3):
+        if not cs[p, C_PRESENT] or cs[p, C_HALTED]:
+            continue
+        if c1 < cs[p, C_HOLD_UNTIL]:
+            cause = cs[p, C_HOLD_CAUSE] if c1 < cs[p, C_HOLD_MEM_UNTIL] else CAUSE_BRANCH
+            pcx = cs[p, C_HOLD_PC]
+        elif c1 < cs[p, C_WAKE]:
+            cause = cs[p, C_WAKE_CAUSE]
+            pcx = cs[p, C_PC]
+        else:
+            cause = cs[p, C_CAUSE]
+            pcx = cs[p, C_LAST_PC]
+        cs[p, C_CYCLES] += k
+        stpc[p, pcx, cause] += k
+        cs[p, C_CAUSE] = cause
+        cs[p, C_LAST_PC] = pcx
+    last = T - 1 if T - 1 < c + W - 1 else c + W - 1
+    for p in range(npes * 3):
+        if cs[p, C_NPEND]:
+            for t in range(c1, last + 1):
+                s = t & (W - 1)
+                n = wbn[p, s]
+                if n:
+                    for j in range(n):
+                        regs[p, wbr[p, s, j]] = wbw[p, s, j]
+                    wbn[p, s] = 0
+                    cs[p, C_NPEND] -= n
+    for i in range(npes):
+        if not pe_progressed(i, cs, cflags, pes) and not pe_idle(i, cs, cflags, pw):
+            pes[i, P_NO_PROGRESS] += k
+    g[G_CYCLE] = T

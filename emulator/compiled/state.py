@@ -31,15 +31,17 @@ def _enum(names: str) -> dict[str, int]:
 _C = _enum("PC HALTED HOLD_UNTIL HOLD_MEM_UNTIL HOLD_CAUSE HOLD_PC CYCLES BUNDLES OPS LAST_PC "
            "LAST_ISSUED CAUSE PRESENT NB WPORTS PENALTY PE T_LOCAL T_R T_C T_G SEG_LOCAL "
            "SEG_RES SEG_GLOBAL CACHE_SETS CACHE_OFF BLOCK_BYTES WORD_BYTES LOCAL_READS "
-           "LOCAL_WRITES RES_READS CACHE_ACC CACHE_HITS CACHE_MISSES GLOBAL_ACC WAKE WAKE_CAUSE")
+           "LOCAL_WRITES RES_READS CACHE_ACC CACHE_HITS CACHE_MISSES GLOBAL_ACC WAKE WAKE_CAUSE NPEND")
 (C_PC, C_HALTED, C_HOLD_UNTIL, C_HOLD_MEM_UNTIL, C_HOLD_CAUSE, C_HOLD_PC, C_CYCLES, C_BUNDLES,
  C_OPS, C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY, C_PE,
  C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL, C_CACHE_SETS,
  C_CACHE_OFF, C_BLOCK_BYTES, C_WORD_BYTES, C_LOCAL_READS, C_LOCAL_WRITES, C_RES_READS,
- C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE) = range(len(_C))
+ C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE,
+ C_NPEND) = range(len(_C))
 """C_WAKE, C_WAKE_CAUSE: derived, not written back — a processor stalled on an operand, a
 destination or a busy unit stalls for that same cause until the cycle C_WAKE (nothing but its
-own issue changes what those checks read), so the loop charges those cycles without checking."""
+own issue changes what those checks read), so the loop charges those cycles without checking.
+C_NPEND (derived): results in flight."""
 N_C = len(_C)
 
 # decoded bundles: bun[processor, pc, B_*]; reads up to 8, writes up to 4, (class, count) pairs
@@ -47,7 +49,9 @@ B_NOPS, B_NREADS, B_READS = 0, 1, 2
 B_NWRITES, B_WRITES = 10, 11
 B_NUNITS, B_UNITS = 15, 16
 B_HASLOAD, B_NRECVS, B_RECVS, B_NSENDS, B_SENDS, B_WAITS, B_NOPCOUNT = 20, 21, 22, 26, 27, 31, 32
-N_B = 33
+B_LOAD0, B_LOAD1 = 33, 34  # slots of the bundle's loads (or -1)
+B_NWLAT, B_WLAT = 35, 36  # (latency, register writes) of the other writers, by distinct latency
+N_B = 44
 
 # decoded operations: ops[processor, pc, slot, O_*]; O_R.. the three source registers in order
 (O_KIND, O_MN, O_UNIT, O_LAT, O_PIPE, O_RD, O_SRC, O_R, O_R1, O_R2, O_KI, O_BASE, O_OFF,
@@ -88,9 +92,13 @@ CAUSE_FLAGS = np.array([2 if c.startswith("fifo_empty") else 1 if c.startswith("
 """0: not a FIFO wait; 1: a FIFO wait (`fifo_full`); 2: waiting on an empty receive FIFO."""
 
 # FIFOs: fq[fifo, Q_*]
-Q_CAP, Q_DELAY, Q_HEAD, Q_CNT, Q_POPC, Q_POPS, Q_PEAK, Q_TOTAL, Q_PE, Q_RING = range(10)
+Q_CAP, Q_DELAY, Q_HEAD, Q_CNT, Q_POPC, Q_POPS, Q_PEAK, Q_TOTAL, Q_PE, Q_RING, Q_CSTAGE, Q_CIN = \
+    range(12)
+"""Q_CSTAGE, Q_CIN: the CMU (stage) reading this FIFO as an input and the input's index, or -1."""
 # words in flight per PE (derived, kept up to date by every push and pop): pw[pe, W_*]
-W_ALL, W_RING = range(2)
+W_ALL, W_RING, W_LASTVIS, W_MASK = range(4)
+"""W_LASTVIS: the latest cycle at which a word pushed so far becomes visible. W_MASK + s: the
+inputs of the PE's CMU s that hold words, one bit per input."""
 # CMUs: cm[cmu, M_*]
 M_N, M_RECV_OWNER, M_MOVED, M_RECV, M_DEST, M_LINK_IN, M_LINK_OUT, M_NOUT = range(8)
 # PEs: pes[pe, P_*]
@@ -186,18 +194,25 @@ def flatten(machine: Machine) -> State:
     fifos = [f for pe in machine.pes for f in pe.ring.fifos()]
     fid = {id(f): i for i, f in enumerate(fifos)}
     cap = max(f.capacity for f in fifos)
-    fq = np.zeros((len(fifos), 10), np.int64)
+    fq = np.zeros((len(fifos), 12), np.int64)
     fbt = np.zeros((len(fifos), cap), np.int64)
     fbw = np.zeros((len(fifos), cap), np.int64)
-    pw = np.zeros((npes, 2), np.int64)
+    pw = np.zeros((npes, 7), np.int64)
+    cmu_input = {id(f): (s, k) for pe in machine.pes for s, cmu in enumerate(pe.ring.cmus)
+                 for k, f in enumerate(cmu.inputs)}
     per_pe = len(fifos) // npes
     for i, f in enumerate(fifos):
         pe = machine.pes[i // per_pe]
         ring = f is not pe.ring.host and f is not pe.ring.col
+        stage, k = cmu_input.get(id(f), (-1, -1))
         fq[i] = (f.capacity, f.delay, 0, len(f.q), f.pop_cycle, f.pops, f.peak, f.total,
-                 i // per_pe, ring)
+                 i // per_pe, ring, stage, k)
+        if stage >= 0 and len(f.q):
+            pw[i // per_pe, W_MASK + stage] |= 1 << k
         pw[i // per_pe, W_ALL] += len(f.q)
         pw[i // per_pe, W_RING] += len(f.q) if ring else 0
+        for t, _ in f.q:
+            pw[i // per_pe, W_LASTVIS] = max(pw[i // per_pe, W_LASTVIS], t)
         for k, (t, w) in enumerate(f.q):
             fbt[i, k] = t
             fbw[i, k] = _as_signed(int(w) & mask)
@@ -312,6 +327,7 @@ def flatten(machine: Machine) -> State:
                 k = wbn[p, s]
                 wbr[p, s, k], wbw[p, s, k] = r, _as_signed(int(w) & mask)
                 wbn[p, s] = k + 1
+                cs[p, C_NPEND] += 1
         for pc, causes in core.stalls_by_pc.items():
             for cause, n in causes.items():
                 stpc[p, pc, CAUSE_ID[cause]] = n
@@ -426,6 +442,16 @@ def _decode(core, units: list[str], ops: np.ndarray, opf: np.ndarray, bun: np.nd
             row[B_SENDS + 2 * k], row[B_SENDS + 2 * k + 1] = PORTS.index(port), n
         row[B_WAITS] = b.waits
         row[B_NOPCOUNT] = b.n_ops
+        loads = [j for j, d in enumerate(b.ops) if d.kind == "load"]
+        row[B_LOAD0] = loads[0] if loads else -1
+        row[B_LOAD1] = loads[1] if len(loads) > 1 else -1
+        by_lat: dict[int, int] = {}
+        for d in b.writers:
+            if d.kind != "load":
+                by_lat[d.lat] = by_lat.get(d.lat, 0) + d.nwrites
+        row[B_NWLAT] = len(by_lat)
+        for k, (lat, n) in enumerate(by_lat.items()):
+            row[B_WLAT + 2 * k], row[B_WLAT + 2 * k + 1] = lat, n
         for j, d in enumerate(b.ops):
             o = ops[pc, j]
             o[O_KIND] = KINDS.index(d.kind)
@@ -474,7 +500,6 @@ def write_back(st: State, machine: Machine) -> None:
         core.hold_pc = int(cs[C_HOLD_PC])
         core.cycles = int(cs[C_CYCLES])
         core.bundles_issued = int(cs[C_BUNDLES])
-        core.ops = int(cs[C_OPS])
         core.last_pc = int(cs[C_LAST_PC])
         core.last_issued = bool(cs[C_LAST_ISSUED])
         core.cause = CAUSES[cs[C_CAUSE]]
@@ -493,9 +518,19 @@ def write_back(st: State, machine: Machine) -> None:
             k = core.proc.units[name]
             core.busy[name] = [int(t) for t in a["busy"][p, u, :k]]
             core.occupant[name] = [MNEMONICS[i] if i >= 0 else "" for i in a["occ"][p, u, :k]]
-        core.ops_by_unit = {name: int(a["opu"][p, u]) for u, name in enumerate(units)
-                            if a["opu"][p, u]}
-        core.ops_by_mnemonic = {MNEMONICS[i]: int(n) for i, n in enumerate(a["opm"][p]) if n}
+        # operations by unit and mnemonic follow from the issue counts per PC
+        by_unit: dict[str, int] = {}
+        by_mn: dict[str, int] = {}
+        n_ops = 0
+        for pc in np.nonzero(a["bpc"][p])[0]:
+            n = int(a["bpc"][p, pc])
+            b = core.bundles[pc]
+            n_ops += n * b.n_ops
+            for d in b.ops:
+                if d.unit:
+                    by_unit[d.unit] = by_unit.get(d.unit, 0) + n
+                    by_mn[d.m] = by_mn.get(d.m, 0) + n
+        core.ops_by_unit, core.ops_by_mnemonic, core.ops = by_unit, by_mn, n_ops
         stpc = a["stpc"][p]
         by_pc: dict[int, dict[str, int]] = {}
         totals: dict[str, int] = {}

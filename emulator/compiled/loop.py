@@ -25,7 +25,7 @@ from netsushisen.emulator.compiled.state import (
     C_BUNDLES, C_OPS, C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY,
     C_PE, C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL,
     C_CACHE_SETS, C_CACHE_OFF, C_BLOCK_BYTES, C_WORD_BYTES, C_LOCAL_READS, C_LOCAL_WRITES, C_RES_READS,
-    C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE, C_NPEND,
+    C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE, C_NPEND, C_FIFOWAIT,
     CAUSE_NONE, CAUSE_HALTED, CAUSE_BRANCH, CAUSE_LOCAL, CAUSE_RESIDENT, CAUSE_CACHE_HIT,
     CAUSE_CACHE_MISS, CAUSE_WRITE_PORT, CAUSE_FIFO_ANY, CAUSE_FIFO_EMPTY, CAUSE_FIFO_FULL,
     CAUSE_OPERAND, CAUSE_WAW, CAUSE_UNIT,
@@ -195,51 +195,53 @@ def core_step(c, p, A, W, finfo):
         finfo[1] = p
         finfo[2] = pc
         return 1
-    # 2. operands (RAW): the source ready last
-    worst = -1
-    worst_t = c
-    for k in range(bun[p, pc, B_NREADS]):
-        r = bun[p, pc, B_READS + k]
-        if ready[p, r] > worst_t:
-            worst = r
-            worst_t = ready[p, r]
-    if worst >= 0:
-        cause = CAUSE_OPERAND + prod[p, worst] + 1
-        stall(cs, stpc, p, cause, pc)
-        cs[p, C_WAKE] = worst_t
-        cs[p, C_WAKE_CAUSE] = cause
-        return 0
-    # 3. destinations (WAW)
-    for k in range(bun[p, pc, B_NWRITES]):
-        r = bun[p, pc, B_WRITES + k]
-        if ready[p, r] > c:
-            cause = CAUSE_WAW + prod[p, r] + 1
-            stall(cs, stpc, p, cause, pc)
-            cs[p, C_WAKE] = ready[p, r]
-            cs[p, C_WAKE_CAUSE] = cause
-            return 0
-    # 4. units
-    for k in range(bun[p, pc, B_NUNITS]):
-        u = bun[p, pc, B_UNITS + 2 * k]
-        need = bun[p, pc, B_UNITS + 2 * k + 1]
-        free = 0
-        first = -1
-        soonest = 0
-        for i in range(unitn[p, u]):
-            if busy[p, u, i] <= c:
-                free += 1
-            else:
-                if first < 0:
-                    first = i
-                if soonest == 0 or busy[p, u, i] < soonest:
-                    soonest = busy[p, u, i]
-        if free < need:
-            cause = CAUSE_UNIT + occ[p, u, first] + 1
-            stall(cs, stpc, p, cause, pc)
-            cs[p, C_WAKE] = soonest
-            cs[p, C_WAKE_CAUSE] = cause
-            return 0
     nops = bun[p, pc, B_NOPS]
+    fw = cs[p, C_FIFOWAIT]
+    if not fw:
+        # 2. operands (RAW): the source ready last
+        worst = -1
+        worst_t = c
+        for k in range(bun[p, pc, B_NREADS]):
+            r = bun[p, pc, B_READS + k]
+            if ready[p, r] > worst_t:
+                worst = r
+                worst_t = ready[p, r]
+        if worst >= 0:
+            cause = CAUSE_OPERAND + prod[p, worst] + 1
+            stall(cs, stpc, p, cause, pc)
+            cs[p, C_WAKE] = worst_t
+            cs[p, C_WAKE_CAUSE] = cause
+            return 0
+        # 3. destinations (WAW)
+        for k in range(bun[p, pc, B_NWRITES]):
+            r = bun[p, pc, B_WRITES + k]
+            if ready[p, r] > c:
+                cause = CAUSE_WAW + prod[p, r] + 1
+                stall(cs, stpc, p, cause, pc)
+                cs[p, C_WAKE] = ready[p, r]
+                cs[p, C_WAKE_CAUSE] = cause
+                return 0
+        # 4. units
+        for k in range(bun[p, pc, B_NUNITS]):
+            u = bun[p, pc, B_UNITS + 2 * k]
+            need = bun[p, pc, B_UNITS + 2 * k + 1]
+            free = 0
+            first = -1
+            soonest = 0
+            for i in range(unitn[p, u]):
+                if busy[p, u, i] <= c:
+                    free += 1
+                else:
+                    if first < 0:
+                        first = i
+                    if soonest == 0 or busy[p, u, i] < soonest:
+                        soonest = busy[p, u, i]
+            if free < need:
+                cause = CAUSE_UNIT + occ[p, u, first] + 1
+                stall(cs, stpc, p, cause, pc)
+                cs[p, C_WAKE] = soonest
+                cs[p, C_WAKE_CAUSE] = cause
+                return 0
     # load timing (memories.MemorySystem.access_time); the base register is ready
     lt0 = 0
     lt1 = 0
@@ -271,38 +273,39 @@ def core_step(c, p, A, W, finfo):
             lt0, lc0, la0 = t, cause, addr
         else:
             lt1, lc1, la1 = t, cause, addr
-    # 5. write ports: results due per cycle (the other writers' by latency, plus the loads')
-    wp = cs[p, C_WPORTS]
-    nw = bun[p, pc, B_NWLAT]
-    for k in range(nw):
-        lat = bun[p, pc, B_WLAT + 2 * k]
-        due = bun[p, pc, B_WLAT + 2 * k + 1]
+    if not fw:
+        # 5. write ports: results due per cycle (the other writers' by latency, plus the loads')
+        wp = cs[p, C_WPORTS]
+        nw = bun[p, pc, B_NWLAT]
+        for k in range(nw):
+            lat = bun[p, pc, B_WLAT + 2 * k]
+            due = bun[p, pc, B_WLAT + 2 * k + 1]
+            for k2 in range(nloads):
+                j = bun[p, pc, B_LOAD0 + k2]
+                if ops[p, pc, j, O_NWRITES] and (lt0 if k2 == 0 else lt1) == lat:
+                    due += 1
+            if wbn[p, (c + lat) & (W - 1)] + due > wp:
+                stall(cs, stpc, p, CAUSE_WRITE_PORT, pc)
+                return 0
         for k2 in range(nloads):
             j = bun[p, pc, B_LOAD0 + k2]
-            if ops[p, pc, j, O_NWRITES] and (lt0 if k2 == 0 else lt1) == lat:
-                due += 1
-        if wbn[p, (c + lat) & (W - 1)] + due > wp:
-            stall(cs, stpc, p, CAUSE_WRITE_PORT, pc)
-            return 0
-    for k2 in range(nloads):
-        j = bun[p, pc, B_LOAD0 + k2]
-        if not ops[p, pc, j, O_NWRITES]:
-            continue
-        t = lt0 if k2 == 0 else lt1
-        counted = False
-        for k in range(nw):
-            if bun[p, pc, B_WLAT + 2 * k] == t:
+            if not ops[p, pc, j, O_NWRITES]:
+                continue
+            t = lt0 if k2 == 0 else lt1
+            counted = False
+            for k in range(nw):
+                if bun[p, pc, B_WLAT + 2 * k] == t:
+                    counted = True
+            if k2 == 1 and ops[p, pc, bun[p, pc, B_LOAD0], O_NWRITES] and lt0 == t:
                 counted = True
-        if k2 == 1 and ops[p, pc, bun[p, pc, B_LOAD0], O_NWRITES] and lt0 == t:
-            counted = True
-        if counted:
-            continue
-        due = 1
-        if k2 == 0 and nloads > 1 and ops[p, pc, bun[p, pc, B_LOAD1], O_NWRITES] and lt1 == t:
-            due = 2
-        if wbn[p, (c + t) & (W - 1)] + due > wp:
-            stall(cs, stpc, p, CAUSE_WRITE_PORT, pc)
-            return 0
+            if counted:
+                continue
+            due = 1
+            if k2 == 0 and nloads > 1 and ops[p, pc, bun[p, pc, B_LOAD1], O_NWRITES] and lt1 == t:
+                due = 2
+            if wbn[p, (c + t) & (W - 1)] + due > wp:
+                stall(cs, stpc, p, CAUSE_WRITE_PORT, pc)
+                return 0
     # 6. FIFOs
     for k in range(bun[p, pc, B_NRECVS]):
         port = bun[p, pc, B_RECVS + 2 * k]
@@ -311,6 +314,7 @@ def core_step(c, p, A, W, finfo):
         have = q_visible(fq, fbt, q, c) if need > 1 else (1 if q_ready(fq, fbt, q, c) else 0)
         if have < need:
             stall(cs, stpc, p, CAUSE_FIFO_EMPTY + port, pc)
+            cs[p, C_FIFOWAIT] = cs[p, C_NPEND] == 0
             return 0
     if bun[p, pc, B_WAITS]:
         anyready = False
@@ -320,14 +324,17 @@ def core_step(c, p, A, W, finfo):
                 anyready = True
         if not anyready:
             stall(cs, stpc, p, CAUSE_FIFO_ANY, pc)
+            cs[p, C_FIFOWAIT] = cs[p, C_NPEND] == 0
             return 0
     for k in range(bun[p, pc, B_NSENDS]):
         port = bun[p, pc, B_SENDS + 2 * k]
         need = bun[p, pc, B_SENDS + 2 * k + 1]
         if q_free(fq, sendq[p, port], c) < need:
             stall(cs, stpc, p, CAUSE_FIFO_FULL + port, pc)
+            cs[p, C_FIFOWAIT] = cs[p, C_NPEND] == 0
             return 0
     # issue (core.Core._issue)
+    cs[p, C_FIFOWAIT] = 0
     next_pc = pc + 1
     taken = False
     hold_mem = c + 1
@@ -469,7 +476,8 @@ def core_step(c, p, A, W, finfo):
 
 
 @njit(**_INLINE)
-def cmu_step(c, m, cm, cin, cout, route, rem, lown, linkw, fq, fbt, fbw, pw, pooled, finfo):
+def cmu_step(c, start, m, cm, cin, cout, route, rem, lown, linkw, fq, fbt, fbw, pw, pooled,
+             finfo):
     """Returns 1 if a word moved, 0 if none, -1 on a fault (finfo filled)."""
     # the inputs holding words (a bit each), offered in round-robin order from input c mod n
     mask = pw[m // 3, W_MASK + m % 3]
@@ -478,7 +486,6 @@ def cmu_step(c, m, cm, cin, cout, route, rem, lown, linkw, fq, fbt, fbw, pw, poo
     n = cm[m, M_N]
     lin = cm[m, M_LINK_IN]
     lout = cm[m, M_LINK_OUT]
-    start = c % n
     recv_free = True
     link_free = True
     moved = 0
@@ -655,9 +662,10 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
                         g[G_CYCLE] = c + 1
                         return S_FAULT
             moved = 0
+            start = c % cm[pe * 3, M_N]  # every CMU of a PE has as many inputs
             for s in range(3):
-                r = cmu_step(c, pe * 3 + s, cm, cin, cout, route, rem, lown, linkw, fq, fbt,
-                             fbw, pw, pooled, finfo)
+                r = cmu_step(c, start, pe * 3 + s, cm, cin, cout, route, rem, lown, linkw, fq,
+                             fbt, fbw, pw, pooled, finfo)
                 if r < 0:
                     finfo[3] = pe
                     g[G_CYCLE] = c + 1

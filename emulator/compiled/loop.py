@@ -25,7 +25,7 @@ from netsushisen.emulator.compiled.state import (
     C_BUNDLES, C_OPS, C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY,
     C_PE, C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL,
     C_CACHE_SETS, C_CACHE_OFF, C_BLOCK_BYTES, C_WORD_BYTES, C_LOCAL_READS, C_LOCAL_WRITES, C_RES_READS,
-    C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE, C_NPEND, C_FIFOWAIT,
+    C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE, C_NPEND, C_FIFOWAIT, C_BSHIFT, C_SSHIFT,
     CAUSE_NONE, CAUSE_HALTED, CAUSE_BRANCH, CAUSE_LOCAL, CAUSE_RESIDENT, CAUSE_CACHE_HIT,
     CAUSE_CACHE_MISS, CAUSE_WRITE_PORT, CAUSE_FIFO_ANY, CAUSE_FIFO_EMPTY, CAUSE_FIFO_FULL,
     CAUSE_OPERAND, CAUSE_WAW, CAUSE_UNIT,
@@ -110,34 +110,43 @@ def q_pop(fq, fbw, pw, q, c):
 
 
 @njit(**_INLINE)
-def count_region(rg, rmap, rcnt, pcnt, p, space, addr, hit):
-    """RegionMap.lookup + RegionCounters.count; hit: -1 none, 0 miss, 1 hit."""
-    off = rmap[p, space, 0]
-    n = rmap[p, space, 1]
-    if n <= 0:
+def count_region(rg, rmap, rdense, rcnt, pcnt, p, space, addr, hit):
+    """RegionMap.lookup + RegionCounters.count; hit: -1 none, 0 miss, 1 hit. The address is
+    inside the memory (checked before); rdense maps it to its region."""
+    if rmap[p, space, 1] <= 0:
         return
-    starts = rg[0, off:off + n]
-    i = np.searchsorted(starts, addr, side="right") - 1
-    if i < 0 or addr >= rg[1, off + i]:
+    i = rdense[rmap[p, space, 0] + addr]
+    if i < 0:
         return
-    name = rg[2, off + i]
+    name = rg[2, i]
     rcnt[p, space, name, 0] += 1
     if hit == 1:
         rcnt[p, space, name, 1] += 1
     elif hit == 0:
         rcnt[p, space, name, 2] += 1
-    prim = rg[3, off + i]
+    prim = rg[3, i]
     if prim >= 0:
         pcnt[p, space, prim] += 1
 
 
 @njit(**_INLINE)
-def cache_probe(cs, ctags, p, addr):
+def cache_locate(cs, p, addr):
+    """memories.Cache.locate (sets > 0): (set, tag), by shifts where sizes are powers of two."""
+    b = cs[p, C_BSHIFT]
+    block = addr >> b if b >= 0 else (addr * cs[p, C_WORD_BYTES]) // cs[p, C_BLOCK_BYTES]
+    sh = cs[p, C_SSHIFT]
+    if sh >= 0:
+        return block & ((1 << sh) - 1), block >> sh
     sets = cs[p, C_CACHE_SETS]
-    if sets == 0:
+    return block % sets, block // sets
+
+
+@njit(**_INLINE)
+def cache_probe(cs, ctags, p, addr):
+    if cs[p, C_CACHE_SETS] == 0:
         return False
-    block = (addr * cs[p, C_WORD_BYTES]) // cs[p, C_BLOCK_BYTES]
-    return ctags[cs[p, C_CACHE_OFF] + block % sets] == block // sets
+    s, tag = cache_locate(cs, p, addr)
+    return ctags[cs[p, C_CACHE_OFF] + s] == tag
 
 
 # -- one processor's cycle (core.Core.step) -------------------------------------------------------
@@ -169,7 +178,7 @@ def core_step(c, p, A, W, finfo):
     """Returns 0, or a fault code (finfo filled). A: the state arrays (a tuple, so the call
     stays short enough for numba to inline it)."""
     (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, opu, opm, ops, opf, bun,
-     recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rcnt, pcnt, pw) = A
+     recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw) = A
     # write back results due now
     s = c & (W - 1)
     n = wbn[p, s]
@@ -371,28 +380,27 @@ def core_step(c, p, A, W, finfo):
             w = mem[seg[sg, 0] + addr]
             if sp == SP_LOCAL:
                 cs[p, C_LOCAL_READS] += 1
-                count_region(rg, rmap, rcnt, pcnt, p, SP_LOCAL, addr, -1)
+                count_region(rg, rmap, rdense, rcnt, pcnt, p, SP_LOCAL, addr, -1)
             elif sp == SP_RESIDENT:
                 cs[p, C_RES_READS] += 1
-                count_region(rg, rmap, rcnt, pcnt, p, SP_RESIDENT, addr, -1)
+                count_region(rg, rmap, rdense, rcnt, pcnt, p, SP_RESIDENT, addr, -1)
             else:
                 # Cache.access: count, fill on a miss
                 cs[p, C_CACHE_ACC] += 1
-                sets = cs[p, C_CACHE_SETS]
-                block = (addr * cs[p, C_WORD_BYTES]) // cs[p, C_BLOCK_BYTES]
                 hit = False
-                if sets > 0:
-                    ti = cs[p, C_CACHE_OFF] + block % sets
-                    if ctags[ti] == block // sets:
+                if cs[p, C_CACHE_SETS] > 0:
+                    st, tag = cache_locate(cs, p, addr)
+                    ti = cs[p, C_CACHE_OFF] + st
+                    if ctags[ti] == tag:
                         hit = True
                     else:
-                        ctags[ti] = block // sets
+                        ctags[ti] = tag
                 if hit:
                     cs[p, C_CACHE_HITS] += 1
                 else:
                     cs[p, C_CACHE_MISSES] += 1
                     cs[p, C_GLOBAL_ACC] += 1
-                count_region(rg, rmap, rcnt, pcnt, p, SP_GLOBAL, addr, 1 if hit else 0)
+                count_region(rg, rmap, rdense, rcnt, pcnt, p, SP_GLOBAL, addr, 1 if hit else 0)
             schedule(cs, ready, prod, wbn, wbr, wbw, W, p, ops[p, pc, j, O_RD], w, c + t_acc, mn)
             if c + t_acc > hold_mem:
                 hold_mem = c + t_acc
@@ -602,14 +610,14 @@ def pe_progressed(pe, cs, cflags, pes):
 
 @njit(**_OPTS)
 def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, opu,
-             opm, ops, opf, bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rcnt,
-             pcnt, cm, cin, cout, route, rem, lown, linkw, pes, dis, dcur, doff, dup, dasg,
+             opm, ops, opf, bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense,
+             rcnt, pcnt, cm, cin, cout, route, rem, lown, linkw, pes, dis, dcur, doff, dup, dasg,
              moff, mwords, col, cpart, cplen, frame, ids, cflags, pw, finfo):
     """Run cycles from g[G_CYCLE] until the run ends or the cycle `until` is reached; returns
     the status code (S_*). The cycle counter in g is advanced like machine.cycle."""
     W = g[G_W]
     A = (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, opu, opm, ops, opf,
-         bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rcnt, pcnt, pw)
+         bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw)
     npes = g[G_NPES]
     pooled = g[G_POOLED]
     limit = g[G_DEADLOCK_CYCLES]

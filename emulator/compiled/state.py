@@ -32,19 +32,20 @@ _C = _enum("PC HALTED HOLD_UNTIL HOLD_MEM_UNTIL HOLD_CAUSE HOLD_PC CYCLES BUNDLE
            "LAST_ISSUED CAUSE PRESENT NB WPORTS PENALTY PE T_LOCAL T_R T_C T_G SEG_LOCAL "
            "SEG_RES SEG_GLOBAL CACHE_SETS CACHE_OFF BLOCK_BYTES WORD_BYTES LOCAL_READS "
            "LOCAL_WRITES RES_READS CACHE_ACC CACHE_HITS CACHE_MISSES GLOBAL_ACC WAKE WAKE_CAUSE NPEND "
-           "FIFOWAIT")
+           "FIFOWAIT BSHIFT SSHIFT")
 (C_PC, C_HALTED, C_HOLD_UNTIL, C_HOLD_MEM_UNTIL, C_HOLD_CAUSE, C_HOLD_PC, C_CYCLES, C_BUNDLES,
  C_OPS, C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY, C_PE,
  C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL, C_CACHE_SETS,
  C_CACHE_OFF, C_BLOCK_BYTES, C_WORD_BYTES, C_LOCAL_READS, C_LOCAL_WRITES, C_RES_READS,
  C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE,
- C_NPEND, C_FIFOWAIT) = range(len(_C))
+ C_NPEND, C_FIFOWAIT, C_BSHIFT, C_SSHIFT) = range(len(_C))
 """C_WAKE, C_WAKE_CAUSE: derived, not written back — a processor stalled on an operand, a
 destination or a busy unit stalls for that same cause until the cycle C_WAKE (nothing but its
 own issue changes what those checks read), so the loop charges those cycles without checking.
 C_NPEND (derived): results in flight. C_FIFOWAIT (derived): the processor waits on a FIFO with
 no result in flight, so every earlier issue check (operands, destinations, units, write ports)
-still passes and only the FIFO checks need doing again."""
+still passes and only the FIFO checks need doing again. C_BSHIFT, C_SSHIFT: log2 of the words
+per cache block and of the sets where those are powers of two (else -1): shifts for divisions."""
 N_C = len(_C)
 
 # decoded bundles: bun[processor, pc, B_*]; reads up to 8, writes up to 4, (class, count) pairs
@@ -134,7 +135,7 @@ class State:
 
 ARG_ORDER = ("g", "until", "cs", "regs", "ready", "prod", "wbn", "wbr", "wbw", "busy", "occ",
              "unitn", "stpc", "bpc", "opu", "opm", "ops", "opf", "bun", "recvq", "sendq", "fq",
-             "fbt", "fbw", "mem", "seg", "ctags", "rg", "rmap", "rcnt", "pcnt", "cm", "cin",
+             "fbt", "fbw", "mem", "seg", "ctags", "rg", "rmap", "rdense", "rcnt", "pcnt", "cm", "cin",
              "cout", "route", "rem", "lown", "linkw", "pes", "dis", "dcur", "doff", "dup",
              "dasg", "moff", "mwords", "col", "cpart", "cplen", "frame", "ids", "cflags", "pw",
              "finfo")
@@ -251,16 +252,30 @@ def flatten(machine: Machine) -> State:
                 name_id(name)
             for prim in counts.primitives:
                 max_prim = max(max_prim, prim + 1)
+    dense_of: dict[tuple[int, int], tuple[int, np.ndarray]] = {}
+    dense_parts: list[np.ndarray] = []
+    dense_len = 0
     for p, maps in enumerate(maps_of):
+        mem = cores[p].memory
+        sizes = (mem.local.size, mem.resident.size if mem.resident is not None else 0,
+                 mem.global_memory.size if mem.global_memory is not None else 0)
         for sp, rmap_obj in enumerate(maps):
-            if rmap_obj is None:
+            if rmap_obj is None or not sizes[sp]:
                 continue
-            rmap[p, sp] = (len(rg_parts), len(rmap_obj.regions))
-            for r in rmap_obj.regions:
-                prim = -1 if r.primitive is None else r.primitive
-                max_prim = max(max_prim, prim + 1)
-                rg_parts.append((r.start, r.end, name_id(r.name), prim))
+            key = (id(rmap_obj), sizes[sp])
+            if key not in dense_of:  # a dense per-address map: region index, or -1
+                d = np.full(sizes[sp], -1, np.int32)
+                for r in rmap_obj.regions:
+                    prim = -1 if r.primitive is None else r.primitive
+                    max_prim = max(max_prim, prim + 1)
+                    d[max(r.start, 0):max(min(r.end, sizes[sp]), 0)] = len(rg_parts)
+                    rg_parts.append((r.start, r.end, name_id(r.name), prim))
+                dense_of[key] = (dense_len, d)
+                dense_parts.append(d)
+                dense_len += len(d)
+            rmap[p, sp] = (dense_of[key][0], sizes[sp])
     rg = np.array(rg_parts, np.int64).T.copy() if rg_parts else np.zeros((4, 1), np.int64)
+    rdense = np.concatenate(dense_parts) if dense_parts else np.zeros(1, np.int32)
     rcnt = np.zeros((P, 3, max(len(region_names), 1), 3), np.int64)
     pcnt = np.zeros((P, 3, max(max_prim, 1)), np.int64)
 
@@ -313,6 +328,11 @@ def flatten(machine: Machine) -> State:
                 c.accesses, c.hits, c.misses
             tags.append(c.tags.astype(np.int64))
             tag_off += c.sets
+            per_block = c.block_bytes // c.word_bytes
+            cs[p, C_BSHIFT] = per_block.bit_length() - 1 if c.block_bytes % c.word_bytes == 0 \
+                and per_block & (per_block - 1) == 0 else -1
+            cs[p, C_SSHIFT] = c.sets.bit_length() - 1 if c.sets and c.sets & (c.sets - 1) == 0 \
+                else -1
         else:
             cs[p, C_BLOCK_BYTES] = 1
         for sp, counts in enumerate(_counters(mem)):
@@ -397,6 +417,7 @@ def flatten(machine: Machine) -> State:
         recvq=recvq, sendq=sendq, fq=fq, fbt=fbt, fbw=fbw,
         mem=np.concatenate(segs) if segs else np.zeros(1, np.int64), seg=seg,
         ctags=np.concatenate(tags) if tags else np.zeros(1, np.int64), rg=rg, rmap=rmap,
+        rdense=rdense,
         rcnt=rcnt, pcnt=pcnt, cm=cm, cin=cin, cout=cout, route=route, rem=rem, lown=lown,
         linkw=linkw, pes=pes,
         dis=np.array([d.dynamic, d.next_msg, len(d.messages), d.words_sent], np.int64),

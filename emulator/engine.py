@@ -13,11 +13,14 @@ engine ran. The engines:
     tandem      both in lock step; stops at the first cycle where any state or counter differs
 
 `make_engine(name, ...)` is the one way to get an engine; an unknown name is a one-line error
-that lists the engines.
+that lists the engines. The default (DEFAULT_ENGINE) is the compiled engine where numba is
+installed, else the reference engine. A long run is stopped safely by raising KeyboardInterrupt
+from its progress callback (between cycles or chunks) and ended with `interrupt()`.
 """
 
 from __future__ import annotations
 
+import importlib.util
 from typing import Callable
 
 import numpy as np
@@ -58,13 +61,26 @@ class Engine:
         if progress is None:
             return m.run(max_cycles)
         limit = self.config.max_cycles if max_cycles is None else max_cycles
-        while m.status is None:
-            if limit and m.cycle >= limit:
-                return m.run(max_cycles)  # records the cycle-limit end
-            m.step()
-            if m.cycle % every == 0:
-                progress(m.cycle)
+        every = max(every, 1)
+        with np.errstate(all="ignore"):  # as Machine.step, once for the whole run
+            while m.status is None:
+                if limit and m.cycle >= limit:
+                    return m.run(max_cycles)  # records the cycle-limit end
+                m._step()
+                if m.cycle % every == 0:
+                    progress(m.cycle)  # between cycles: an exception here leaves a whole cycle
         progress(m.cycle)
+        return self.result()
+
+    def interrupt(self) -> RunResult:
+        """End a run stopped from outside — Ctrl-C, as a KeyboardInterrupt out of `run` raised
+        by its progress callback, i.e. between cycles (reference) or chunks (compiled, which
+        writes its state back first), so the machine's state is whole: the status becomes
+        "interrupted" (exit code 130) unless the run had ended, and statistics, frame and ids
+        say what was done so far."""
+        m = self.machine
+        if m.status is None:
+            m.status = "interrupted"
         return self.result()
 
     def step(self, cycles: int = 1) -> str | None:
@@ -75,6 +91,12 @@ class Engine:
             if status is not None:
                 break
         return status
+
+    @property
+    def host_messages(self) -> int:
+        """The number of messages in the host stream DIS hands out (known before the run: the
+        total of progress_counts()'s second count)."""
+        return len(self.machine.dis.messages)
 
     def progress_counts(self) -> tuple[int, int, int]:
         """(cycle, host messages DIS has started handing out, messages COL has taken): cheap
@@ -160,7 +182,17 @@ ReferenceEngine = Engine
 ENGINES: dict[str, Callable[..., Engine]] = {"reference": ReferenceEngine}
 """Engines by name; the compiled and tandem engines register themselves when importable."""
 
-DEFAULT_ENGINE = "reference"
+DEFAULT_ENGINE = "compiled" if importlib.util.find_spec("numba") is not None else "reference"
+"""The engine commands and library calls use unless told otherwise: the compiled engine where
+numba is installed (checked without importing it, so a command that runs no machine does not
+pay for numba), else the reference engine. `default_engine()` also falls back when the compiled
+engine is installed but does not import."""
+
+
+def default_engine() -> str:
+    """DEFAULT_ENGINE if it imports, else "reference"."""
+    _register_optional()
+    return DEFAULT_ENGINE if DEFAULT_ENGINE in ENGINES else "reference"
 
 
 def _register_optional() -> None:

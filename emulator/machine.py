@@ -53,7 +53,8 @@ from netsushisen.isa.images import MemoryImage
 from netsushisen.emulator.memories import Memory
 from netsushisen.emulator.pe import PE
 
-EXIT_CODES = {"halted": 0, "finished": 0, "fault": 2, "deadlock": 3, "max_cycles": 4}
+EXIT_CODES = {"halted": 0, "finished": 0, "fault": 2, "deadlock": 3, "max_cycles": 4,
+              "interrupted": 130}
 
 
 class DeadlockError(NetsushisenError):
@@ -181,7 +182,7 @@ class Col:
 
 @dataclass
 class RunResult:
-    status: str  # halted, finished, deadlock, fault, max_cycles
+    status: str  # halted, finished, deadlock, fault, max_cycles, interrupted (Engine.interrupt)
     cycles: int
     error: NetsushisenError | None = None
 

@@ -7,7 +7,8 @@ Schema `netsushisen-stats` version 1:
     programs     per stage: bundles, data words, source file, defines (or null when absent);
                  static_ilp (ops per bundle, slot fill per unit class, register-port use of
                  the program as scheduled: `asm.listing.static_ilp`)
-    run          status (halted/finished/deadlock/fault/max_cycles), cycles, message,
+    run          status (halted/finished/deadlock/fault/max_cycles, or interrupted: stopped by
+                 Ctrl-C, the counters so far), cycles, message,
                  left_in_flight (words still in FIFOs at the end)
     processors   keyed "pe0.os", "pe0.ic", "pe0.sc", "pe1.os", ...: present, halted, pc,
                  cycles, bundles, ops, ops_by_unit, ops_by_mnemonic, stalls {cause: cycles},

@@ -16,8 +16,9 @@ the same and is checked the same way wherever it appears:
     add_resolution(parser, default)
                                 --res N (`args.res`); `check_resolution(args.res)` rejects
                                 N outside 1..MAX_RES with one line before anything is allocated
-    add_engine(parser)          --engine NAME (`args.engine`, default the engine interface's
-                                DEFAULT_ENGINE); `engine_from_args(args)` checks the name
+    add_engine(parser)          --engine NAME (`args.engine`, None when not given);
+                                `engine_from_args(args)` checks the name, or picks the engine
+                                interface's default (compiled where it imports, else reference)
     add_program_options(parser) --os/--ic/--sc PROGRAM, --image FILE (with -D and the config
                                 options: what `run` and `debug` build a machine from);
                                 `machine_inputs(args)` -> (config, programs, image)
@@ -150,15 +151,19 @@ def check_resolution(res: int | None) -> int | None:
 def add_engine(parser: argparse.ArgumentParser) -> None:
     from netsushisen.emulator.engine import DEFAULT_ENGINE
 
-    parser.add_argument("--engine", default=DEFAULT_ENGINE, metavar="NAME",
-                        help=f"simulation engine (default {DEFAULT_ENGINE}; an unknown name lists "
-                             "the engines)")
+    parser.add_argument("--engine", default=None, metavar="NAME",
+                        help=f"simulation engine: reference, compiled or tandem (default "
+                             f"{DEFAULT_ENGINE}; an unknown name lists the engines)")
 
 
-def engine_from_args(args: argparse.Namespace) -> str:
-    """The --engine name, checked against the engines there are (a one-line error otherwise)."""
-    from netsushisen.emulator.engine import check_engine
+def engine_from_args(args: argparse.Namespace, default: str | None = None) -> str:
+    """The --engine name, checked against the engines there are (a one-line error otherwise).
+    Without --engine: `default`, else the engine interface's default (`default_engine()`: the
+    compiled engine where it imports, else the reference engine); `args.engine` is set to it."""
+    from netsushisen.emulator.engine import check_engine, default_engine
 
+    if args.engine is None:
+        args.engine = default or default_engine()
     return check_engine(args.engine)
 
 

@@ -8,7 +8,10 @@ SCENE is a built-in SPD scene (tetra, balls, mount, rings, ...; `balls:2` for si
 an .nff file. The kernels are assembled for the scene's needs unless --generic; --kernels DIR (or
 --os/--ic/--sc FILE) runs your own kernels instead of the bundled ones. The image, ids and JSON
 are written whatever the run's end (a deadlock or fault keeps what was computed); the exit code
-is the run's (0 done, 2 fault, 3 deadlock, 4 cycle limit).
+is the run's (0 done, 2 fault, 3 deadlock, 4 cycle limit). The engine is the compiled one unless
+--engine says otherwise (netsushisen/options.py). On a terminal a progress bar shows the eye
+rays handed out, cycles, rate and ETA (netsushisen/progress.py); Ctrl-C stops the run, writes the
+partial image, ids and statistics (run.status "interrupted") and exits 130.
 """
 
 from __future__ import annotations
@@ -21,10 +24,10 @@ import numpy as np
 
 from netsushisen import render as pipeline
 from netsushisen.emulator import stats as run_stats
-from netsushisen.emulator.engine import RunResult
 from netsushisen.host.images import write_png
 from netsushisen.options import (add_config_options, add_engine, add_resolution, check_resolution,
                                  config_from_args, engine_from_args)
+from netsushisen.progress import INTERRUPTED, RunMonitor
 from netsushisen.reports.summary import print_render_summary
 
 
@@ -54,37 +57,30 @@ def run(args: argparse.Namespace) -> int:
     setup = pipeline.prepare(args.scene, config, args.res, args.corners, args.generic, args.slots,
                              args.kernels, overrides)
     engine = setup.engine(engine_name)
-    progress = _progress_printer() if sys.stderr.isatty() and not args.quiet else None
-    interrupted = False
-    try:
-        run_result = engine.run(progress=progress)
-    except KeyboardInterrupt:  # keep what was computed: write the partial image and statistics
-        interrupted = True
-        print(f"\nnetsushisen render: interrupted at cycle {engine.cycle:,}; writing what was computed",
-              file=sys.stderr)
-        run_result = RunResult(engine.status or "interrupted", engine.cycle, None)
+    side = setup.side
+    monitor = RunMonitor(engine, total=side * side, unit="eye rays",
+                         label=f"{setup.scene.name} {side}x{side}", show=not args.quiet)
+    with monitor:  # Ctrl-C stops the run between cycles / chunks: what was computed is kept
+        run_result = monitor.run()
     result = pipeline.finish(setup, engine, run_result)
     seconds = time.perf_counter() - start
     output = args.output or f"{setup.scene.name}.png"
     write_png(output, result.image_u8)
+    written = [output]
     if args.ids:
         np.save(args.ids, result.hit_ids)
+        written.append(args.ids)
     if args.json:
         with open(args.json, "w", encoding="utf-8") as f:
             f.write(run_stats.dumps(result.stats))
+        written.append(args.json)
     if not args.quiet:
         print_render_summary(result.stats, seconds, output)
+    if monitor.interrupted:
+        _, handed, _ = engine.progress_counts()
+        print(f"netsushisen render: interrupted at cycle {engine.cycle:,} ({handed:,} of "
+              f"{side * side:,} eye rays handed out); wrote {', '.join(written)}", file=sys.stderr)
+        return INTERRUPTED
     if run_result.error is not None:
         print(run_result.error.format(), file=sys.stderr)
-    return 130 if interrupted else result.exit_code
-
-
-def _progress_printer():
-    last = [0.0]
-
-    def show(cycle: int) -> None:
-        now = time.perf_counter()
-        if now - last[0] > 0.5:
-            print(f"\r  cycle {cycle:,}", end="", file=sys.stderr, flush=True)
-            last[0] = now
-    return show
+    return result.exit_code

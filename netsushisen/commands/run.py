@@ -8,8 +8,11 @@
 Each program is optional (a processor without one is absent: it never issues); `.s` sources are
 assembled on the fly, anything else is read as an object file. The same programs run on every PE.
 Exit status: 0 the run ended (all halted or quiescent), 1 bad input, 2 run-time fault,
-3 deadlock, 4 cycle limit. Statistics (--json) and the frame buffer (--frame) are written
-whatever the outcome.
+3 deadlock, 4 cycle limit, 5 the tandem engine's two engines differ, 130 interrupted (Ctrl-C).
+Statistics (--json) and the frame buffer (--frame) are written whatever the outcome (after
+Ctrl-C, what was done so far, run.status "interrupted"). The engine is the compiled one unless
+--engine says otherwise; --trace takes the reference engine (the default with --trace). On a
+terminal a progress bar shows the host messages handed out, cycles, rate and ETA.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ import numpy as np
 
 from netsushisen.errors import NetsushisenError
 from netsushisen.options import add_engine, add_program_options, engine_from_args, machine_inputs
+from netsushisen.progress import INTERRUPTED, RunMonitor
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -44,16 +48,16 @@ def run(args: argparse.Namespace) -> int:
     from netsushisen.emulator.engine import make_engine
     from netsushisen.emulator.trace import Tracer, parse_cycles
 
-    engine_name = engine_from_args(args)
+    tracing = bool(args.trace or args.trace_filter or args.cycles)
+    engine_name = engine_from_args(args, default="reference" if tracing else None)
+    if tracing and engine_name != "reference":
+        raise NetsushisenError(f"--trace needs --engine reference (the trace follows the reference "
+                               f"engine cycle by cycle), not --engine {engine_name}")
     config, programs, image = machine_inputs(args)
     try:
         parse_cycles(args.cycles)
     except ValueError:
         raise NetsushisenError(f"--cycles {args.cycles!r}: expected A:B, A: or :B") from None
-    tracing = bool(args.trace or args.trace_filter or args.cycles)
-    if tracing and engine_name != "reference":
-        raise NetsushisenError("--trace follows the reference engine cycle by cycle: "
-                               "use --engine reference")
     engine = make_engine(engine_name, config, programs, image)
     trace_file = None
     if tracing:
@@ -61,17 +65,28 @@ def run(args: argparse.Namespace) -> int:
         if args.trace_out:
             trace_file = out = open(args.trace_out, "w", encoding="utf-8")
         engine.machine.tracer = Tracer(out, args.trace_filter, args.cycles)
+    # no progress bar beside a trace (it would tear the trace's lines on the terminal)
+    monitor = RunMonitor(engine, total=engine.host_messages, unit="host messages",
+                         show=not (args.quiet or tracing))
     try:
-        result = engine.run()
+        with monitor:  # Ctrl-C stops the run between cycles / chunks: the outputs are written
+            result = monitor.run()
     finally:
         if trace_file is not None:
             trace_file.close()
+    written = []
     if args.json:
         Path(args.json).write_text(stats.dumps(engine.statistics()), encoding="utf-8")
+        written.append(args.json)
     if args.frame:
         np.save(args.frame, engine.frame)
+        written.append(args.frame)
     if not args.quiet:
         print(engine.summary())
+    if monitor.interrupted:
+        print(f"netsushisen run: interrupted at cycle {engine.cycle:,}"
+              + (f"; wrote {', '.join(written)}" if written else ""), file=sys.stderr)
+        return INTERRUPTED
     if result.error is not None:
         print(result.error.format(), file=sys.stderr)
     return result.exit_code

@@ -45,7 +45,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--kernels", help="folder with your own os.s, ic.s, sc.s")
     for stage in ("os", "ic", "sc"):
         parser.add_argument(f"--{stage}", help=f"your own {stage.upper()} kernel source")
-    parser.add_argument("--quiet", action="store_true", help="no summary")
+    parser.add_argument("--quiet", action="store_true", help="no summary, no progress bar")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -40,7 +40,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="trace only these processors (name prefixes, comma separated: pe0.ic,pe1)")
     parser.add_argument("--cycles", metavar="A:B", help="trace only cycles A (included) to B (excluded)")
     parser.add_argument("--trace-out", metavar="FILE", help="write the trace to FILE, not stdout")
-    parser.add_argument("-q", "--quiet", action="store_true", help="no summary")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no summary, no progress bar")
 
 
 def run(args: argparse.Namespace) -> int:

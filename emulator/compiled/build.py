@@ -41,6 +41,20 @@ def _arg(kind: str, typ: str, reg: list[int]) -> str:
     return {"i": f"as_i(w{i})", "f": f"as_f(F, w{i})", "w": f"w{i}"}[typ]
 
 
+def _tree(cases: list[tuple[int, str, str]], depth: int) -> list[str]:
+    """A binary decision tree over mnemonic ids (a handful of branches per operation rather
+    than a chain of comparisons)."""
+    pad = "    " * depth
+    if len(cases) <= 2:
+        out = []
+        for i, m, call in cases:
+            out += [f"{pad}if mn == {i}:  # {m}", f"{pad}    return {call}"]
+        return out
+    mid = len(cases) // 2
+    return ([f"{pad}if mn < {cases[mid][0]}:"] + _tree(cases[:mid], depth + 1)
+            + [f"{pad}else:"] + _tree(cases[mid:], depth + 1))
+
+
 def dispatchers() -> str:
     """The generated source of exec_alu and exec_branch."""
     lines = [
@@ -61,6 +75,7 @@ def dispatchers() -> str:
                             ("branch", "def exec_branch(mn, w0, w1):", "False")):
         lines += ["", "", "@njit(cache=True, nogil=True, error_model='numpy', inline='always')",
                   head]
+        cases = []
         for i, (m, oc) in enumerate(OPCODES.items()):
             if oc.kind != kind:
                 continue
@@ -70,7 +85,8 @@ def dispatchers() -> str:
             call = f"{names[m]}(F, {args})" if args else f"{names[m]}(F)"
             if kind == "alu":
                 call = f"word_{oc.result_type or 'w'}(F, {call})"
-            lines += [f"    if mn == {i}:  # {m}", f"        return {call}"]
+            cases.append((i, m, call))
+        lines += _tree(cases, 1)
         lines.append(f"    return {ret}")
     return "\n".join(lines) + "\n"
 

@@ -16,7 +16,7 @@ from numba import njit
 from netsushisen.emulator.compiled.bits import as_f, as_i, word_f, word_i, word_w
 from netsushisen.emulator.compiled.state import (
     B_NOPS, B_NREADS, B_READS, B_NWRITES, B_WRITES, B_NUNITS, B_UNITS, B_HASLOAD,
-    B_NRECVS, B_RECVS, B_NSENDS, B_SENDS, B_WAITS, B_NOPCOUNT, B_LOAD0, B_LOAD1, B_NWLAT, B_WLAT,
+    B_NRECVS, B_RECVS, B_NSENDS, B_SENDS, B_WAITS, B_NOPCOUNT, B_LOAD0, B_LOAD1, B_NWLAT, B_WLAT, B_LATE, B_UNPIPED,
     O_KIND, O_MN, O_UNIT, O_LAT, O_PIPE, O_RD, O_SRC, O_R, O_KI, O_BASE, O_OFF, O_SPACE,
     O_PORT, O_TARGET, O_NWRITES,
     K_ALU, K_LOAD, K_STORE, K_BRANCH, K_JUMP, K_JUMPR, K_CALL, K_RET, K_SEND, K_RECV, K_POLL,
@@ -434,36 +434,38 @@ def core_step(c, p, A, W, finfo):
         elif kind == K_HALT:
             cs[p, C_HALTED] = 1
     # FIFO operations and stores: after every op has read its operands
-    for j in range(nops):
-        kind = ops[p, pc, j, O_KIND]
-        if kind == K_RECV:
-            w = q_pop(fq, fbw, pw, recvq[p, ops[p, pc, j, O_PORT]], c)
-            schedule(cs, ready, prod, wbn, wbr, wbw, W, p, ops[p, pc, j, O_RD], w,
-                     c + ops[p, pc, j, O_LAT], ops[p, pc, j, O_MN])
-        elif kind == K_SEND:
-            q_push(fq, fbt, fbw, pw, sendq[p, ops[p, pc, j, O_PORT]], c,
-                   regs[p, ops[p, pc, j, O_SRC]])
-        elif kind == K_STORE:
-            addr = as_i(regs[p, ops[p, pc, j, O_BASE]]) + ops[p, pc, j, O_OFF]
-            sg = cs[p, C_SEG_LOCAL]
-            if addr < 0 or addr >= seg[sg, 1]:
-                finfo[0] = F_MEMORY
-                finfo[1] = p
-                finfo[2] = pc
-                finfo[3] = SP_LOCAL
-                finfo[4] = addr
-                return 1
-            cs[p, C_LOCAL_WRITES] += 1
-            mem[seg[sg, 0] + addr] = regs[p, ops[p, pc, j, O_SRC]]
+    if bun[p, pc, B_LATE]:
+        for j in range(nops):
+            kind = ops[p, pc, j, O_KIND]
+            if kind == K_RECV:
+                w = q_pop(fq, fbw, pw, recvq[p, ops[p, pc, j, O_PORT]], c)
+                schedule(cs, ready, prod, wbn, wbr, wbw, W, p, ops[p, pc, j, O_RD], w,
+                         c + ops[p, pc, j, O_LAT], ops[p, pc, j, O_MN])
+            elif kind == K_SEND:
+                q_push(fq, fbt, fbw, pw, sendq[p, ops[p, pc, j, O_PORT]], c,
+                       regs[p, ops[p, pc, j, O_SRC]])
+            elif kind == K_STORE:
+                addr = as_i(regs[p, ops[p, pc, j, O_BASE]]) + ops[p, pc, j, O_OFF]
+                sg = cs[p, C_SEG_LOCAL]
+                if addr < 0 or addr >= seg[sg, 1]:
+                    finfo[0] = F_MEMORY
+                    finfo[1] = p
+                    finfo[2] = pc
+                    finfo[3] = SP_LOCAL
+                    finfo[4] = addr
+                    return 1
+                cs[p, C_LOCAL_WRITES] += 1
+                mem[seg[sg, 0] + addr] = regs[p, ops[p, pc, j, O_SRC]]
     # occupy unpipelined units for their whole latency
-    for j in range(nops):
-        if not ops[p, pc, j, O_PIPE]:
-            u = ops[p, pc, j, O_UNIT]
-            for i in range(unitn[p, u]):
-                if busy[p, u, i] <= c:
-                    busy[p, u, i] = c + ops[p, pc, j, O_LAT]
-                    occ[p, u, i] = ops[p, pc, j, O_MN]
-                    break
+    if bun[p, pc, B_UNPIPED]:
+        for j in range(nops):
+            if not ops[p, pc, j, O_PIPE]:
+                u = ops[p, pc, j, O_UNIT]
+                for i in range(unitn[p, u]):
+                    if busy[p, u, i] <= c:
+                        busy[p, u, i] = c + ops[p, pc, j, O_LAT]
+                        occ[p, u, i] = ops[p, pc, j, O_MN]
+                        break
     # counters (operations by unit and mnemonic follow from bpc: state.write_back)
     cs[p, C_BUNDLES] += 1
     bpc[p, pc] += 1

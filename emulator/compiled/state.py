@@ -55,7 +55,8 @@ B_NUNITS, B_UNITS = 15, 16
 B_HASLOAD, B_NRECVS, B_RECVS, B_NSENDS, B_SENDS, B_WAITS, B_NOPCOUNT = 20, 21, 22, 26, 27, 31, 32
 B_LOAD0, B_LOAD1 = 33, 34  # slots of the bundle's loads (or -1)
 B_NWLAT, B_WLAT = 35, 36  # (latency, register writes) of the other writers, by distinct latency
-N_B = 44
+B_LATE, B_UNPIPED = 44, 45  # has FIFO operations or stores; has an unpipelined operation
+N_B = 46
 
 # decoded operations: ops[processor, pc, slot, O_*]; O_R.. the three source registers in order
 (O_KIND, O_MN, O_UNIT, O_LAT, O_PIPE, O_RD, O_SRC, O_R, O_R1, O_R2, O_KI, O_BASE, O_OFF,
@@ -466,6 +467,8 @@ def _decode(core, units: list[str], ops: np.ndarray, opf: np.ndarray, bun: np.nd
             row[B_SENDS + 2 * k], row[B_SENDS + 2 * k + 1] = PORTS.index(port), n
         row[B_WAITS] = b.waits
         row[B_NOPCOUNT] = b.n_ops
+        row[B_LATE] = any(d.kind in ("recv", "send", "store") for d in b.ops)
+        row[B_UNPIPED] = any(not d.pipelined for d in b.ops)
         loads = [j for j, d in enumerate(b.ops) if d.kind == "load"]
         row[B_LOAD0] = loads[0] if loads else -1
         row[B_LOAD1] = loads[1] if len(loads) > 1 else -1

@@ -103,8 +103,9 @@ def _fmax(F, a, b):
 
 
 @register_jitable
-def _ftoi(x) -> int:
-    """Truncate toward zero; saturate to [INT_MIN, INT_MAX]; NaN gives 0."""
+def _to_int(x, down: bool) -> int:
+    """Truncate toward zero (ftoi) or round toward -inf (floor, `down`); saturate to
+    [INT_MIN, INT_MAX]; NaN gives 0."""
     x = float(x)
     if x != x:
         return 0
@@ -112,20 +113,7 @@ def _ftoi(x) -> int:
         return INT_MAX
     if x <= -2147483648.0:
         return INT_MIN
-    return int(math.trunc(x))
-
-
-@register_jitable
-def _floor(x) -> int:
-    """Round toward -inf; saturate to [INT_MIN, INT_MAX]; NaN gives 0."""
-    x = float(x)
-    if x != x:
-        return 0
-    if x >= 2147483647.0:
-        return INT_MAX
-    if x <= -2147483648.0:
-        return INT_MIN
-    return int(math.floor(x))
+    return int(math.floor(x)) if down else int(math.trunc(x))
 
 
 @register_jitable
@@ -272,9 +260,9 @@ _op("feq", "fp", "rd:i rs:f rs:f", 1, "rd = 1 if rs1 == rs2 else 0 (NaN: 0; -0 =
     sem=lambda F, a, b: int(bool(a == b)))
 _op("itof", "fp", "rd:f rs:i", 2, "rd = float(rs), rounded to nearest", sem=lambda F, a: F(a))
 _op("ftoi", "fp", "rd:i rs:f", 2, "rd = int(rs) truncated; saturating; NaN: 0",
-    sem=lambda F, a: _ftoi(a))
+    sem=lambda F, a: _to_int(a, False))
 _op("floor", "fp", "rd:i rs:f", 2, "rd = floor(rs) as an integer; saturating; NaN: 0",
-    sem=lambda F, a: _floor(a))
+    sem=lambda F, a: _to_int(a, True))
 
 # Memory: word addresses, base register + immediate offset
 _op("ld", "int", "rd:w mem:i", 1, "rd = local[rs + imm]", kind="load", space="local")

@@ -160,6 +160,17 @@ def stall(cs, stpc, p, cause, pc):
 
 
 @njit(**_INLINE)
+def write_due(cs, regs, wbn, wbr, wbw, p, s):
+    """Write the results due in write-back slot s (core.Core.step's `pending.pop(c)`)."""
+    n = wbn[p, s]
+    if n:
+        for k in range(n):
+            regs[p, wbr[p, s, k]] = wbw[p, s, k]
+        wbn[p, s] = 0
+        cs[p, C_NPEND] -= n
+
+
+@njit(**_INLINE)
 def schedule(cs, regs_ready, prod, wbn, wbr, wbw, W, p, rd, word, t, mn):
     if rd <= 0:
         return
@@ -179,14 +190,7 @@ def core_step(c, p, A, W, finfo):
     stays short enough for numba to inline it)."""
     (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, opu, opm, ops, opf, bun,
      recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw) = A
-    # write back results due now
-    s = c & (W - 1)
-    n = wbn[p, s]
-    if n:
-        for k in range(n):
-            regs[p, wbr[p, s, k]] = wbw[p, s, k]
-        wbn[p, s] = 0
-        cs[p, C_NPEND] -= n
+    write_due(cs, regs, wbn, wbr, wbw, p, c & (W - 1))
     cs[p, C_LAST_ISSUED] = 0
     if cs[p, C_HALTED]:
         return 0
@@ -840,13 +844,7 @@ def skip_quiet(c, until, limit, npes, W, cs, regs, wbn, wbr, wbw, stpc, pes, pw,
     for p in range(npes * 3):
         if cs[p, C_NPEND]:
             for t in range(c1, last + 1):
-                s = t & (W - 1)
-                n = wbn[p, s]
-                if n:
-                    for j in range(n):
-                        regs[p, wbr[p, s, j]] = wbw[p, s, j]
-                    wbn[p, s] = 0
-                    cs[p, C_NPEND] -= n
+                write_due(cs, regs, wbn, wbr, wbw, p, t & (W - 1))
     for i in range(npes):
         if not pe_progressed(i, cs, cflags, pes) and not pe_idle(i, cs, cflags, pw):
             pes[i, P_NO_PROGRESS] += k

@@ -44,6 +44,14 @@ def _f64_to_bits(typingctx, x):
     return types.int64(types.float64), codegen
 
 
+@intrinsic
+def ctz(typingctx, x):
+    """Index of the lowest set bit of a non-zero int64 (LLVM's cttz)."""
+    def codegen(context, builder, sig, args):
+        return builder.cttz(args[0], ir.Constant(ir.IntType(1), 1))
+    return types.int64(types.int64), codegen
+
+
 def as_i(w):
     """The 32-bit integer a word holds."""
     return wrap32(int(w) & 0xFFFFFFFF)

@@ -13,7 +13,7 @@ layouts (the index constants) are defined in state.py and passed in as plain int
 import numpy as np
 from numba import njit
 
-from netsushisen.emulator.compiled.bits import as_f, as_i, word_f, word_i, word_w
+from netsushisen.emulator.compiled.bits import as_f, as_i, ctz, word_f, word_i, word_w
 from netsushisen.emulator.compiled.state import (
     B_NOPS, B_NREADS, B_READS, B_NWRITES, B_WRITES, B_NUNITS, B_UNITS, B_HASLOAD,
     B_NRECVS, B_RECVS, B_NSENDS, B_SENDS, B_WAITS, B_NOPCOUNT, B_LOAD0, B_LOAD1, B_NWLAT, B_WLAT, B_LATE, B_UNPIPED,
@@ -504,12 +504,12 @@ def cmu_step(c, start, m, cm, cin, cout, route, rem, lown, linkw, fq, fbt, fbw, 
     link_free = True
     moved = 0
     recv = cm[m, M_RECV]
-    for jj in range(n):
-        i = start + jj
+    rot = ((mask >> start) | (mask << (n - start))) & ((1 << n) - 1)  # bit j: input start + j
+    while rot:
+        i = start + ctz(rot)
+        rot &= rot - 1
         if i >= n:
             i -= n
-        if not (mask >> i) & 1:
-            continue
         f = cin[m, i]
         if fbt[f, fq[f, Q_HEAD]] > c:
             continue

@@ -73,8 +73,9 @@ def dispatchers() -> str:
             lines.append(f"S_{i} = njit(**_SEM)(OPCODES[{m!r}].semantics)  # {m}")
     for kind, head, ret in (("alu", "def exec_alu(mn, w0, w1, w2, ki, kf):", "0"),
                             ("branch", "def exec_branch(mn, w0, w1):", "False")):
-        lines += ["", "", "@njit(cache=True, nogil=True, error_model='numpy', inline='always')",
-                  head]
+        # a call of its own (scalars only, so it costs little); inlining it everywhere it is
+        # used would double the first compilation's time
+        lines += ["", "", "@njit(cache=True, nogil=True, error_model='numpy', _nrt=False)", head]
         cases = []
         for i, (m, oc) in enumerate(OPCODES.items()):
             if oc.kind != kind:

@@ -22,7 +22,7 @@ from netsushisen.emulator.compiled.state import (
     K_ALU, K_LOAD, K_STORE, K_BRANCH, K_JUMP, K_JUMPR, K_CALL, K_RET, K_SEND, K_RECV, K_POLL,
     K_ROOM, K_WAIT, K_HALT, K_NOP,
     C_PC, C_HALTED, C_HOLD_UNTIL, C_HOLD_MEM_UNTIL, C_HOLD_CAUSE, C_HOLD_PC, C_CYCLES,
-    C_BUNDLES, C_OPS, C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY,
+    C_BUNDLES, C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY,
     C_PE, C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL,
     C_CACHE_SETS, C_CACHE_OFF, C_BLOCK_BYTES, C_WORD_BYTES, C_LOCAL_READS, C_LOCAL_WRITES, C_RES_READS,
     C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE, C_NPEND, C_FIFOWAIT, C_BSHIFT, C_SSHIFT,
@@ -185,32 +185,26 @@ def schedule(cs, regs_ready, prod, wbn, wbr, wbw, W, p, rd, word, t, mn):
 
 
 @njit(**_INLINE)
-def core_step(c, p, A, W, finfo):
-    """Returns 0, or a fault code (finfo filled). A: the state arrays (a tuple, so the call
-    stays short enough for numba to inline it)."""
-    (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, opu, opm, ops, opf, bun,
-     recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw) = A
-    write_due(cs, regs, wbn, wbr, wbw, p, c & (W - 1))
-    cs[p, C_LAST_ISSUED] = 0
-    if cs[p, C_HALTED]:
-        return 0
-    cs[p, C_CYCLES] += 1
-    if c < cs[p, C_HOLD_UNTIL]:
-        stall(cs, stpc, p, cs[p, C_HOLD_CAUSE] if c < cs[p, C_HOLD_MEM_UNTIL] else CAUSE_BRANCH,
-              cs[p, C_HOLD_PC])
-        return 0
-    pc = cs[p, C_PC]
-    if c < cs[p, C_WAKE]:  # still waiting for an operand, destination or unit (see state.py)
-        stall(cs, stpc, p, cs[p, C_WAKE_CAUSE], pc)
-        return 0
-    if pc < 0 or pc >= cs[p, C_NB]:
-        finfo[0] = F_PC
-        finfo[1] = p
-        finfo[2] = pc
-        return 1
-    nops = bun[p, pc, B_NOPS]
-    fw = cs[p, C_FIFOWAIT]
-    if not fw:
+def load_time(cs, ctags, regs, ops, p, pc, j):
+    """memories.MemorySystem.access_time of the load in slot j: (cycles, stall cause, address)."""
+    addr = as_i(regs[p, ops[p, pc, j, O_BASE]]) + ops[p, pc, j, O_OFF]
+    sp = ops[p, pc, j, O_SPACE]
+    if sp == SP_LOCAL:
+        return cs[p, C_T_LOCAL], CAUSE_LOCAL, addr
+    if sp == SP_RESIDENT:
+        return cs[p, C_T_R], CAUSE_RESIDENT, addr
+    if cache_probe(cs, ctags, p, addr):
+        return cs[p, C_T_C], CAUSE_CACHE_HIT, addr
+    return cs[p, C_T_G], CAUSE_CACHE_MISS, addr
+
+
+@njit(**_INLINE)
+def issue_checks(c, p, pc, A, W):
+    """T10's checks 2–6 for the bundle at pc: the stall cause, or -1 when it can issue. Sets
+    the processor's wake cycle (operand, destination, unit) or FIFO wait (see state.py)."""
+    (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops, opf, bun, recvq,
+     sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw) = A
+    if not cs[p, C_FIFOWAIT]:
         # 2. operands (RAW): the source ready last
         worst = -1
         worst_t = c
@@ -220,20 +214,16 @@ def core_step(c, p, A, W, finfo):
                 worst = r
                 worst_t = ready[p, r]
         if worst >= 0:
-            cause = CAUSE_OPERAND + prod[p, worst] + 1
-            stall(cs, stpc, p, cause, pc)
             cs[p, C_WAKE] = worst_t
-            cs[p, C_WAKE_CAUSE] = cause
-            return 0
+            cs[p, C_WAKE_CAUSE] = CAUSE_OPERAND + prod[p, worst] + 1
+            return cs[p, C_WAKE_CAUSE]
         # 3. destinations (WAW)
         for k in range(bun[p, pc, B_NWRITES]):
             r = bun[p, pc, B_WRITES + k]
             if ready[p, r] > c:
-                cause = CAUSE_WAW + prod[p, r] + 1
-                stall(cs, stpc, p, cause, pc)
                 cs[p, C_WAKE] = ready[p, r]
-                cs[p, C_WAKE_CAUSE] = cause
-                return 0
+                cs[p, C_WAKE_CAUSE] = CAUSE_WAW + prod[p, r] + 1
+                return cs[p, C_WAKE_CAUSE]
         # 4. units
         for k in range(bun[p, pc, B_NUNITS]):
             u = bun[p, pc, B_UNITS + 2 * k]
@@ -250,85 +240,48 @@ def core_step(c, p, A, W, finfo):
                     if soonest == 0 or busy[p, u, i] < soonest:
                         soonest = busy[p, u, i]
             if free < need:
-                cause = CAUSE_UNIT + occ[p, u, first] + 1
-                stall(cs, stpc, p, cause, pc)
                 cs[p, C_WAKE] = soonest
-                cs[p, C_WAKE_CAUSE] = cause
-                return 0
-    # load timing (memories.MemorySystem.access_time); the base register is ready
-    lt0 = 0
-    lt1 = 0
-    lc0 = 0
-    lc1 = 0
-    la0 = 0
-    la1 = 0
-    nloads = 0
-    for k in range(2):
-        j = bun[p, pc, B_LOAD0 + k]
-        if j < 0:
-            break
-        nloads += 1
-        addr = as_i(regs[p, ops[p, pc, j, O_BASE]]) + ops[p, pc, j, O_OFF]
-        sp = ops[p, pc, j, O_SPACE]
-        if sp == SP_LOCAL:
-            t = cs[p, C_T_LOCAL]
-            cause = CAUSE_LOCAL
-        elif sp == SP_RESIDENT:
-            t = cs[p, C_T_R]
-            cause = CAUSE_RESIDENT
-        elif cache_probe(cs, ctags, p, addr):
-            t = cs[p, C_T_C]
-            cause = CAUSE_CACHE_HIT
-        else:
-            t = cs[p, C_T_G]
-            cause = CAUSE_CACHE_MISS
-        if k == 0:
-            lt0, lc0, la0 = t, cause, addr
-        else:
-            lt1, lc1, la1 = t, cause, addr
-    if not fw:
-        # 5. write ports: results due per cycle (the other writers' by latency, plus the loads')
+                cs[p, C_WAKE_CAUSE] = CAUSE_UNIT + occ[p, u, first] + 1
+                return cs[p, C_WAKE_CAUSE]
+        # 5. write ports: results due per cycle (the other writers' by latency, plus loads')
+        lt0 = -1
+        lt1 = -1
+        for k in range(2):
+            j = bun[p, pc, B_LOAD0 + k]
+            if j < 0:
+                break
+            if ops[p, pc, j, O_NWRITES]:
+                t = load_time(cs, ctags, regs, ops, p, pc, j)[0]
+                if k == 0:
+                    lt0 = t
+                else:
+                    lt1 = t
         wp = cs[p, C_WPORTS]
         nw = bun[p, pc, B_NWLAT]
         for k in range(nw):
             lat = bun[p, pc, B_WLAT + 2 * k]
-            due = bun[p, pc, B_WLAT + 2 * k + 1]
-            for k2 in range(nloads):
-                j = bun[p, pc, B_LOAD0 + k2]
-                if ops[p, pc, j, O_NWRITES] and (lt0 if k2 == 0 else lt1) == lat:
-                    due += 1
+            due = bun[p, pc, B_WLAT + 2 * k + 1] + (lt0 == lat) + (lt1 == lat)
             if wbn[p, (c + lat) & (W - 1)] + due > wp:
-                stall(cs, stpc, p, CAUSE_WRITE_PORT, pc)
-                return 0
-        for k2 in range(nloads):
-            j = bun[p, pc, B_LOAD0 + k2]
-            if not ops[p, pc, j, O_NWRITES]:
+                return CAUSE_WRITE_PORT
+        for k in range(2):
+            t = lt0 if k == 0 else lt1
+            if t < 0 or (k == 1 and lt0 == t):
                 continue
-            t = lt0 if k2 == 0 else lt1
             counted = False
-            for k in range(nw):
-                if bun[p, pc, B_WLAT + 2 * k] == t:
+            for k2 in range(nw):
+                if bun[p, pc, B_WLAT + 2 * k2] == t:
                     counted = True
-            if k2 == 1 and ops[p, pc, bun[p, pc, B_LOAD0], O_NWRITES] and lt0 == t:
-                counted = True
-            if counted:
-                continue
-            due = 1
-            if k2 == 0 and nloads > 1 and ops[p, pc, bun[p, pc, B_LOAD1], O_NWRITES] and lt1 == t:
-                due = 2
-            if wbn[p, (c + t) & (W - 1)] + due > wp:
-                stall(cs, stpc, p, CAUSE_WRITE_PORT, pc)
-                return 0
-    # 6. FIFOs
+            if not counted and wbn[p, (c + t) & (W - 1)] + (lt0 == t) + (lt1 == t) > wp:
+                return CAUSE_WRITE_PORT
+    # 6. FIFOs (a processor that stalls here with nothing in flight re-checks only these)
+    cs[p, C_FIFOWAIT] = cs[p, C_NPEND] == 0
     for k in range(bun[p, pc, B_NRECVS]):
         port = bun[p, pc, B_RECVS + 2 * k]
         need = bun[p, pc, B_RECVS + 2 * k + 1]
         q = recvq[p, port]
         have = q_visible(fq, fbt, q, c) if need > 1 else (1 if q_ready(fq, fbt, q, c) else 0)
         if have < need:
-            stall(cs, stpc, p, CAUSE_FIFO_EMPTY + port, pc)
-            cs[p, C_FIFOWAIT] = cs[p, C_NPEND] == 0
-            return 0
+            return CAUSE_FIFO_EMPTY + port
     if bun[p, pc, B_WAITS]:
         anyready = False
         for port in range(3):
@@ -336,18 +289,37 @@ def core_step(c, p, A, W, finfo):
             if q >= 0 and q_ready(fq, fbt, q, c):
                 anyready = True
         if not anyready:
-            stall(cs, stpc, p, CAUSE_FIFO_ANY, pc)
-            cs[p, C_FIFOWAIT] = cs[p, C_NPEND] == 0
-            return 0
+            return CAUSE_FIFO_ANY
     for k in range(bun[p, pc, B_NSENDS]):
         port = bun[p, pc, B_SENDS + 2 * k]
         need = bun[p, pc, B_SENDS + 2 * k + 1]
         if q_free(fq, sendq[p, port], c) < need:
-            stall(cs, stpc, p, CAUSE_FIFO_FULL + port, pc)
-            cs[p, C_FIFOWAIT] = cs[p, C_NPEND] == 0
-            return 0
-    # issue (core.Core._issue)
+            return CAUSE_FIFO_FULL + port
     cs[p, C_FIFOWAIT] = 0
+    return -1
+
+
+@njit(**_INLINE)
+def issue(c, p, pc, A, W, finfo):
+    """core.Core._issue: returns 0, or a fault code (finfo filled)."""
+    (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops, opf, bun, recvq,
+     sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw) = A
+    nops = bun[p, pc, B_NOPS]
+    # every load's timing first (access_time has no side effects)
+    lt0 = 0
+    lc0 = 0
+    la0 = 0
+    lt1 = 0
+    lc1 = 0
+    la1 = 0
+    for k in range(2):
+        j = bun[p, pc, B_LOAD0 + k]
+        if j < 0:
+            break
+        if k == 0:
+            lt0, lc0, la0 = load_time(cs, ctags, regs, ops, p, pc, j)
+        else:
+            lt1, lc1, la1 = load_time(cs, ctags, regs, ops, p, pc, j)
     next_pc = pc + 1
     taken = False
     hold_mem = c + 1
@@ -356,11 +328,14 @@ def core_step(c, p, A, W, finfo):
     for j in range(nops):
         kind = ops[p, pc, j, O_KIND]
         mn = ops[p, pc, j, O_MN]
+        srd = -1  # the result this operation schedules: register, word, cycle
+        sw = 0
+        st = 0
         if kind == K_ALU:
-            w = exec_alu(mn, regs[p, ops[p, pc, j, O_R]], regs[p, ops[p, pc, j, O_R + 1]],
-                         regs[p, ops[p, pc, j, O_R + 2]], ops[p, pc, j, O_KI], opf[p, pc, j])
-            schedule(cs, ready, prod, wbn, wbr, wbw, W, p, ops[p, pc, j, O_RD], w,
-                     c + ops[p, pc, j, O_LAT], mn)
+            srd = ops[p, pc, j, O_RD]
+            sw = exec_alu(mn, regs[p, ops[p, pc, j, O_R]], regs[p, ops[p, pc, j, O_R + 1]],
+                          regs[p, ops[p, pc, j, O_R + 2]], ops[p, pc, j, O_KI], opf[p, pc, j])
+            st = c + ops[p, pc, j, O_LAT]
         elif kind == K_LOAD:
             if nl == 0:
                 addr, t_acc, cause = la0, lt0, lc0
@@ -368,12 +343,7 @@ def core_step(c, p, A, W, finfo):
                 addr, t_acc, cause = la1, lt1, lc1
             nl += 1
             sp = ops[p, pc, j, O_SPACE]
-            if sp == SP_LOCAL:
-                sg = cs[p, C_SEG_LOCAL]
-            elif sp == SP_RESIDENT:
-                sg = cs[p, C_SEG_RES]
-            else:
-                sg = cs[p, C_SEG_GLOBAL]
+            sg = cs[p, C_SEG_LOCAL + sp]
             if sg < 0 or addr < 0 or addr >= seg[sg, 1]:
                 finfo[0] = F_MEMORY
                 finfo[1] = p
@@ -381,22 +351,20 @@ def core_step(c, p, A, W, finfo):
                 finfo[3] = sp
                 finfo[4] = addr
                 return 1
-            w = mem[seg[sg, 0] + addr]
+            hit = -1
             if sp == SP_LOCAL:
                 cs[p, C_LOCAL_READS] += 1
-                count_region(rg, rmap, rdense, rcnt, pcnt, p, SP_LOCAL, addr, -1)
             elif sp == SP_RESIDENT:
                 cs[p, C_RES_READS] += 1
-                count_region(rg, rmap, rdense, rcnt, pcnt, p, SP_RESIDENT, addr, -1)
             else:
                 # Cache.access: count, fill on a miss
                 cs[p, C_CACHE_ACC] += 1
-                hit = False
+                hit = 0
                 if cs[p, C_CACHE_SETS] > 0:
-                    st, tag = cache_locate(cs, p, addr)
-                    ti = cs[p, C_CACHE_OFF] + st
+                    sset, tag = cache_locate(cs, p, addr)
+                    ti = cs[p, C_CACHE_OFF] + sset
                     if ctags[ti] == tag:
-                        hit = True
+                        hit = 1
                     else:
                         ctags[ti] = tag
                 if hit:
@@ -404,10 +372,12 @@ def core_step(c, p, A, W, finfo):
                 else:
                     cs[p, C_CACHE_MISSES] += 1
                     cs[p, C_GLOBAL_ACC] += 1
-                count_region(rg, rmap, rdense, rcnt, pcnt, p, SP_GLOBAL, addr, 1 if hit else 0)
-            schedule(cs, ready, prod, wbn, wbr, wbw, W, p, ops[p, pc, j, O_RD], w, c + t_acc, mn)
-            if c + t_acc > hold_mem:
-                hold_mem = c + t_acc
+            count_region(rg, rmap, rdense, rcnt, pcnt, p, sp, addr, hit)
+            srd = ops[p, pc, j, O_RD]
+            sw = mem[seg[sg, 0] + addr]
+            st = c + t_acc
+            if st > hold_mem:
+                hold_mem = st
                 mem_cause = cause
         elif kind == K_BRANCH:
             if exec_branch(mn, regs[p, ops[p, pc, j, O_R]], regs[p, ops[p, pc, j, O_R + 1]]):
@@ -420,23 +390,25 @@ def core_step(c, p, A, W, finfo):
             next_pc = as_i(regs[p, ops[p, pc, j, O_SRC]])
             taken = True
         elif kind == K_CALL:
-            schedule(cs, ready, prod, wbn, wbr, wbw, W, p, 63, word_i(F, pc + 1),
-                     c + ops[p, pc, j, O_LAT], mn)
+            srd = 63
+            sw = word_i(F, pc + 1)
+            st = c + ops[p, pc, j, O_LAT]
             next_pc = ops[p, pc, j, O_TARGET]
             taken = True
         elif kind == K_RET:
             next_pc = as_i(regs[p, 63])
             taken = True
-        elif kind == K_POLL:
-            nv = q_visible(fq, fbt, recvq[p, ops[p, pc, j, O_PORT]], c)
-            schedule(cs, ready, prod, wbn, wbr, wbw, W, p, ops[p, pc, j, O_RD], word_i(F, nv),
-                     c + ops[p, pc, j, O_LAT], mn)
-        elif kind == K_ROOM:
-            nv = q_free(fq, sendq[p, ops[p, pc, j, O_PORT]], c)
-            schedule(cs, ready, prod, wbn, wbr, wbw, W, p, ops[p, pc, j, O_RD], word_i(F, nv),
-                     c + ops[p, pc, j, O_LAT], mn)
+        elif kind == K_POLL or kind == K_ROOM:
+            port = ops[p, pc, j, O_PORT]
+            nv = q_visible(fq, fbt, recvq[p, port], c) if kind == K_POLL \
+                else q_free(fq, sendq[p, port], c)
+            srd = ops[p, pc, j, O_RD]
+            sw = word_i(F, nv)
+            st = c + ops[p, pc, j, O_LAT]
         elif kind == K_HALT:
             cs[p, C_HALTED] = 1
+        if srd > 0:
+            schedule(cs, ready, prod, wbn, wbr, wbw, W, p, srd, sw, st, mn)
     # FIFO operations and stores: after every op has read its operands
     if bun[p, pc, B_LATE]:
         for j in range(nops):
@@ -484,6 +456,36 @@ def core_step(c, p, A, W, finfo):
         cs[p, C_HOLD_CAUSE] = mem_cause
         cs[p, C_HOLD_PC] = pc
     return 0
+
+
+@njit(**_INLINE)
+def core_step(c, p, A, W, finfo):
+    """core.Core.step: returns 0, or a fault code (finfo filled). A: the state arrays (a tuple,
+    so the call stays short enough for numba to inline it)."""
+    cs, regs, wbn, wbr, wbw, stpc = A[0], A[1], A[4], A[5], A[6], A[10]
+    write_due(cs, regs, wbn, wbr, wbw, p, c & (W - 1))
+    cs[p, C_LAST_ISSUED] = 0
+    if cs[p, C_HALTED]:
+        return 0
+    cs[p, C_CYCLES] += 1
+    pc = cs[p, C_PC]
+    pcx = pc
+    if c < cs[p, C_HOLD_UNTIL]:  # 1. a hold from an earlier bundle: its memory cause, then branch
+        cause = cs[p, C_HOLD_CAUSE] if c < cs[p, C_HOLD_MEM_UNTIL] else CAUSE_BRANCH
+        pcx = cs[p, C_HOLD_PC]
+    elif c < cs[p, C_WAKE]:  # still waiting for an operand, destination or unit (state.py)
+        cause = cs[p, C_WAKE_CAUSE]
+    elif pc < 0 or pc >= cs[p, C_NB]:
+        finfo[0] = F_PC
+        finfo[1] = p
+        finfo[2] = pc
+        return 1
+    else:
+        cause = issue_checks(c, p, pc, A, W)
+    if cause >= 0:
+        stall(cs, stpc, p, cause, pcx)
+        return 0
+    return issue(c, p, pc, A, W, finfo)
 
 
 # -- the CMU (cmu.Cmu.step) -------------------------------------------------------------------
@@ -534,16 +536,16 @@ def cmu_step(c, start, m, cm, cin, cout, route, rem, lown, linkw, fq, fbt, fbw, 
             if not recv_free or (cm[m, M_RECV_OWNER] != -1 and cm[m, M_RECV_OWNER] != i) \
                     or q_free(fq, recv, c) <= 0:
                 continue
-            q_push(fq, fbt, fbw, pw, recv, c, q_pop(fq, fbw, pw, f, c))
+            dst = recv
             recv_free = False
         else:
-            out = cout[m, target]
+            dst = cout[m, target]
             if not link_free or (lown[m, target] != -1 and lown[m, target] != i) \
-                    or q_free(fq, out, c) <= 0:
+                    or q_free(fq, dst, c) <= 0:
                 continue
-            q_push(fq, fbt, fbw, pw, out, c, q_pop(fq, fbw, pw, f, c))
             linkw[lout] += 1
             link_free = False
+        q_push(fq, fbt, fbw, pw, dst, c, q_pop(fq, fbw, pw, f, c))
         if i:
             linkw[lin] -= 1
         moved = 1
@@ -615,15 +617,15 @@ def pe_progressed(pe, cs, cflags, pes):
 
 
 @njit(**_OPTS)
-def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, opu,
-             opm, ops, opf, bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense,
+def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops,
+             opf, bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense,
              rcnt, pcnt, cm, cin, cout, route, rem, lown, linkw, pes, dis, dcur, doff, dup, dasg,
              moff, mwords, col, cpart, cplen, frame, ids, cflags, pw, finfo):
     """Run cycles from g[G_CYCLE] until the run ends or the cycle `until` is reached; returns
     the status code (S_*). The cycle counter in g is advanced like machine.cycle."""
     W = g[G_W]
-    A = (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, opu, opm, ops, opf,
-         bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw)
+    A = (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops, opf, bun, recvq,
+         sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw)
     npes = g[G_NPES]
     pooled = g[G_POOLED]
     limit = g[G_DEADLOCK_CYCLES]

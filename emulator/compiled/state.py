@@ -28,13 +28,13 @@ def _enum(names: str) -> dict[str, int]:
 
 
 # core scalars: cs[processor, C_*]
-_C = _enum("PC HALTED HOLD_UNTIL HOLD_MEM_UNTIL HOLD_CAUSE HOLD_PC CYCLES BUNDLES OPS LAST_PC "
+_C = _enum("PC HALTED HOLD_UNTIL HOLD_MEM_UNTIL HOLD_CAUSE HOLD_PC CYCLES BUNDLES LAST_PC "
            "LAST_ISSUED CAUSE PRESENT NB WPORTS PENALTY PE T_LOCAL T_R T_C T_G SEG_LOCAL "
            "SEG_RES SEG_GLOBAL CACHE_SETS CACHE_OFF BLOCK_BYTES WORD_BYTES LOCAL_READS "
            "LOCAL_WRITES RES_READS CACHE_ACC CACHE_HITS CACHE_MISSES GLOBAL_ACC WAKE WAKE_CAUSE NPEND "
            "FIFOWAIT BSHIFT SSHIFT")
 (C_PC, C_HALTED, C_HOLD_UNTIL, C_HOLD_MEM_UNTIL, C_HOLD_CAUSE, C_HOLD_PC, C_CYCLES, C_BUNDLES,
- C_OPS, C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY, C_PE,
+ C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY, C_PE,
  C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL, C_CACHE_SETS,
  C_CACHE_OFF, C_BLOCK_BYTES, C_WORD_BYTES, C_LOCAL_READS, C_LOCAL_WRITES, C_RES_READS,
  C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE,
@@ -135,7 +135,7 @@ class State:
 
 
 ARG_ORDER = ("g", "until", "cs", "regs", "ready", "prod", "wbn", "wbr", "wbw", "busy", "occ",
-             "unitn", "stpc", "bpc", "opu", "opm", "ops", "opf", "bun", "recvq", "sendq", "fq",
+             "unitn", "stpc", "bpc", "ops", "opf", "bun", "recvq", "sendq", "fq",
              "fbt", "fbw", "mem", "seg", "ctags", "rg", "rmap", "rdense", "rcnt", "pcnt", "cm", "cin",
              "cout", "route", "rem", "lown", "linkw", "pes", "dis", "dcur", "doff", "dup",
              "dasg", "moff", "mwords", "col", "cpart", "cplen", "frame", "ids", "cflags", "pw",
@@ -187,8 +187,6 @@ def flatten(machine: Machine) -> State:
     unitn = np.zeros((P, 2), np.int64)
     stpc = np.zeros((P, NB, len(CAUSES)), np.int64)
     bpc = np.zeros((P, NB), np.int64)
-    opu = np.zeros((P, 2), np.int64)
-    opm = np.zeros((P, NM), np.int64)
     ops = np.zeros((P, NB, MAXOPS, N_O), np.int64)
     opf = np.zeros((P, NB, MAXOPS), np.float64)
     bun = np.zeros((P, NB, N_B), np.int64)
@@ -289,9 +287,7 @@ def flatten(machine: Machine) -> State:
             for i, t in enumerate(core.busy[name]):
                 busy[p, u, i] = t
                 occ[p, u, i] = MN_ID.get(core.occupant[name][i], -1)
-            opu[p, u] = core.ops_by_unit.get(name, 0)
-        for m, n in core.ops_by_mnemonic.items():
-            opm[p, MN_ID[m]] = n
+
         cs[p, C_PC] = core.pc
         cs[p, C_HALTED] = core.halted
         cs[p, C_HOLD_UNTIL] = core.hold_until
@@ -300,7 +296,6 @@ def flatten(machine: Machine) -> State:
         cs[p, C_HOLD_PC] = core.hold_pc
         cs[p, C_CYCLES] = core.cycles
         cs[p, C_BUNDLES] = core.bundles_issued
-        cs[p, C_OPS] = core.ops
         cs[p, C_LAST_PC] = core.last_pc
         cs[p, C_LAST_ISSUED] = core.last_issued
         cs[p, C_CAUSE] = CAUSE_ID[core.cause]
@@ -414,7 +409,7 @@ def flatten(machine: Machine) -> State:
         g=np.array([machine.cycle, cfg.ring.deadlock_cycles, cfg.ring.buffer_pool, npes, W, -1, 0],
                    np.int64),
         until=0, cs=cs, regs=regs, ready=ready, prod=prod, wbn=wbn, wbr=wbr, wbw=wbw, busy=busy,
-        occ=occ, unitn=unitn, stpc=stpc, bpc=bpc, opu=opu, opm=opm, ops=ops, opf=opf, bun=bun,
+        occ=occ, unitn=unitn, stpc=stpc, bpc=bpc, ops=ops, opf=opf, bun=bun,
         recvq=recvq, sendq=sendq, fq=fq, fbt=fbt, fbw=fbw,
         mem=np.concatenate(segs) if segs else np.zeros(1, np.int64), seg=seg,
         ctags=np.concatenate(tags) if tags else np.zeros(1, np.int64), rg=rg, rmap=rmap,

@@ -2,12 +2,12 @@
 in the same run on the four paper scenes, and their ratio (prints; never asserts).
 
 The reference engine renders each scene at a small size (default 16×16), the compiled engine at
-a larger one (default 32×32): cycles per CPU-second are steady across sizes, and the larger run
+a larger one (default 64×64): cycles per CPU-second are steady across sizes, and the larger run
 amortises the compiled engine's start (flattening the state, writing it back). The compiled
 loop is loaded (and, the first time on a machine, compiled and cached) before timing starts;
 that first-compile time is printed separately. Both runs are checked to end alike.
 
-Usage: python benchmarks/bench_engines.py [--ref-res 16] [--res 32] [--scenes tetra balls ...]
+Usage: python benchmarks/bench_engines.py [--ref-res 16] [--res 64] [--scenes tetra balls ...]
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ def measure(scene: str, res: int, engine: str) -> tuple[int, float]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--ref-res", type=int, default=16)
-    ap.add_argument("--res", type=int, default=32)
+    ap.add_argument("--res", type=int, default=64)
     ap.add_argument("--scenes", nargs="+", default=["tetra", "balls", "mount", "rings"])
     args = ap.parse_args()
     t = time.perf_counter()

@@ -17,7 +17,7 @@ from netsushisen.emulator.compiled.bits import as_f, as_i, ctz, word_f, word_i, 
 from netsushisen.emulator.compiled.state import (
     B_NOPS, B_NREADS, B_READS, B_NWRITES, B_WRITES, B_NUNITS, B_UNITS, B_HASLOAD,
     B_NRECVS, B_RECVS, B_NSENDS, B_SENDS, B_WAITS, B_NOPCOUNT, B_LOAD0, B_LOAD1, B_NWLAT, B_WLAT, B_LATE, B_UNPIPED,
-    O_KIND, O_MN, O_UNIT, O_LAT, O_PIPE, O_RD, O_SRC, O_R, O_KI, O_BASE, O_OFF, O_SPACE,
+    O_KIND, O_MN, O_UNIT, O_LAT, O_PIPE, O_RD, O_SRC, O_R, O_BASE, O_SPACE,
     O_PORT, O_TARGET, O_NWRITES,
     K_ALU, K_LOAD, K_STORE, K_BRANCH, K_JUMP, K_JUMPR, K_CALL, K_RET, K_SEND, K_RECV, K_POLL,
     K_ROOM, K_WAIT, K_HALT, K_NOP,
@@ -185,9 +185,9 @@ def schedule(cs, regs_ready, prod, wbn, wbr, wbw, W, p, rd, word, t, mn):
 
 
 @njit(**_INLINE)
-def load_time(cs, ctags, regs, ops, p, pc, j):
+def load_time(cs, ctags, regs, ops, opk, p, pc, j):
     """memories.MemorySystem.access_time of the load in slot j: (cycles, stall cause, address)."""
-    addr = as_i(regs[p, ops[p, pc, j, O_BASE]]) + ops[p, pc, j, O_OFF]
+    addr = as_i(regs[p, ops[p, pc, j, O_BASE]]) + opk[p, pc, j, 1]
     sp = ops[p, pc, j, O_SPACE]
     if sp == SP_LOCAL:
         return cs[p, C_T_LOCAL], CAUSE_LOCAL, addr
@@ -202,7 +202,7 @@ def load_time(cs, ctags, regs, ops, p, pc, j):
 def issue_checks(c, p, pc, A, W):
     """T10's checks 2–6 for the bundle at pc: the stall cause, or -1 when it can issue. Sets
     the processor's wake cycle (operand, destination, unit) or FIFO wait (see state.py)."""
-    (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops, opf, bun, recvq,
+    (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops, opk, opf, bun, recvq,
      sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw) = A
     if not cs[p, C_FIFOWAIT]:
         # 2. operands (RAW): the source ready last
@@ -251,7 +251,7 @@ def issue_checks(c, p, pc, A, W):
             if j < 0:
                 break
             if ops[p, pc, j, O_NWRITES]:
-                t = load_time(cs, ctags, regs, ops, p, pc, j)[0]
+                t = load_time(cs, ctags, regs, ops, opk, p, pc, j)[0]
                 if k == 0:
                     lt0 = t
                 else:
@@ -302,7 +302,7 @@ def issue_checks(c, p, pc, A, W):
 @njit(**_INLINE)
 def issue(c, p, pc, A, W, finfo):
     """core.Core._issue: returns 0, or a fault code (finfo filled)."""
-    (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops, opf, bun, recvq,
+    (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops, opk, opf, bun, recvq,
      sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw) = A
     nops = bun[p, pc, B_NOPS]
     # every load's timing first (access_time has no side effects)
@@ -317,9 +317,9 @@ def issue(c, p, pc, A, W, finfo):
         if j < 0:
             break
         if k == 0:
-            lt0, lc0, la0 = load_time(cs, ctags, regs, ops, p, pc, j)
+            lt0, lc0, la0 = load_time(cs, ctags, regs, ops, opk, p, pc, j)
         else:
-            lt1, lc1, la1 = load_time(cs, ctags, regs, ops, p, pc, j)
+            lt1, lc1, la1 = load_time(cs, ctags, regs, ops, opk, p, pc, j)
     next_pc = pc + 1
     taken = False
     hold_mem = c + 1
@@ -334,7 +334,7 @@ def issue(c, p, pc, A, W, finfo):
         if kind == K_ALU:
             srd = ops[p, pc, j, O_RD]
             sw = exec_alu(mn, regs[p, ops[p, pc, j, O_R]], regs[p, ops[p, pc, j, O_R + 1]],
-                          regs[p, ops[p, pc, j, O_R + 2]], ops[p, pc, j, O_KI], opf[p, pc, j])
+                          regs[p, ops[p, pc, j, O_R + 2]], opk[p, pc, j, 0], opf[p, pc, j])
             st = c + ops[p, pc, j, O_LAT]
         elif kind == K_LOAD:
             if nl == 0:
@@ -421,7 +421,7 @@ def issue(c, p, pc, A, W, finfo):
                 q_push(fq, fbt, fbw, pw, sendq[p, ops[p, pc, j, O_PORT]], c,
                        regs[p, ops[p, pc, j, O_SRC]])
             elif kind == K_STORE:
-                addr = as_i(regs[p, ops[p, pc, j, O_BASE]]) + ops[p, pc, j, O_OFF]
+                addr = as_i(regs[p, ops[p, pc, j, O_BASE]]) + opk[p, pc, j, 1]
                 sg = cs[p, C_SEG_LOCAL]
                 if addr < 0 or addr >= seg[sg, 1]:
                     finfo[0] = F_MEMORY
@@ -618,13 +618,13 @@ def pe_progressed(pe, cs, cflags, pes):
 
 @njit(**_OPTS)
 def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops,
-             opf, bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense,
+             opk, opf, bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense,
              rcnt, pcnt, cm, cin, cout, route, rem, lown, linkw, pes, dis, dcur, doff, dup, dasg,
              moff, mwords, col, cpart, cplen, frame, ids, cflags, pw, finfo):
     """Run cycles from g[G_CYCLE] until the run ends or the cycle `until` is reached; returns
     the status code (S_*). The cycle counter in g is advanced like machine.cycle."""
     W = g[G_W]
-    A = (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops, opf, bun, recvq,
+    A = (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops, opk, opf, bun, recvq,
          sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw)
     npes = g[G_NPES]
     pooled = g[G_POOLED]

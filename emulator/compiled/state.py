@@ -59,9 +59,11 @@ B_LATE, B_UNPIPED = 44, 45  # has FIFO operations or stores; has an unpipelined 
 N_B = 46
 
 # decoded operations: ops[processor, pc, slot, O_*]; O_R.. the three source registers in order
-(O_KIND, O_MN, O_UNIT, O_LAT, O_PIPE, O_RD, O_SRC, O_R, O_R1, O_R2, O_KI, O_BASE, O_OFF,
- O_SPACE, O_PORT, O_TARGET, O_NWRITES) = range(17)
-N_O = 17
+(O_KIND, O_MN, O_UNIT, O_LAT, O_PIPE, O_RD, O_SRC, O_R, O_R1, O_R2, O_BASE, O_SPACE, O_PORT,
+ O_TARGET, O_NWRITES) = range(15)
+N_O = 15
+"""The integer immediate and the memory offset (full 32-bit values) live in opk[..., 0 / 1],
+the float immediate in opf."""
 
 KINDS = ("alu", "load", "store", "branch", "jump", "jumpr", "call", "ret", "send", "recv",
          "poll", "room", "wait", "halt", "nop")
@@ -135,7 +137,7 @@ class State:
 
 
 ARG_ORDER = ("g", "until", "cs", "regs", "ready", "prod", "wbn", "wbr", "wbw", "busy", "occ",
-             "unitn", "stpc", "bpc", "ops", "opf", "bun", "recvq", "sendq", "fq",
+             "unitn", "stpc", "bpc", "ops", "opk", "opf", "bun", "recvq", "sendq", "fq",
              "fbt", "fbw", "mem", "seg", "ctags", "rg", "rmap", "rdense", "rcnt", "pcnt", "cm", "cin",
              "cout", "route", "rem", "lown", "linkw", "pes", "dis", "dcur", "doff", "dup",
              "dasg", "moff", "mwords", "col", "cpart", "cplen", "frame", "ids", "cflags", "pw",
@@ -187,9 +189,10 @@ def flatten(machine: Machine) -> State:
     unitn = np.zeros((P, 2), np.int64)
     stpc = np.zeros((P, NB, len(CAUSES)), np.int64)
     bpc = np.zeros((P, NB), np.int64)
-    ops = np.zeros((P, NB, MAXOPS, N_O), np.int64)
-    opf = np.zeros((P, NB, MAXOPS), np.float64)
-    bun = np.zeros((P, NB, N_B), np.int64)
+    ops = np.zeros((P, NB, MAXOPS, N_O), np.int32)  # small fields: half the cache footprint
+    opk = np.zeros((P, NB, MAXOPS, 2), np.int64)  # the integer immediate and memory offset
+    opf = np.zeros((P, NB, MAXOPS), np.float64)  # the float immediate
+    bun = np.zeros((P, NB, N_B), np.int32)
     recvq = np.full((P, 3), -1, np.int64)
     sendq = np.full((P, 3), -1, np.int64)
 
@@ -356,7 +359,7 @@ def flatten(machine: Machine) -> State:
             recvq[p, PORTS.index(port)] = fid[id(f)]
         for port, f in core.send_ports.items():
             sendq[p, PORTS.index(port)] = fid[id(f)]
-        _decode(core, units, ops[p], opf[p], bun[p])
+        _decode(core, units, ops[p], opk[p], opf[p], bun[p])
 
     # CMUs and links
     K = 3 * npes
@@ -409,7 +412,7 @@ def flatten(machine: Machine) -> State:
         g=np.array([machine.cycle, cfg.ring.deadlock_cycles, cfg.ring.buffer_pool, npes, W, -1, 0],
                    np.int64),
         until=0, cs=cs, regs=regs, ready=ready, prod=prod, wbn=wbn, wbr=wbr, wbw=wbw, busy=busy,
-        occ=occ, unitn=unitn, stpc=stpc, bpc=bpc, ops=ops, opf=opf, bun=bun,
+        occ=occ, unitn=unitn, stpc=stpc, bpc=bpc, ops=ops, opk=opk, opf=opf, bun=bun,
         recvq=recvq, sendq=sendq, fq=fq, fbt=fbt, fbw=fbw,
         mem=np.concatenate(segs) if segs else np.zeros(1, np.int64), seg=seg,
         ctags=np.concatenate(tags) if tags else np.zeros(1, np.int64), rg=rg, rmap=rmap,
@@ -441,7 +444,8 @@ class _Empty:
 _EMPTY = _Empty()
 
 
-def _decode(core, units: list[str], ops: np.ndarray, opf: np.ndarray, bun: np.ndarray) -> None:
+def _decode(core, units: list[str], ops: np.ndarray, opk: np.ndarray, opf: np.ndarray,
+            bun: np.ndarray) -> None:
     """The reference engine's decoded bundles (core.DBundle / DOp) as rows of integers."""
     for pc, b in enumerate(core.bundles):
         row = bun[pc]
@@ -484,7 +488,7 @@ def _decode(core, units: list[str], ops: np.ndarray, opf: np.ndarray, bun: np.nd
             o[O_RD] = -1 if d.rd is None else d.rd
             o[O_SRC] = 0 if d.src is None else d.src
             o[O_BASE] = 0 if d.base is None else d.base
-            o[O_OFF] = 0 if d.offset is None else d.offset
+            opk[pc, j, 1] = 0 if d.offset is None else d.offset
             o[O_SPACE] = SPACES.index(d.space) if d.space else 0
             o[O_PORT] = PORTS.index(d.port) if d.port else 0
             o[O_TARGET] = 0 if d.target is None else d.target
@@ -497,7 +501,7 @@ def _decode(core, units: list[str], ops: np.ndarray, opf: np.ndarray, bun: np.nd
                 elif any(x.kind == "fimm" for x in OPCODES[d.m].operands):
                     opf[pc, j] = float(v)
                 else:
-                    o[O_KI] = int(v)
+                    opk[pc, j, 0] = int(v)
 
 
 def write_back(st: State, machine: Machine) -> None:

@@ -7,6 +7,17 @@ a test that takes `engine_name` runs once per engine of `emulator/engine.py` —
 `harness.run_machine(engine_name, ...)` or `harness.run_stage(..., engine=engine_name)`, reading
 the run only through the engine interface. `pytest --engine compiled` (repeatable) restricts
 the runs to the named engines.
+
+Which engine runs are in the default suite (a rule, applied in `pytest_generate_tests` below):
+  - `[reference]` and `[compiled]` always, except that an engine test marked
+    `@pytest.mark.heavy` (a kernel render of 100k+ cycles) has its `[reference]` run under
+    `-m slow` only: the compiled run checks the kernels, and tests/test_engine_identity.py holds
+    the compiled engine to the reference engine's outputs (every render axis at small sizes,
+    faults, deadlocks, random programs).
+  - `[tandem]` only in the unit-level modules of TANDEM_IN_DEFAULT (timing, semantics, opcode
+    vectors, memories, ring, machine, `run`, the stage bench: a few thousand cycles each);
+    everywhere else (stage kernels, renders) `[tandem]` runs under `-m slow` only.
+`pytest --engine NAME` turns the rule off: the named engines run every engine test.
 """
 
 from __future__ import annotations
@@ -36,11 +47,38 @@ def engines(config) -> list[str]:
         raise pytest.UsageError(f"--engine: {err.format()}") from None
 
 
+TANDEM_IN_DEFAULT = frozenset({
+    "test_emulator_timing", "test_emulator_semantics", "test_opcode_vectors",
+    "test_emulator_memory", "test_emulator_ring", "test_emulator_machine", "test_emulator_cli",
+    "test_harness",
+})
+"""Modules whose `[tandem]` runs stay in the default suite (see the module docstring)."""
+
+
+def _slow_run(metafunc, name: str, names: list[str]) -> bool:
+    """Whether engine `name`'s run of this test belongs under `-m slow` only (the rule above)."""
+    if metafunc.config.getoption("--engine"):
+        return False
+    if name == "tandem":
+        return Path(metafunc.module.__file__).stem not in TANDEM_IN_DEFAULT
+    if name == "reference" and "compiled" in names:
+        return metafunc.definition.get_closest_marker("heavy") is not None
+    return False
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "heavy: an engine test (engine_name) whose [reference] "
+                            "run is slow-only (tests/conftest.py)")
+
+
 def pytest_generate_tests(metafunc):
-    """`engine_name`: one run of the test per engine."""
+    """`engine_name`: one run of the test per engine; which runs are slow-only is the rule of
+    the module docstring."""
     if "engine_name" in metafunc.fixturenames:
         names = engines(metafunc.config)
-        metafunc.parametrize("engine_name", names, ids=names)
+        metafunc.parametrize("engine_name", [
+            pytest.param(n, id=n, marks=[pytest.mark.slow] if _slow_run(metafunc, n, names) else [])
+            for n in names])
 
 
 @pytest.fixture

@@ -523,6 +523,7 @@ def case_id(c) -> str:
     return f"{c[0]}-{c[1]}"
 
 
+@pytest.mark.heavy  # [reference] under -m slow (tests/conftest.py)
 @pytest.mark.parametrize("spec,precision,res,resident,prepass", CASES, ids=[case_id(c) for c in CASES])
 def test_ic_matches_golden(spec, precision, res, resident, prepass, monkeypatch, engine_name):
     case = build_case(spec, precision, res, resident, prepass)

@@ -355,6 +355,7 @@ def test_one_slot_and_eight_slots_give_the_same_leaf_sequences(engine_name):
     assert one[0].cycle > eight[0].cycle  # eight rays in flight overlap OS, IC and SC
 
 
+@pytest.mark.heavy  # [reference] under -m slow (tests/conftest.py)
 @pytest.mark.parametrize("spec,precision,shadow,via_ring,slots", [
     ("balls:2", "fp32", False, False, 8),
     ("balls:2", "fp32", True, True, 2),

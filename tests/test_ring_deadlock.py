@@ -6,7 +6,9 @@ whose receive FIFO was full — a cycle of full FIFOs. Now OS checks `room` befo
 while it does not fit, drains the ring (RAY into the overflow queue, DONE frees its slot, NEXT is
 put aside for `main`). The renders must still agree with the golden model exactly: ray counts, hit
 ids, IC references per primitive. The renders run once per engine (`engine_name`,
-tests/conftest.py); results are read from the render's statistics and buffers.
+tests/conftest.py; marked `heavy`, so the reference and tandem runs are under `-m slow`);
+results are read from the render's statistics and buffers. That a deadlock, when one happens,
+ends alike on both engines (exit code, report, statistics) is tests/test_engine_identity.py's.
 """
 
 from __future__ import annotations
@@ -23,6 +25,8 @@ from netsushisen.host.catalog import load_scene
 from netsushisen.host.golden import render as golden_render
 from netsushisen.isa.config import load_config
 from netsushisen.kernels import protocol
+
+pytestmark = pytest.mark.heavy  # kernel renders: [reference] under -m slow (tests/conftest.py)
 
 RES = 8
 MIN_DEPTH = longest_message()[1]

@@ -22,9 +22,13 @@ Which engine runs are in the default suite (a rule, applied in `pytest_generate_
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import pytest
+
+# shared test helpers (program_strategies.py) import by name from this folder
+sys.path.insert(0, str(Path(__file__).parent))
 
 PROJECT = Path(__file__).resolve().parents[1]
 SHARED = PROJECT.parent / "shared"

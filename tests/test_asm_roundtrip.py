@@ -8,14 +8,12 @@ import functools
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from program_strategies import random_bundles
 
 from netsushisen.asm.assembler import AssemblyError, assemble_file, assemble_text, kernels_dir
-from netsushisen.asm.checker import check_bundle
 from netsushisen.asm.disasm import disassemble
 from netsushisen.asm.objects import Op, Program
 from netsushisen.errors import NetsushisenError
-from netsushisen.isa.opcodes import opcodes_for
-from netsushisen.isa.processors import PROCESSORS
 
 SOURCES = sorted(kernels_dir().rglob("*.s"))
 
@@ -38,33 +36,9 @@ LABEL_NAMES = st.from_regex(r"L_[a-z0-9_]{1,6}", fullmatch=True)
 
 @st.composite
 def programs(draw, proc: str) -> Program:
-    p = PROCESSORS[proc]
-    available = [o for o in opcodes_for(proc).values() if o.kind != "nop"]
     n = draw(st.integers(1, 10))
-
-    def arg(kind: str, opcode):
-        if kind in ("rd", "rs"):
-            return draw(REGS)
-        if kind == "imm":
-            return draw(INTS)
-        if kind == "fimm":
-            return draw(FLOATS)
-        if kind == "mem":
-            return (draw(REGS), draw(INTS))
-        if kind == "label":
-            return draw(st.integers(0, n - 1))
-        ports = p.send_ports if opcode.sends_to_port else p.recv_ports
-        return draw(st.sampled_from(ports))
-
-    bundles = []
-    for _ in range(n):
-        ops: list[Op] = []
-        for _ in range(draw(st.integers(0, p.issue_width))):
-            oc = draw(st.sampled_from(available))
-            op = Op(oc.mnemonic, tuple(arg(o.kind, oc) for o in oc.operands))
-            if not check_bundle(p, ops + [op]):
-                ops.append(op)
-        bundles.append(tuple(ops) or (Op("halt"),))
+    bundles = random_bundles(draw, proc, n, regs=REGS, imms=INTS, floats=FLOATS, offsets=INTS,
+                             last_label=n - 1, min_ops=0, empty=Op("halt"))
     data = draw(st.lists(st.one_of(INTS.map(lambda v: ("i", v)), FLOATS.map(lambda v: ("f", v))),
                          max_size=6))
     names = draw(st.lists(LABEL_NAMES, unique=True, max_size=5))

@@ -6,6 +6,8 @@ The tests of what a run does (statistics, outputs, exit codes of its end) run on
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import json
 
 import numpy as np
@@ -64,34 +66,9 @@ def test_trace_filter_and_cycles(files, capsys):
     assert lines[1].endswith("stall cache_miss")
 
 
-DL_SC = """
-    li r1, (1 << HDR_CLS_SHIFT) | (DEST_IC << HDR_DEST_SHIFT) | 2
-    send ring, r1
-    li r2, 11
-    send ring, r2
-wait_os:
-    recv r3, ring
-    recv r4, ring
-    send ring, r4
-    halt
-"""
-DL_OS = """
-    li r5, 10
-delay:
-    addi r5, r5, -1
-    bnez r5, delay
-    li r1, (DEST_SC << HDR_DEST_SHIFT) | 1
-    send ring, r1
-    send ring, r1
-    halt
-"""
-DL_IC = """
-    recv r1, ring
-    recv r2, ring
-tail:
-    recv r3, ring
-    halt
-"""
+RING_DEADLOCK_DIR = Path(__file__).parent / "programs" / "ring_deadlock"
+"""Three stage programs that deadlock the ring with the buffer pool off (one channel per link)."""
+DL_OS, DL_IC, DL_SC = ((RING_DEADLOCK_DIR / f"{s}.s").read_text() for s in ("os", "ic", "sc"))
 
 
 def test_deadlock_exit_3_with_report_and_outputs(tmp_path, capsys, engine_name):

@@ -33,8 +33,8 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, note, settings
 from hypothesis import strategies as st
+from program_strategies import random_bundles
 
-from netsushisen.asm.checker import check_bundle
 from netsushisen.asm.disasm import disassemble
 from netsushisen.asm.objects import Op, Program
 from netsushisen.emulator import stats as run_stats
@@ -43,7 +43,7 @@ from netsushisen.errors import ConfigError, NetsushisenError
 from netsushisen.isa.config import load_config
 from netsushisen.isa.images import MemoryImage, Segment
 from netsushisen.isa.opcodes import OPCODES, opcodes_for
-from netsushisen.isa.processors import PROCESSORS, STAGES
+from netsushisen.isa.processors import STAGES
 from netsushisen.isa.regions import REGION_NAMES, Region
 from netsushisen.isa.ring import make_header
 
@@ -241,35 +241,9 @@ def test_faults_end_alike(run_pair, sources, args, message):
     assert code == 2 and "run-time fault" in err and message in err
 
 
-DL_SC = """
-    li r1, (1 << HDR_CLS_SHIFT) | (DEST_IC << HDR_DEST_SHIFT) | 2
-    send ring, r1
-    li r2, 11
-    send ring, r2
-wait_os:
-    recv r3, ring
-    recv r4, ring
-    send ring, r4
-    halt
-"""
-DL_OS = """
-    li r5, 10
-delay:
-    addi r5, r5, -1
-    bnez r5, delay
-    li r1, (DEST_SC << HDR_DEST_SHIFT) | 1
-    send ring, r1
-    send ring, r1
-    halt
-"""
-DL_IC = """
-    recv r1, ring
-    recv r2, ring
-tail:
-    recv r3, ring
-    halt
-"""
-RING_DEADLOCK = {"os": DL_OS, "ic": DL_IC, "sc": DL_SC}
+RING_DEADLOCK = {s: (Path(__file__).parent / "programs" / "ring_deadlock" / f"{s}.s").read_text()
+                 for s in ("os", "ic", "sc")}
+"""The ring-deadlock programs of test_emulator_cli.py."""
 
 DEADLOCKS = {
     # the shared-FIFO ring deadlock of tests/test_emulator_cli.py (no buffer pool)
@@ -332,34 +306,10 @@ OFFSETS = st.one_of(st.integers(0, 40), st.integers(-3, 3), st.integers(-(2 ** 2
 def programs(draw, proc: str) -> Program:
     """A small program every bundle of which passes the resource checker; branch targets are
     bundles of the program (the assembler refuses others; `jr` may still leave it)."""
-    p = PROCESSORS[proc]
-    ops_of = [o for o in opcodes_for(proc).values() if o.kind != "nop"]
     n = draw(st.integers(3, 16))
     halts = draw(st.integers(0, 4)) > 0  # usually an end, sometimes running off the program
-
-    def arg(kind: str, opcode):
-        if kind in ("rd", "rs"):
-            return draw(REGS)
-        if kind == "imm":
-            return draw(INTS)
-        if kind == "fimm":
-            return draw(FLOATS)
-        if kind == "mem":
-            return (draw(REGS), draw(OFFSETS))
-        if kind == "label":
-            return draw(st.integers(0, n if halts else n - 1))
-        ports = p.send_ports if opcode.sends_to_port else p.recv_ports
-        return draw(st.sampled_from(ports))
-
-    bundles = []
-    for _ in range(n):
-        ops: list[Op] = []
-        for _ in range(draw(st.integers(1, p.issue_width))):
-            oc = draw(st.sampled_from(ops_of))
-            op = Op(oc.mnemonic, tuple(arg(o.kind, oc) for o in oc.operands))
-            if not check_bundle(p, ops + [op]):
-                ops.append(op)
-        bundles.append(tuple(ops) or (Op("nop"),))
+    bundles = random_bundles(draw, proc, n, regs=REGS, imms=INTS, floats=FLOATS, offsets=OFFSETS,
+                             last_label=n if halts else n - 1, min_ops=1, empty=Op("nop"))
     if halts:
         bundles.append((Op("halt"),))
     data = draw(st.lists(st.one_of(SMALL_INTS.map(lambda v: ("i", v)),

@@ -185,6 +185,17 @@ def schedule(cs, regs_ready, prod, wbn, wbr, wbw, W, p, rd, word, t, mn):
 
 
 @njit(**_INLINE)
+def memory_fault(finfo, p, pc, space, addr):
+    """An access outside a memory: fault code 1 with what the report needs."""
+    finfo[0] = F_MEMORY
+    finfo[1] = p
+    finfo[2] = pc
+    finfo[3] = space
+    finfo[4] = addr
+    return 1
+
+
+@njit(**_INLINE)
 def load_time(cs, ctags, regs, ops, opk, p, pc, j):
     """memories.MemorySystem.access_time of the load in slot j: (cycles, stall cause, address)."""
     addr = as_i(regs[p, ops[p, pc, j, O_BASE]]) + opk[p, pc, j, 1]
@@ -345,12 +356,7 @@ def issue(c, p, pc, A, W, finfo):
             sp = ops[p, pc, j, O_SPACE]
             sg = cs[p, C_SEG_LOCAL + sp]
             if sg < 0 or addr < 0 or addr >= seg[sg, 1]:
-                finfo[0] = F_MEMORY
-                finfo[1] = p
-                finfo[2] = pc
-                finfo[3] = sp
-                finfo[4] = addr
-                return 1
+                return memory_fault(finfo, p, pc, sp, addr)
             hit = -1
             if sp == SP_LOCAL:
                 cs[p, C_LOCAL_READS] += 1
@@ -424,12 +430,7 @@ def issue(c, p, pc, A, W, finfo):
                 addr = as_i(regs[p, ops[p, pc, j, O_BASE]]) + opk[p, pc, j, 1]
                 sg = cs[p, C_SEG_LOCAL]
                 if addr < 0 or addr >= seg[sg, 1]:
-                    finfo[0] = F_MEMORY
-                    finfo[1] = p
-                    finfo[2] = pc
-                    finfo[3] = SP_LOCAL
-                    finfo[4] = addr
-                    return 1
+                    return memory_fault(finfo, p, pc, SP_LOCAL, addr)
                 cs[p, C_LOCAL_WRITES] += 1
                 mem[seg[sg, 0] + addr] = regs[p, ops[p, pc, j, O_SRC]]
     # occupy unpipelined units for their whole latency

@@ -42,7 +42,7 @@ from netsushisen.emulator.engine import engine_names, make_engine
 from netsushisen.errors import ConfigError, NetsushisenError
 from netsushisen.isa.config import load_config
 from netsushisen.isa.images import MemoryImage, Segment
-from netsushisen.isa.opcodes import OPCODES, opcodes_for
+from netsushisen.isa.opcodes import opcodes_for
 from netsushisen.isa.processors import STAGES
 from netsushisen.isa.regions import REGION_NAMES, Region
 from netsushisen.isa.ring import make_header

@@ -14,6 +14,7 @@ The cache folder is `$NETSUSHISEN_CACHE`, else `~/.cache/netsushisen`, else a te
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.util
 import os
@@ -108,8 +109,9 @@ def _cache_root() -> Path:
     raise OSError("no writable cache folder for the compiled engine (set NETSUSHISEN_CACHE)")
 
 
+@functools.lru_cache(maxsize=None)
 def source(precision: str) -> tuple[str, str]:
-    """(module text, its hash) for a precision ("fp32" or "fp64")."""
+    """(module text, its hash) for a precision ("fp32" or "fp64"); read once per process."""
     loop = (HERE / "loop.py").read_text(encoding="utf-8")
     ftype = "float32" if precision == "fp32" else "float64"
     text = dispatchers() + f"\nF = np.{ftype}  # the machine's float type, a constant\n\n" + loop

@@ -16,6 +16,7 @@ from numba import njit
 from netsushisen.emulator.compiled.bits import as_f, as_i, ctz, word_i
 from netsushisen.emulator.compiled.state import (
     B_NOPS, B_NREADS, B_READS, B_NWRITES, B_WRITES, B_NUNITS, B_UNITS, B_NRECVS, B_RECVS, B_NSENDS,
+    B_UFIT, B_NWTOTAL, C_BUSYMAX,
     B_SENDS, B_WAITS, B_LOAD0, B_NWLAT, B_WLAT, B_LATE, B_UNPIPED, O_KIND, O_MN, O_UNIT, O_LAT,
     O_PIPE, O_RD, O_SRC, O_R, O_BASE, O_SPACE, O_PORT, O_TARGET, O_NWRITES, K_ALU, K_LOAD, K_STORE,
     K_BRANCH, K_JUMP, K_JUMPR, K_CALL, K_RET, K_SEND, K_RECV, K_POLL, K_ROOM, K_HALT, C_PC,
@@ -211,10 +212,12 @@ def issue_checks(c, p, pc, A, W):
     (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops, opk, opf, bun, recvq,
      sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw) = A
     if not cs[p, C_FIFOWAIT]:
-        # 2. operands (RAW): the source ready last
+        npend = cs[p, C_NPEND]
+        # 2. operands (RAW): the source ready last. 2 and 3 pass with no result in flight (a
+        # register is not ready only while its result is in flight)
         worst = -1
         worst_t = c
-        for k in range(bun[p, pc, B_NREADS]):
+        for k in range(bun[p, pc, B_NREADS] if npend else 0):
             r = bun[p, pc, B_READS + k]
             if ready[p, r] > worst_t:
                 worst = r
@@ -224,14 +227,15 @@ def issue_checks(c, p, pc, A, W):
             cs[p, C_WAKE_CAUSE] = CAUSE_OPERAND + prod[p, worst] + 1
             return cs[p, C_WAKE_CAUSE]
         # 3. destinations (WAW)
-        for k in range(bun[p, pc, B_NWRITES]):
+        for k in range(bun[p, pc, B_NWRITES] if npend else 0):
             r = bun[p, pc, B_WRITES + k]
             if ready[p, r] > c:
                 cs[p, C_WAKE] = ready[p, r]
                 cs[p, C_WAKE_CAUSE] = CAUSE_WAW + prod[p, r] + 1
                 return cs[p, C_WAKE_CAUSE]
-        # 4. units
-        for k in range(bun[p, pc, B_NUNITS]):
+        # 4. units (all free once the last unpipelined operation is done: state.py B_UFIT)
+        fit = c >= cs[p, C_BUSYMAX] and bun[p, pc, B_UFIT]
+        for k in range(0 if fit else bun[p, pc, B_NUNITS]):
             u = bun[p, pc, B_UNITS + 2 * k]
             need = bun[p, pc, B_UNITS + 2 * k + 1]
             free = 0
@@ -249,7 +253,11 @@ def issue_checks(c, p, pc, A, W):
                 cs[p, C_WAKE] = soonest
                 cs[p, C_WAKE_CAUSE] = CAUSE_UNIT + occ[p, u, first] + 1
                 return cs[p, C_WAKE_CAUSE]
-        # 5. write ports: results due per cycle (the other writers' by latency, plus loads')
+        # 5. write ports: results due per cycle (the other writers' by latency, plus loads');
+        # none can be short while the results in flight and this bundle's fit the ports
+        wp = cs[p, C_WPORTS]
+        if npend + bun[p, pc, B_NWTOTAL] <= wp:
+            return fifo_checks(c, p, pc, cs, bun, recvq, sendq, fq, fbt)
         lt0 = -1
         lt1 = -1
         for k in range(2):
@@ -262,7 +270,6 @@ def issue_checks(c, p, pc, A, W):
                     lt0 = t
                 else:
                     lt1 = t
-        wp = cs[p, C_WPORTS]
         nw = bun[p, pc, B_NWLAT]
         for k in range(nw):
             lat = bun[p, pc, B_WLAT + 2 * k]
@@ -279,7 +286,13 @@ def issue_checks(c, p, pc, A, W):
                     counted = True
             if not counted and wbn[p, (c + t) & (W - 1)] + (lt0 == t) + (lt1 == t) > wp:
                 return CAUSE_WRITE_PORT
-    # 6. FIFOs (a processor that stalls here with nothing in flight re-checks only these)
+    return fifo_checks(c, p, pc, cs, bun, recvq, sendq, fq, fbt)
+
+
+@njit(**_INLINE)
+def fifo_checks(c, p, pc, cs, bun, recvq, sendq, fq, fbt):
+    """T10's check 6, the FIFOs (a processor that stalls here with nothing in flight re-checks
+    only these: C_FIFOWAIT)."""
     cs[p, C_FIFOWAIT] = cs[p, C_NPEND] == 0
     for k in range(bun[p, pc, B_NRECVS]):
         port = bun[p, pc, B_RECVS + 2 * k]
@@ -437,6 +450,8 @@ def issue(c, p, pc, A, W, finfo):
                     if busy[p, u, i] <= c:
                         busy[p, u, i] = c + ops[p, pc, j, O_LAT]
                         occ[p, u, i] = ops[p, pc, j, O_MN]
+                        if busy[p, u, i] > cs[p, C_BUSYMAX]:
+                            cs[p, C_BUSYMAX] = busy[p, u, i]
                         break
     # counters (operations by unit and mnemonic follow from bpc: state.write_back)
     cs[p, C_BUNDLES] += 1

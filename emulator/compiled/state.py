@@ -32,27 +32,30 @@ _C = _enum("PC HALTED HOLD_UNTIL HOLD_MEM_UNTIL HOLD_CAUSE HOLD_PC CYCLES BUNDLE
            "LAST_ISSUED CAUSE PRESENT NB WPORTS PENALTY PE T_LOCAL T_R T_C T_G SEG_LOCAL "
            "SEG_RES SEG_GLOBAL CACHE_SETS CACHE_OFF BLOCK_BYTES WORD_BYTES LOCAL_READS "
            "LOCAL_WRITES RES_READS CACHE_ACC CACHE_HITS CACHE_MISSES GLOBAL_ACC WAKE WAKE_CAUSE NPEND "
-           "FIFOWAIT BSHIFT SSHIFT")
+           "FIFOWAIT BSHIFT SSHIFT BUSYMAX")
 (C_PC, C_HALTED, C_HOLD_UNTIL, C_HOLD_MEM_UNTIL, C_HOLD_CAUSE, C_HOLD_PC, C_CYCLES, C_BUNDLES,
  C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY, C_PE,
  C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL, C_CACHE_SETS,
  C_CACHE_OFF, C_BLOCK_BYTES, C_WORD_BYTES, C_LOCAL_READS, C_LOCAL_WRITES, C_RES_READS,
  C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE,
- C_NPEND, C_FIFOWAIT, C_BSHIFT, C_SSHIFT) = range(len(_C))
+ C_NPEND, C_FIFOWAIT, C_BSHIFT, C_SSHIFT, C_BUSYMAX) = range(len(_C))
 """C_WAKE, C_WAKE_CAUSE: derived, not written back — a processor stalled on an operand, a
 destination or a busy unit stalls for that same cause until the cycle C_WAKE (nothing but its
 own issue changes what those checks read), so the loop charges those cycles without checking.
 C_NPEND (derived): results in flight. C_FIFOWAIT (derived): the processor waits on a FIFO with
 no result in flight, so every earlier issue check (operands, destinations, units, write ports)
 still passes and only the FIFO checks need doing again. C_BSHIFT, C_SSHIFT: log2 of the words
-per cache block and of the sets where those are powers of two (else -1): shifts for divisions."""
+per cache block and of the sets where those are powers of two (else -1): shifts for divisions.
+C_BUSYMAX (derived): the latest cycle any unit is occupied until (units are free from then on)."""
 N_C = len(_C)
 
 # decoded bundles: bun[processor, pc, B_*]; reads up to 8, writes up to 4, (class, count) pairs
 B_NOPS, B_NREADS, B_READS = 0, 1, 2
 B_NWRITES, B_WRITES = 10, 11
 B_NUNITS, B_UNITS = 15, 16
-B_HASLOAD, B_NRECVS, B_RECVS, B_NSENDS, B_SENDS, B_WAITS, B_NOPCOUNT = 20, 21, 22, 26, 27, 31, 32
+B_UFIT, B_NRECVS, B_RECVS, B_NSENDS, B_SENDS, B_WAITS, B_NWTOTAL = 20, 21, 22, 26, 27, 31, 32
+"""B_UFIT: every unit class the bundle needs has that many units (so free units never stall it);
+B_NWTOTAL: the register writes of all its operations (bounds what the write-port check counts)."""
 B_LOAD0, B_LOAD1 = 33, 34  # slots of the bundle's loads (or -1)
 B_NWLAT, B_WLAT = 35, 36  # (latency, register writes) of the other writers, by distinct latency
 B_LATE, B_UNPIPED = 44, 45  # has FIFO operations or stores; has an unpipelined operation
@@ -290,6 +293,7 @@ def flatten(machine: Machine) -> State:
             for i, t in enumerate(core.busy[name]):
                 busy[p, u, i] = t
                 occ[p, u, i] = MN_ID.get(core.occupant[name][i], -1)
+        cs[p, C_BUSYMAX] = busy[p].max()
 
         cs[p, C_PC] = core.pc
         cs[p, C_HALTED] = core.halted
@@ -457,7 +461,7 @@ def _decode(core, units: list[str], ops: np.ndarray, opk: np.ndarray, opf: np.nd
         row[B_NUNITS] = len(b.units)
         for k, (u, n) in enumerate(b.units):
             row[B_UNITS + 2 * k], row[B_UNITS + 2 * k + 1] = units.index(u), n
-        row[B_HASLOAD] = bool(b.loads)
+        row[B_UFIT] = all(n <= core.proc.units[u] for u, n in b.units)
         row[B_NRECVS] = len(b.recvs)
         for k, (port, n) in enumerate(b.recvs):
             row[B_RECVS + 2 * k], row[B_RECVS + 2 * k + 1] = PORTS.index(port), n
@@ -465,7 +469,7 @@ def _decode(core, units: list[str], ops: np.ndarray, opk: np.ndarray, opf: np.nd
         for k, (port, n) in enumerate(b.sends):
             row[B_SENDS + 2 * k], row[B_SENDS + 2 * k + 1] = PORTS.index(port), n
         row[B_WAITS] = b.waits
-        row[B_NOPCOUNT] = b.n_ops
+        row[B_NWTOTAL] = sum(d.nwrites for d in b.writers)
         row[B_LATE] = any(d.kind in ("recv", "send", "store") for d in b.ops)
         row[B_UNPIPED] = any(not d.pipelined for d in b.ops)
         loads = [j for j, d in enumerate(b.ops) if d.kind == "load"]

@@ -2,12 +2,18 @@
 
 This file is never imported as it stands: `build.py` puts the machine's float type `F`
 (numpy.float32 or numpy.float64, a compile-time constant) and the opcode dispatchers it
-generates from the opcode table (`exec_alu`, `exec_branch`) in front of this text, writes the whole into a
-cache folder named by a hash of everything it depends on, and imports that (so numba's on-disk
-cache can never serve code compiled from an older opcode table or loop). Every rule here is the
-reference engine's: core.py (T1–T10, the issue checks in their order), memories.py, cmu.py,
-machine.py (DIS, COL, end of run); the comments name the reference function mirrored. State
-layouts (the index constants) are defined in state.py and passed in as plain integers.
+generates from the opcode table (`exec_alu`, `exec_branch`) in front of this text, writes the
+whole into a cache folder named by a hash of everything it depends on, and imports that (so
+numba's on-disk cache can never serve code compiled from an older opcode table or loop). Every
+rule here is the reference engine's: core.py (T1–T10, the issue checks in their order),
+memories.py, cmu.py, machine.py (DIS, COL, end of run); the comments name the reference
+function mirrored. State layouts (the index constants) are defined in state.py and passed in as
+plain integers.
+
+Where the loop does less than the reference's cycle-by-cycle rule, it is because the skipped
+work provably gives the same answer: issue checks that cannot fail (no result in flight, no
+unit occupied, ports to spare), processors asleep on their FIFOs (state.py C_SLEEP), and quiet
+cycles skipped at once (skip_quiet) — each charging its counters exactly as the rule would.
 """
 
 import numpy as np
@@ -16,7 +22,7 @@ from numba import njit
 from netsushisen.emulator.compiled.bits import as_f, as_i, ctz, word_i
 from netsushisen.emulator.compiled.state import (
     B_NOPS, B_NREADS, B_READS, B_NWRITES, B_WRITES, B_NUNITS, B_UNITS, B_NRECVS, B_RECVS, B_NSENDS,
-    B_UFIT, B_NWTOTAL, C_BUSYMAX,
+    B_UFIT, B_NWTOTAL, C_BUSYMAX, C_SLEEP, Q_RSTAGE, Q_SSTAGE, W_WAKE,
     B_SENDS, B_WAITS, B_LOAD0, B_NWLAT, B_WLAT, B_LATE, B_UNPIPED, O_KIND, O_MN, O_UNIT, O_LAT,
     O_PIPE, O_RD, O_SRC, O_R, O_BASE, O_SPACE, O_PORT, O_TARGET, O_NWRITES, K_ALU, K_LOAD, K_STORE,
     K_BRANCH, K_JUMP, K_JUMPR, K_CALL, K_RET, K_SEND, K_RECV, K_POLL, K_ROOM, K_HALT, C_PC,
@@ -82,6 +88,9 @@ def q_push(fq, fbt, fbw, pw, q, c, w):
     occ = fq[q, Q_CNT] + (fq[q, Q_POPS] if fq[q, Q_POPC] == c else 0)
     if occ > fq[q, Q_PEAK]:
         fq[q, Q_PEAK] = occ
+    s = fq[q, Q_RSTAGE]  # its receiver, if asleep, checks again once the word is visible
+    if s >= 0 and c + fq[q, Q_DELAY] < pw[pe, W_WAKE + s]:
+        pw[pe, W_WAKE + s] = c + fq[q, Q_DELAY]
 
 
 @njit(**_INLINE)
@@ -99,6 +108,9 @@ def q_pop(fq, fbw, pw, q, c):
     fq[q, Q_CNT] -= 1
     if fq[q, Q_CNT] == 0 and fq[q, Q_CSTAGE] >= 0:
         pw[pe, W_MASK + fq[q, Q_CSTAGE]] &= ~(1 << fq[q, Q_CIN])
+    s = fq[q, Q_SSTAGE]  # its sender, if asleep, checks again next cycle (one more free slot)
+    if s >= 0 and c + 1 < pw[pe, W_WAKE + s]:
+        pw[pe, W_WAKE + s] = c + 1
     return w
 
 
@@ -493,10 +505,50 @@ def core_step(c, p, A, W, finfo):
         return 1
     else:
         cause = issue_checks(c, p, pc, A, W)
-    if cause >= 0:
+        if cause < 0:
+            return issue(c, p, pc, A, W, finfo)
         stall(cs, stpc, p, cause, pcx)
+        if cs[p, C_FIFOWAIT]:
+            fall_asleep(c, p, cs, A[16], A[17], A[18], A[19], A[29])
         return 0
-    return issue(c, p, pc, A, W, finfo)
+    stall(cs, stpc, p, cause, pcx)
+    return 0
+
+
+@njit(**_INLINE)
+def fall_asleep(c, p, cs, recvq, sendq, fq, fbt, pw):
+    """After a FIFO stall in cycle c with nothing in flight: sleep (state.py C_SLEEP) unless a
+    word already pushed to a receive FIFO is not visible yet or a send FIFO was popped this
+    cycle — then the checks' answer may change without a push or pop to wake it."""
+    wrap = fbt.shape[1] - 1
+    for port in range(3):
+        q = recvq[p, port]
+        if q >= 0 and fq[q, Q_CNT] and fbt[q, (fq[q, Q_HEAD] + fq[q, Q_CNT] - 1) & wrap] > c:
+            return
+        q = sendq[p, port]
+        if q >= 0 and fq[q, Q_POPC] == c:
+            return
+    cs[p, C_SLEEP] = c + 1
+    pw[p // 3, W_WAKE + p % 3] = 1 << 62
+
+
+@njit(**_INLINE)
+def wake(cs, stpc, p, upto):
+    """Charge a sleeping processor's cycles up to cycle `upto` (exclusive) to its stall, as
+    stepping it each cycle would have, and wake it."""
+    k = upto - cs[p, C_SLEEP]
+    cs[p, C_CYCLES] += k
+    stpc[p, cs[p, C_LAST_PC], cs[p, C_CAUSE]] += k
+    cs[p, C_SLEEP] = 0
+
+
+@njit(**_INLINE)
+def wake_all(cs, stpc, nproc, c, stepped):
+    """Before the loop returns in (or after) cycle c: every sleeping processor charged through
+    cycle c if it was stepped in it (index < stepped), else through c − 1."""
+    for p in range(nproc):
+        if cs[p, C_SLEEP]:
+            wake(cs, stpc, p, c + 1 if p < stepped else c)
 
 
 # -- the CMU (cmu.Cmu.step) -------------------------------------------------------------------
@@ -633,10 +685,27 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
              rcnt, pcnt, cm, cin, cout, route, rem, lown, linkw, pes, dis, dcur, doff, dup, dasg,
              moff, mwords, col, cpart, cplen, frame, ids, cflags, pw, finfo):
     """Run cycles from g[G_CYCLE] until the run ends or the cycle `until` is reached; returns
-    the status code (S_*). The cycle counter in g is advanced like machine.cycle."""
+    the status code (S_*). The cycle counter in g is advanced like machine.cycle. Every
+    processor is awake on return (its cycles charged), so the state reads as the reference's."""
+    code = run_cycles(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc,
+                      bpc, ops, opk, opf, bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg,
+                      rmap, rdense, rcnt, pcnt, cm, cin, cout, route, rem, lown, linkw, pes, dis,
+                      dcur, doff, dup, dasg, moff, mwords, col, cpart, cplen, frame, ids, cflags,
+                      pw, finfo)
+    wake_all(cs, stpc, g[G_NPES] * 3, g[G_CYCLE] - 1, g[G_NPES] * 3)
+    return code
+
+
+@njit(**_OPTS)
+def run_cycles(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops,
+               opk, opf, bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense,
+               rcnt, pcnt, cm, cin, cout, route, rem, lown, linkw, pes, dis, dcur, doff, dup, dasg,
+               moff, mwords, col, cpart, cplen, frame, ids, cflags, pw, finfo):
+    """run_loop's cycles (faults wake the sleeping processors themselves: not all of them were
+    stepped in the faulting cycle)."""
     W = g[G_W]
-    A = (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops, opk, opf, bun, recvq,
-         sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw)
+    A = (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops, opk, opf, bun,
+         recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw)
     npes = g[G_NPES]
     pooled = g[G_POOLED]
     limit = g[G_DEADLOCK_CYCLES]
@@ -685,7 +754,12 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
             for s in range(3):
                 p = pe * 3 + s
                 if cs[p, C_PRESENT]:
+                    if cs[p, C_SLEEP]:
+                        if c < pw[pe, W_WAKE + s]:
+                            continue
+                        wake(cs, stpc, p, c)
                     if core_step(c, p, A, W, finfo):
+                        wake_all(cs, stpc, npes * 3, c, p)
                         g[G_CYCLE] = c + 1
                         return S_FAULT
             moved = 0
@@ -695,6 +769,7 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
                              fbt, fbw, pw, pooled, finfo)
                 if r < 0:
                     finfo[3] = pe
+                    wake_all(cs, stpc, npes * 3, c, pe * 3 + 3)
                     g[G_CYCLE] = c + 1
                     return S_FAULT
                 if r:
@@ -718,6 +793,7 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
                 finfo[0] = F_COL_HEADER
                 finfo[1] = i
                 finfo[2] = cpart[i, 0]
+                wake_all(cs, stpc, npes * 3, c, npes * 3)
                 g[G_CYCLE] = c + 1
                 return S_FAULT
             if cplen[i] == length + 1:
@@ -727,6 +803,7 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
                     finfo[0] = F_COL_PIXEL
                     finfo[1] = i
                     finfo[2] = pixel
+                    wake_all(cs, stpc, npes * 3, c, npes * 3)
                     g[G_CYCLE] = c + 1
                     return S_FAULT
                 y = pixel // width
@@ -819,7 +896,9 @@ def skip_quiet(c, until, limit, npes, W, cs, regs, wbn, wbr, wbw, stpc, pes, pw,
     for p in range(npes * 3):
         if not cs[p, C_PRESENT] or cs[p, C_HALTED]:
             continue
-        if c1 < cs[p, C_HOLD_UNTIL]:
+        if cs[p, C_SLEEP]:  # asleep: charged when it wakes
+            w = pw[p // 3, W_WAKE + p % 3]
+        elif c1 < cs[p, C_HOLD_UNTIL]:
             w = cs[p, C_HOLD_MEM_UNTIL] if c1 < cs[p, C_HOLD_MEM_UNTIL] else cs[p, C_HOLD_UNTIL]
         elif c1 < cs[p, C_WAKE]:
             w = cs[p, C_WAKE]
@@ -838,7 +917,7 @@ def skip_quiet(c, until, limit, npes, W, cs, regs, wbn, wbr, wbw, stpc, pes, pw,
         return
     k = T - c1
     for p in range(npes * 3):
-        if not cs[p, C_PRESENT] or cs[p, C_HALTED]:
+        if not cs[p, C_PRESENT] or cs[p, C_HALTED] or cs[p, C_SLEEP]:
             continue
         if c1 < cs[p, C_HOLD_UNTIL]:
             cause = cs[p, C_HOLD_CAUSE] if c1 < cs[p, C_HOLD_MEM_UNTIL] else CAUSE_BRANCH

@@ -32,13 +32,13 @@ _C = _enum("PC HALTED HOLD_UNTIL HOLD_MEM_UNTIL HOLD_CAUSE HOLD_PC CYCLES BUNDLE
            "LAST_ISSUED CAUSE PRESENT NB WPORTS PENALTY PE T_LOCAL T_R T_C T_G SEG_LOCAL "
            "SEG_RES SEG_GLOBAL CACHE_SETS CACHE_OFF BLOCK_BYTES WORD_BYTES LOCAL_READS "
            "LOCAL_WRITES RES_READS CACHE_ACC CACHE_HITS CACHE_MISSES GLOBAL_ACC WAKE WAKE_CAUSE NPEND "
-           "FIFOWAIT BSHIFT SSHIFT BUSYMAX")
+           "FIFOWAIT BSHIFT SSHIFT BUSYMAX SLEEP")
 (C_PC, C_HALTED, C_HOLD_UNTIL, C_HOLD_MEM_UNTIL, C_HOLD_CAUSE, C_HOLD_PC, C_CYCLES, C_BUNDLES,
  C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY, C_PE,
  C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL, C_CACHE_SETS,
  C_CACHE_OFF, C_BLOCK_BYTES, C_WORD_BYTES, C_LOCAL_READS, C_LOCAL_WRITES, C_RES_READS,
  C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE,
- C_NPEND, C_FIFOWAIT, C_BSHIFT, C_SSHIFT, C_BUSYMAX) = range(len(_C))
+ C_NPEND, C_FIFOWAIT, C_BSHIFT, C_SSHIFT, C_BUSYMAX, C_SLEEP) = range(len(_C))
 """C_WAKE, C_WAKE_CAUSE: derived, not written back — a processor stalled on an operand, a
 destination or a busy unit stalls for that same cause until the cycle C_WAKE (nothing but its
 own issue changes what those checks read), so the loop charges those cycles without checking.
@@ -46,7 +46,12 @@ C_NPEND (derived): results in flight. C_FIFOWAIT (derived): the processor waits 
 no result in flight, so every earlier issue check (operands, destinations, units, write ports)
 still passes and only the FIFO checks need doing again. C_BSHIFT, C_SSHIFT: log2 of the words
 per cache block and of the sets where those are powers of two (else -1): shifts for divisions.
-C_BUSYMAX (derived): the latest cycle any unit is occupied until (units are free from then on)."""
+C_BUSYMAX (derived): the latest cycle any unit is occupied until (units are free from then on).
+C_SLEEP (derived): 0, or the first cycle not yet charged of a processor asleep — one stalled on
+its FIFOs with nothing in flight and no word on its way, whose stall can end only when a word
+reaches one of its receive FIFOs or leaves one of its send FIFOs (pw W_WAKE says when). Asleep,
+it is not stepped; its cycles are charged to its stall at once when it wakes or the loop
+returns (loop.py wake)."""
 N_C = len(_C)
 
 # decoded bundles: bun[processor, pc, B_*]; reads up to 8, writes up to 4, (class, count) pairs
@@ -102,13 +107,16 @@ CAUSE_FLAGS = np.array([2 if c.startswith("fifo_empty") else 1 if c.startswith("
 """0: not a FIFO wait; 1: a FIFO wait (`fifo_full`); 2: waiting on an empty receive FIFO."""
 
 # FIFOs: fq[fifo, Q_*]
-Q_CAP, Q_DELAY, Q_HEAD, Q_CNT, Q_POPC, Q_POPS, Q_PEAK, Q_TOTAL, Q_PE, Q_RING, Q_CSTAGE, Q_CIN = \
-    range(12)
-"""Q_CSTAGE, Q_CIN: the CMU (stage) reading this FIFO as an input and the input's index, or -1."""
+Q_CAP, Q_DELAY, Q_HEAD, Q_CNT, Q_POPC, Q_POPS, Q_PEAK, Q_TOTAL, Q_PE, Q_RING, Q_CSTAGE, Q_CIN, \
+    Q_RSTAGE, Q_SSTAGE = range(14)
+"""Q_CSTAGE, Q_CIN: the CMU (stage) reading this FIFO as an input and the input's index, or -1.
+Q_RSTAGE, Q_SSTAGE: the stage of the PE's processor receiving from / sending into it, or -1."""
 # words in flight per PE (derived, kept up to date by every push and pop): pw[pe, W_*]
 W_ALL, W_RING, W_LASTVIS, W_MASK = range(4)
+W_WAKE = W_MASK + 3
 """W_LASTVIS: the latest cycle at which a word pushed so far becomes visible. W_MASK + s: the
-inputs of the PE's CMU s that hold words, one bit per input."""
+inputs of the PE's CMU s that hold words, one bit per input. W_WAKE + s: the first cycle the
+PE's processor s, asleep (C_SLEEP), must check its FIFOs again."""
 # CMUs: cm[cmu, M_*]
 M_N, M_RECV_OWNER, M_MOVED, M_RECV, M_DEST, M_LINK_IN, M_LINK_OUT, M_NOUT = range(8)
 # PEs: pes[pe, P_*]
@@ -203,10 +211,10 @@ def flatten(machine: Machine) -> State:
     fifos = [f for pe in machine.pes for f in pe.ring.fifos()]
     fid = {id(f): i for i, f in enumerate(fifos)}
     cap = max(f.capacity for f in fifos)
-    fq = np.zeros((len(fifos), 12), np.int64)
+    fq = np.zeros((len(fifos), 14), np.int64)
     fbt = np.zeros((len(fifos), cap), np.int64)
     fbw = np.zeros((len(fifos), cap), np.int64)
-    pw = np.zeros((npes, 7), np.int64)
+    pw = np.zeros((npes, W_WAKE + 3), np.int64)
     cmu_input = {id(f): (s, k) for pe in machine.pes for s, cmu in enumerate(pe.ring.cmus)
                  for k, f in enumerate(cmu.inputs)}
     per_pe = len(fifos) // npes
@@ -215,7 +223,7 @@ def flatten(machine: Machine) -> State:
         ring = f is not pe.ring.host and f is not pe.ring.col
         stage, k = cmu_input.get(id(f), (-1, -1))
         fq[i] = (f.capacity, f.delay, 0, len(f.q), f.pop_cycle, f.pops, f.peak, f.total,
-                 i // per_pe, ring, stage, k)
+                 i // per_pe, ring, stage, k, -1, -1)
         if stage >= 0 and len(f.q):
             pw[i // per_pe, W_MASK + stage] |= 1 << k
         pw[i // per_pe, W_ALL] += len(f.q)
@@ -361,8 +369,10 @@ def flatten(machine: Machine) -> State:
             bpc[p, pc] = n
         for port, f in core.recv_ports.items():
             recvq[p, PORTS.index(port)] = fid[id(f)]
+            fq[fid[id(f)], Q_RSTAGE] = p % 3
         for port, f in core.send_ports.items():
             sendq[p, PORTS.index(port)] = fid[id(f)]
+            fq[fid[id(f)], Q_SSTAGE] = p % 3
         _decode(core, units, ops[p], opk[p], opf[p], bun[p])
 
     # CMUs and links

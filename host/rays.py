@@ -21,11 +21,14 @@ import numpy as np
 
 from netsushisen.host.scenes import Camera
 
-PRECISIONS: dict[str, type] = {"fp32": np.float32, "fp64": np.float64}
+PRECISIONS: dict[str, type] = {"fp32": np.float32, "fp64": np.float64, "fp16": np.float16}
+"""fp32 and fp64 are the machine's formats; fp16 is for the golden model only, in accuracy
+studies (`netsushisen accuracy`: what a narrower format would cost in image error). The
+machine's configuration accepts fp32 and fp64 alone."""
 
 
 def dtype_of(precision: str) -> type:
-    """The numpy scalar type of a precision name (`fp32` or `fp64`)."""
+    """The numpy scalar type of a precision name (`fp32`, `fp64`; `fp16` for the golden model)."""
     try:
         return PRECISIONS[precision]
     except KeyError:

@@ -30,6 +30,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "render": ("netsushisen.commands.render", "render a scene on the emulated machine"),
     "report": ("netsushisen.commands.report", "ILP, stall and memory reports from a statistics file"),
     "paper": ("netsushisen.commands.paper", "reproduce the paper's tables and figures"),
+    "accuracy": ("netsushisen.commands.accuracy", "what accuracy costs: error against time per knob"),
     "debug": ("netsushisen.commands.debug", "step through the machine in the terminal"),
 }
 

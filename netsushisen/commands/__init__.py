@@ -9,8 +9,9 @@ image) come from `netsushisen/options.py`, so they mean and check the same every
     golden   render with the golden model         run      run programs on the machine
     config   show or check the configuration      render   render a scene on the machine
     debug    the step debugger                    report   ILP, stall, memory reports
-    paper    the paper's tables and figures
+    paper    the paper's tables and figures       accuracy what accuracy costs, per knob
 
 A command only parses, checks and prints: the work is done by the layers below it (asm/, isa/,
-host/, emulator/ through its engine interface, debugger/, reports/, netsushisen/render.py).
+host/, emulator/ through its engine interface, debugger/, reports/, netsushisen/render.py,
+netsushisen/accuracy.py).
 """

@@ -1,0 +1,387 @@
+"""Measure what accuracy costs: per knob, each setting's error against truth and its cost.
+
+It sits above the host and the machine (as `render.py` does) because the axes need both: golden
+renders (host/golden.py) and machine runs through the engine interface (via `render.prepare` /
+`render.finish`). The rows and their arithmetic are `reports/accuracy.py`; the command is
+`netsushisen/commands/accuracy.py`. Four axes:
+
+  precision  truth golden fp64; golden fp32, golden fp16 (numpy float16 throughout), golden fp32
+             on bf16-rounded scene values, the machine in fp32 and in fp64
+  depth      truth depth 10; depth 1 … 8, golden image and rays, machine cycles
+  prepass    truth the full-resolution ranking; pre-pass at the config's share and 8², 16², … sides
+  fidelity   truth the full cycle-accurate run; analytic, trace-driven, sampled (SMARTS), the
+             reference engine
+
+Machine seconds are the engine's (build, run, read-out); the host preparation every machine row
+shares (grid, pre-pass, images, kernels) is not counted.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import time
+from typing import Callable
+
+import numpy as np
+
+from netsushisen.emulator import stats as run_stats
+from netsushisen.errors import NetsushisenError
+from netsushisen.host import golden
+from netsushisen.host.prepass import coarse_resolution
+from netsushisen.host.scenes import Scene
+from netsushisen.isa.config import MachineConfig
+from netsushisen.render import RenderResult, RenderSetup, finish, prepare
+from netsushisen.reports.accuracy import (Row, fidelity_errors, hit_id_share, ic_regions, image_errors,
+                                          memory_point, ray_errors, relative, sampled_estimate,
+                                          traced_rays)
+from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
+
+DEPTHS = tuple(range(1, 9))
+TRUTH_DEPTH = 10
+TILES = 64
+"""Sampling units of the sampled cycle-accurate rows: the eye samples cut into this many runs of
+consecutive samples in the order DIS hands them out (so a tile's predecessor is what the full run
+did just before it: its warm-up)."""
+SAMPLE_SHARES = (0.10, 0.25, 0.50)
+REFERENCE_BUDGET = 2_000_000
+"""Cycles the reference engine (≈60 k cycles/s) is given; a longer run is compared over this
+prefix with the compiled engine's, and its full time extrapolated."""
+CALIBRATION_RES = 8
+"""The analytic and trace-driven rows' cycles come from one machine run this small."""
+
+Progress = Callable[[str], None]
+
+
+def _quiet(_: str) -> None:
+    pass
+
+
+def with_sets(config: MachineConfig, **fields) -> MachineConfig:
+    """A copy of `config` with dotted fields set: with_sets(c, **{"render.max_depth": 3})."""
+    c = copy.deepcopy(config)
+    for path, value in fields.items():
+        *parents, name = path.split(".")
+        obj = c
+        for p in parents:
+            obj = getattr(obj, p)
+        setattr(obj, name, value)
+    return c
+
+
+def run_machine(setup: RenderSetup, engine: str, max_cycles: int | None = None
+                ) -> tuple[RenderResult, float]:
+    """Run a prepared setup; (result, wall seconds). A run that does not end cleanly is bad
+    input for a study (a cycle limit within `max_cycles` is expected)."""
+    start = time.perf_counter()
+    eng = setup.engine(engine)
+    run = eng.run(max_cycles)
+    result = finish(setup, eng, run)
+    seconds = time.perf_counter() - start
+    if run.status not in ("halted", "finished") and not (max_cycles and run.status == "max_cycles"):
+        raise NetsushisenError(f"{setup.scene.name} {setup.res}x{setup.res}: the machine run ended "
+                               f"{run.status} at cycle {run.cycles:,}"
+                               + (f": {run.error.format()}" if run.error else ""))
+    return result, seconds
+
+
+def machine_point(stats: dict) -> dict[str, float]:
+    """Cycles, ρ, μ, t of a machine run's statistics (IC shape data, every PE)."""
+    m = stats["config"]["ic_memory"]
+    return {"cycles": stats["run"]["cycles"]} | memory_point(ic_regions(stats), m["t_r"], m["t_c"], m["t_g"])
+
+
+# ------------------------------------------------------------------------------------------------
+# Precision
+
+
+def round_bf16(a: np.ndarray) -> np.ndarray:
+    """float64 values rounded to bfloat16 (8 significant bits, round to nearest even, via
+    float32), returned as float64."""
+    f = np.asarray(a, np.float64).astype(np.float32)
+    u = f.view(np.uint32).astype(np.uint64)
+    u = (u + 0x7FFF + ((u >> 16) & 1)) & 0xFFFF0000
+    out = u.astype(np.uint32).view(np.float32).astype(np.float64)
+    return np.where(np.isfinite(f), out, f)
+
+
+def round_scene(scene: Scene, rounder: Callable[[np.ndarray], np.ndarray]) -> Scene:
+    """A copy of `scene` with every stored number (vertices, normals, centres, radii, cone ends,
+    materials, lights, background, camera) passed through `rounder`."""
+    r = lambda a: rounder(np.asarray(a, np.float64))  # noqa: E731
+    pg, sp, cn, m, cam = scene.polygons, scene.spheres, scene.cones, scene.materials, scene.camera
+    return dataclasses.replace(
+        scene, background=r(scene.background), light_position=r(scene.light_position),
+        light_color=r(scene.light_color),
+        camera=dataclasses.replace(cam, eye=r(cam.eye), at=r(cam.at), up=r(cam.up),
+                                   angle=float(r(cam.angle)), hither=float(r(cam.hither))),
+        materials=dataclasses.replace(m, color=r(m.color), kd=r(m.kd), ks=r(m.ks), shine=r(m.shine),
+                                      t=r(m.t), ior=r(m.ior)),
+        polygons=dataclasses.replace(pg, vertices=r(pg.vertices), normals=r(pg.normals)),
+        spheres=dataclasses.replace(sp, center=r(sp.center), radius=r(sp.radius)),
+        cones=dataclasses.replace(cn, base=r(cn.base), base_radius=r(cn.base_radius), apex=r(cn.apex),
+                                  apex_radius=r(cn.apex_radius)))
+
+
+def _image_row(axis, scene, setting, truth_img, u8, ids, rays, seconds, cost, how, values=None) -> Row:
+    errors, psnr = image_errors(u8, truth_img.image_u8)
+    errors = {"hit_ids": hit_id_share(ids, truth_img.hit_ids)} | errors | ray_errors(rays, truth_img.rays)
+    return Row(axis, scene, setting, False, errors, seconds, cost, how, {"psnr_db": psnr} | (values or {}))
+
+
+def precision_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
+                   progress: Progress = _quiet) -> list[Row]:
+    name = scene.name
+    progress(f"{name} precision: golden fp64")
+    truth = golden.render(scene, config, res=res, precision="fp64")
+    rows = [_image_row("precision", name, "golden fp64", truth, truth.image_u8, truth.hit_ids, truth.rays,
+                       truth.seconds, {"rays": traced_rays(truth.rays)},
+                       "the golden numpy model in float64: the truth")]
+    rows[0].truth = True
+    variants = (
+        ("golden fp32", scene, "fp32", "the golden numpy model in float32 (the machine's precision)"),
+        ("golden fp16", scene, "fp16", "the golden model run with numpy float16 as its precision: every "
+         "stored value and every operation rounded to float16 (shine 100000 overflows to inf; Phong's "
+         "pow goes through libm in float64 and is rounded into the float16 pixel sums)"),
+        ("golden bf16 scene", round_scene(scene, round_bf16), "fp32", "every number of the scene "
+         "(vertices, normals, centres, radii, cone ends, materials, lights, camera) rounded to "
+         "bfloat16 (8 significant bits, nearest even); the golden model then computes in float32"),
+    )
+    for setting, sc, precision, how in variants:
+        progress(f"{name} precision: {setting}")
+        with np.errstate(all="ignore"):
+            g = golden.render(sc, config, res=res, precision=precision)
+        rows.append(_image_row("precision", name, setting, truth, g.image_u8, g.hit_ids, g.rays, g.seconds,
+                               {"rays": traced_rays(g.rays)}, how))
+    for precision in ("fp32", "fp64"):
+        progress(f"{name} precision: machine {precision}")
+        setup = prepare(scene, with_sets(config, precision=precision), res)
+        r, seconds = run_machine(setup, engine)
+        rows.append(_image_row("precision", name, f"machine {precision}", truth, r.image_u8, r.hit_ids, r.rays,
+                               seconds, {"rays": traced_rays(r.rays), "cycles": r.run.cycles},
+                               f"the kernels on the {engine} engine in {precision}; cost in machine cycles"))
+    return rows
+
+
+# ------------------------------------------------------------------------------------------------
+# Depth
+
+
+def depth_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
+               progress: Progress = _quiet, depths=DEPTHS, truth_depth: int = TRUTH_DEPTH) -> list[Row]:
+    name = scene.name
+    measured = {}
+    for d in (truth_depth, *depths):
+        progress(f"{name} depth {d}")
+        cfg = with_sets(config, **{"render.max_depth": d})
+        g = golden.render(scene, cfg, res=res)
+        r, seconds = run_machine(prepare(scene, cfg, res), engine)
+        measured[d] = (g, r, seconds)
+    tg, tr, ts = measured[truth_depth]
+    rows = []
+    for d, (g, r, seconds) in measured.items():
+        errors, psnr = image_errors(g.image_u8, tg.image_u8)
+        t = d == truth_depth
+        rows.append(Row("depth", name, f"depth {d}", t, {k: 0.0 for k in errors} if t else errors,
+                        g.seconds + seconds, {"rays": traced_rays(g.rays), "cycles": r.run.cycles},
+                        f"golden {g.precision} image and rays at max_depth {d} against depth "
+                        f"{truth_depth}; machine cycles on the {engine} engine (its rays "
+                        + ("equal" if r.rays == g.rays else "DIFFER from") + " the golden model's)",
+                        {"depth": d, "psnr_db": psnr, "machine_rays": traced_rays(r.rays),
+                         "golden_seconds": g.seconds, "machine_seconds": seconds}))
+    return sorted(rows, key=lambda r: r.values["depth"])
+
+
+# ------------------------------------------------------------------------------------------------
+# Pre-pass resolution
+
+
+def prepass_sides(res: int, share: float) -> list[int]:
+    """The config's pre-pass side, then 8, 16, 32, … below res, then res (the truth)."""
+    sides = [coarse_resolution(res, share)]
+    k = 8
+    while k < res:
+        sides.append(k)
+        k *= 2
+    sides.append(res)
+    return list(dict.fromkeys(sides))
+
+
+def prepass_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
+                 progress: Progress = _quiet) -> list[Row]:
+    name = scene.name
+    measured = []
+    for side in prepass_sides(res, config.prepass.share):
+        progress(f"{name} pre-pass {side}x{side}")
+        setup = prepare(scene, with_sets(config, **{"prepass.share": (side / res) ** 2}), res)
+        if setup.prepass.resolution != side:
+            raise AssertionError(f"pre-pass side {setup.prepass.resolution}, wanted {side}")
+        r, seconds = run_machine(setup, engine)
+        measured.append((side, setup.prepass, machine_point(r.stats), seconds))
+    truth = measured[-1][2]
+    rows = []
+    for side, pre, point, seconds in measured:
+        t = side == res
+        default = side == coarse_resolution(res, config.prepass.share)
+        errors = {"rho": abs(point["rho"] - truth["rho"]), "t": relative(point["t"], truth["t"]),
+                  "cycles": relative(point["cycles"], truth["cycles"])}
+        rows.append(Row("prepass", name, f"pre-pass {side}x{side}" + (" (config share)" if default else ""),
+                        t, errors, pre.seconds,
+                        {"rays": pre.eye_rays, "ray_share": pre.eye_rays / (res * res),
+                         "time_share": pre.seconds / seconds, "cycles": point["cycles"]},
+                        f"golden pre-pass at {side}x{side} ranks primitives, the top {pre.resident_count} "
+                        f"of {len(pre.priorities)} resident; the main {res}x{res} run on the {engine} "
+                        "engine gives ρ, t (IC shape data) and cycles; error against the "
+                        f"{res}x{res} ranking (ρ: absolute)",
+                        {"rho": point["rho"], "mu": point["mu"], "t": point["t"],
+                         "resident_count": pre.resident_count, "main_seconds": seconds}))
+    return rows
+
+
+# ------------------------------------------------------------------------------------------------
+# Simulation fidelity
+
+
+def trace_point(setup: RenderSetup, res: int) -> tuple[dict, int, float]:
+    """(ρ/μ/t of the golden trace at res x res through the setup's resident + cache model,
+    intersection tests, seconds): the trace-driven path of `netsushisen paper`."""
+    start = time.perf_counter()
+    g = golden.render(setup.scene, setup.config, res=res, corners=setup.corners, keep_trace=True,
+                      grid=setup.images.layout.grid)
+    model = TraceMemory.for_images(setup.images)
+    for space, address in ordered_stream_chunks(setup.images.layout, g, machine_order(g)):
+        model.replay(space, address)
+    m = setup.config.ic_memory
+    point = memory_point(model.stats().get("regions", {}), m.t_r, m.t_c, m.t_g)
+    return point, g.total_references, time.perf_counter() - start
+
+
+def sample_tiles(setup: RenderSetup, engine: str, tiles: list[int], n_tiles: int = TILES,
+                 progress: Progress = _quiet) -> dict[int, dict]:
+    """Per sampled tile: its marginal cycles and IC counters, and the seconds spent.
+
+    A tile is a run of consecutive eye samples in DIS order. Each is simulated after a warm-up —
+    the tile before it — as one run (warm-up + tile) minus a run of the warm-up alone, so the
+    cache state, the pipeline's fill and its drain are the warm-up's, not the tile's."""
+    words = setup.host_words.reshape(setup.side * setup.side, -1)
+    bounds = np.linspace(0, len(words), n_tiles + 1).round().astype(int)
+
+    def run(first: int, last: int) -> tuple[dict, float]:
+        first = max(first, 0)  # tile 0 has no warm-up
+        if first > last:
+            return {"cycles": 0, "res": 0, "acc": 0, "hits": 0}, 0.0
+        sub = dataclasses.replace(setup, host_words=words[bounds[first]:bounds[last + 1]].ravel())
+        r, seconds = run_machine(sub, engine)
+        reg = ic_regions(r.stats)
+        return {"cycles": r.run.cycles, "res": reg.get("resident.shape_data", {}).get("accesses", 0),
+                "acc": reg.get("global.shape_data", {}).get("accesses", 0),
+                "hits": reg.get("global.shape_data", {}).get("hits", 0)}, seconds
+
+    out = {}
+    for i, tile in enumerate(tiles):
+        progress(f"{setup.scene.name} fidelity: sampled tile {i + 1}/{len(tiles)}")
+        both, s1 = run(tile - 1, tile)
+        warm, s2 = run(tile - 1, tile - 1)
+        out[tile] = {k: both[k] - warm[k] for k in both} | {"seconds": s1 + s2,
+                                                            "simulated": both["cycles"] + warm["cycles"]}
+    return out
+
+
+def sampled_row(scene: str, share: float, tiles: dict[int, dict], chosen: list[int], truth: dict,
+                mem: dict, n_tiles: int = TILES, engine: str = "compiled") -> Row:
+    """The SMARTS row of `chosen` tiles (their samples in `tiles`)."""
+    samples = [tiles[t] for t in chosen]
+    est, low, high = sampled_estimate([s["cycles"] for s in samples], n_tiles)
+    res = sum(s["res"] for s in samples)
+    acc = sum(s["acc"] for s in samples)
+    hits = sum(s["hits"] for s in samples)
+    point = memory_point({"resident.shape_data": {"accesses": res},
+                          "global.shape_data": {"accesses": acc, "hits": hits}},
+                         mem["t_r"], mem["t_c"], mem["t_g"])
+    values = {"cycles": est, "rho": point["rho"], "mu": point["mu"], "t": point["t"],
+              "tiles": len(chosen), "covers": bool(low <= truth["cycles"] <= high)}
+    return Row("fidelity", scene, f"(c) sampled {100 * share:g} %", False, fidelity_errors(values, truth),
+               sum(s["seconds"] for s in samples), {"cycles": sum(s["simulated"] for s in samples)},
+               f"{len(chosen)} of {n_tiles} tiles (runs of consecutive eye samples in DIS order, "
+               f"chosen at random) each simulated on the {engine} engine after the tile before it as "
+               "warm-up (warm-up + tile minus warm-up alone); total cycles = tiles × mean with a 95 % "
+               "Student-t interval from the tiles' spread; ρ, μ, t from the tiles' IC counters; cost: "
+               "cycles simulated, warm-ups included",
+               values, low, high)
+
+
+def fidelity_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
+                  progress: Progress = _quiet, shares=SAMPLE_SHARES, n_tiles: int = TILES,
+                  seed: int = 1992, reference_budget: int = REFERENCE_BUDGET) -> list[Row]:
+    name = scene.name
+    progress(f"{name} fidelity: full cycle-accurate")
+    setup = prepare(scene, config, res)
+    full, full_seconds = run_machine(setup, engine)
+    truth = machine_point(full.stats)
+    mem = dataclasses.asdict(config.ic_memory)
+    rows = [Row("fidelity", name, f"(d) full ({engine})", True,
+                {k: 0.0 for k in ("cycles", "rho", "mu", "t")}, full_seconds, {"cycles": truth["cycles"]},
+                f"the whole render on the {engine} engine: the truth", dict(truth))]
+    # the analytic and trace-driven rows take their cycles from one small machine run
+    progress(f"{name} fidelity: analytic and trace-driven")
+    cal_res = min(CALIBRATION_RES, res)
+    cal_setup = prepare(scene, config, cal_res)
+    cal, cal_seconds = run_machine(cal_setup, engine)
+    cal_refs = golden.render(scene, config, res=cal_res, grid=cal_setup.images.layout.grid).total_references
+    coarse = setup.prepass.resolution
+    a_point, _, a_seconds = trace_point(setup, coarse)
+    a = {"cycles": cal.run.cycles * (res / cal_res) ** 2, "rho": a_point["rho"], "mu": a_point["mu"],
+         "t": a_point["t_model"]}
+    rows.append(Row("fidelity", name, "(a) analytic", False, fidelity_errors(a, truth),
+                    setup.prepass.seconds + a_seconds + cal_seconds, {"cycles": cal.run.cycles},
+                    f"ρ and μ from the {coarse}x{coarse} pre-pass render's trace through the resident + "
+                    "cache model, t from the paper's t_r·{ρ + (1 − ρ)(8 − 6μ)}; cycles = a "
+                    f"{cal_res}x{cal_res} machine run × (pixels ratio)", a))
+    b_point, refs, b_seconds = trace_point(setup, res)
+    b = {"cycles": cal.run.cycles * refs / max(cal_refs, 1), "rho": b_point["rho"], "mu": b_point["mu"],
+         "t": b_point["t"]}
+    rows.append(Row("fidelity", name, "(b) trace-driven", False, fidelity_errors(b, truth),
+                    b_seconds + cal_seconds, {"cycles": cal.run.cycles, "references": refs},
+                    f"the golden {res}x{res} IC reference trace, in the machine's serial ray order, "
+                    "through the resident + direct-mapped cache model (reports/tracesim.py); cycles = "
+                    f"a {cal_res}x{cal_res} machine run × (intersection tests ratio)", b))
+    # sampled: nested random samples of tiles (the smaller share's tiles are in the larger's)
+    n_tiles = min(n_tiles, setup.side * setup.side)
+    order = np.random.default_rng(seed).permutation(n_tiles).tolist()
+    counts = [max(2, int(round(s * n_tiles))) for s in shares]
+    samples = sample_tiles(setup, engine, sorted(order[:max(counts)]), n_tiles, progress)
+    for share, n in zip(shares, counts):
+        rows.append(sampled_row(name, share, samples, order[:n], truth, mem, n_tiles, engine))
+    if engine != "reference":
+        rows.append(reference_row(setup, full, full_seconds, truth, engine, reference_budget, progress))
+    return rows
+
+
+def reference_row(setup: RenderSetup, full: RenderResult, full_seconds: float, truth: dict, engine: str,
+                  budget: int, progress: Progress = _quiet) -> Row:
+    """(e): the reference engine, whole when the run fits `budget` cycles, else over the first
+    `budget` cycles against the compiled engine stopped at the same cycle (its time extrapolated)."""
+    name = setup.scene.name
+    whole = truth["cycles"] <= budget
+    progress(f"{name} fidelity: reference engine" + ("" if whole else f" (first {budget:,} cycles)"))
+    ref, seconds = run_machine(setup, "reference", None if whole else budget)
+    if whole:
+        other = full
+    else:
+        other, _ = run_machine(setup, engine, budget)
+    same = run_stats.dumps(ref.stats) == run_stats.dumps(other.stats)
+    point = machine_point(ref.stats)
+    errors = fidelity_errors(point, machine_point(other.stats)) | {"differs": 0.0 if same else 1.0}
+    estimate = seconds if whole else seconds * truth["cycles"] / budget
+    return Row("fidelity", name, "(e) reference engine", False, errors, seconds,
+               {"cycles": ref.run.cycles},
+               ("the whole render" if whole else f"the first {budget:,} cycles (its full time "
+                "extrapolated)") + " on the reference engine (plain Python), its statistics compared "
+               f"byte for byte with the {engine} engine's" + ("" if whole else " over the same cycles")
+               + (": identical" if same else ": THEY DIFFER"),
+               point | {"identical": same, "seconds_full": estimate,
+                        "speedup": estimate / full_seconds if full_seconds else None})
+
+
+AXIS_RUNNERS = {"precision": precision_rows, "depth": depth_rows, "prepass": prepass_rows,
+                "fidelity": fidelity_rows}

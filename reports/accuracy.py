@@ -1,0 +1,246 @@
+"""What accuracy costs: the rows of `netsushisen accuracy` and the pure arithmetic behind them.
+
+A researcher choosing how to run a study needs, per knob, the error a cheaper setting buys and
+the time a dearer one costs. Every setting of every axis is one `Row`: what it is (`setting`),
+whether it is the axis's truth, its error against that truth on named metrics (every error of a
+truth row is 0), its wall seconds, a machine-independent cost (rays traced, machine cycles) and
+`how` it was obtained. The measurements themselves (golden renders, machine runs) are made by
+`netsushisen/accuracy.py`, which sits above both the host and the machine; this module only
+compares numbers, so the metrics can be tested on numbers chosen to flip them.
+
+Metrics, and why these:
+  - images: the 8-bit images a user sees — root-mean-square and largest channel difference, the
+    share of channels off by more than 1 (what survives quantisation), and PSNR (dB, 8-bit; None
+    for identical images: it would be infinite, so it is a value, not an error);
+  - hit ids: the share of eye samples whose first hit primitive differs (geometry, not shading);
+  - ray counts: the relative error of each kind (eye hits, reflection, refraction, shadow);
+  - memory: ρ (share of IC's shape-data loads served by resident memory), μ (cache hit rate of
+    the others) and t (mean cycles per load with the run's t_r / t_c / t_g; the paper's
+    t_r·{ρ + (1 − ρ)(8 − 6μ)} under its t_c = 2·t_r, t_g = 8·t_r);
+  - cycles: relative error of the total.
+A sampled estimate (SMARTS) extrapolates per-tile samples to the whole image with a 95 %
+confidence interval computed from the samples' spread (`sampled_estimate`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+AXES = ("precision", "depth", "prepass", "fidelity")
+RAY_KINDS = ("eye_hits", "reflection", "refraction", "shadow")
+
+
+@dataclass
+class Row:
+    """One setting of one axis on one scene (the contract of `accuracy.json`)."""
+
+    axis: str
+    scene: str
+    setting: str
+    truth: bool
+    error: dict[str, float]
+    seconds: float
+    cost: dict[str, float]
+    how: str
+    values: dict[str, float | None] = field(default_factory=dict)  # what was measured itself
+    ci_low: float | None = None  # sampled rows: 95 % interval of total cycles
+    ci_high: float | None = None
+
+    def to_json(self) -> dict:
+        out = {"scene": self.scene, "setting": self.setting, "truth": self.truth,
+               "error": {k: float(v) for k, v in self.error.items()}, "seconds": float(self.seconds),
+               "cost": {k: _num(v) for k, v in self.cost.items()}, "how": self.how,
+               "values": {k: _num(v) for k, v in self.values.items()}}
+        if self.ci_low is not None:
+            out["ci_low"], out["ci_high"] = float(self.ci_low), float(self.ci_high)
+        return out
+
+
+def _num(v):
+    if v is None or isinstance(v, (bool, int)):
+        return v
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+# ------------------------------------------------------------------------------------------------
+# Errors
+
+
+def relative(value: float, truth: float) -> float:
+    """|value − truth| / |truth| (the plain difference when the truth is 0)."""
+    d = abs(float(value) - float(truth))
+    return d / abs(float(truth)) if truth else d
+
+
+def image_errors(u8: np.ndarray, truth_u8: np.ndarray) -> tuple[dict[str, float], float | None]:
+    """(errors of an 8-bit image against the truth's, PSNR in dB or None when identical)."""
+    d = u8.astype(np.int64) - truth_u8.astype(np.int64)
+    mse = float(np.mean(d * d)) if d.size else 0.0
+    errors = {"rmse_u8": math.sqrt(mse), "max_u8": float(np.abs(d).max()) if d.size else 0.0,
+              "channels_off": float(np.mean(np.abs(d) > 1)) if d.size else 0.0}
+    return errors, (10 * math.log10(255.0 ** 2 / mse) if mse else None)
+
+
+def hit_id_share(ids: np.ndarray, truth_ids: np.ndarray) -> float:
+    """Share of eye samples whose first-hit primitive differs from the truth's."""
+    return float(np.mean(np.asarray(ids) != np.asarray(truth_ids)))
+
+
+def ray_errors(rays: dict[str, int], truth: dict[str, int]) -> dict[str, float]:
+    """Relative error of each ray count (eye hits, reflection, refraction, shadow)."""
+    return {f"rays_{k}": relative(rays.get(k, 0), truth.get(k, 0)) for k in RAY_KINDS}
+
+
+def traced_rays(rays: dict[str, int]) -> int:
+    """Rays traced: eye, reflection, refraction and shadow rays (eye hits are not rays)."""
+    return int(sum(rays.get(k, 0) for k in ("eye", "reflection", "refraction", "shadow")))
+
+
+# ------------------------------------------------------------------------------------------------
+# Memory: ρ, μ, t from counters
+
+
+def ic_regions(stats: dict) -> dict:
+    """IC's region counters summed over every PE (`stats["memory"]["pe*.ic"]["regions"]`)."""
+    out: dict[str, dict[str, int]] = {}
+    for name, mem in stats["memory"].items():
+        if name.endswith(".ic"):
+            for key, c in (mem.get("regions") or {}).items():
+                acc = out.setdefault(key, {"accesses": 0, "hits": 0})
+                acc["accesses"] += c.get("accesses", 0)
+                acc["hits"] += c.get("hits", 0)
+    return out
+
+
+def memory_point(regions: dict, t_r: float = 1, t_c: float = 2, t_g: float = 8,
+                 region: str = "shape_data") -> dict[str, float]:
+    """ρ, μ, t (measured mean cycles per load) and the paper's t model from region counters
+    (the emulator's or the trace-driven model's shape: "resident.R" / "global.R")."""
+    res = regions.get(f"resident.{region}", {}).get("accesses", 0)
+    acc = regions.get(f"global.{region}", {}).get("accesses", 0)
+    hits = regions.get(f"global.{region}", {}).get("hits", 0)
+    return point_from_counts(res, acc, hits, t_r, t_c, t_g)
+
+
+def point_from_counts(resident: float, cache: float, hits: float, t_r: float = 1, t_c: float = 2,
+                      t_g: float = 8) -> dict[str, float]:
+    total = resident + cache
+    rho = resident / total if total else 0.0
+    mu = hits / cache if cache else 1.0
+    t = (resident * t_r + hits * t_c + (cache - hits) * t_g) / total if total else 0.0
+    return {"loads": total, "rho": rho, "mu": mu, "t": t,
+            "t_model": t_r * (rho + (1 - rho) * (8 - 6 * mu))}
+
+
+def fidelity_errors(values: dict, truth: dict) -> dict[str, float]:
+    """Relative error of total cycles, ρ, μ and t against the full cycle-accurate run."""
+    return {k: relative(values[k], truth[k]) for k in ("cycles", "rho", "mu", "t")}
+
+
+# ------------------------------------------------------------------------------------------------
+# Sampling (SMARTS): an estimate of a total and its 95 % interval from per-unit samples
+
+_T975 = (12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179,
+         2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064,
+         2.060, 2.056, 2.052, 2.048, 2.045, 2.042)
+"""Student's t, 97.5 % quantile, 1..30 degrees of freedom (then 1.96): no scipy needed."""
+
+
+def t_quantile(dof: int) -> float:
+    return _T975[dof - 1] if 1 <= dof <= len(_T975) else 1.96
+
+
+def sampled_estimate(samples, population: int) -> tuple[float, float, float]:
+    """(estimate, low, high) of the total over `population` units from simple random samples
+    of it: N·mean ± t(n−1)·N·s/√n·√(1 − n/N) (finite population: sampling every unit gives the
+    exact total and a zero-width interval; a total of non-negative units never falls below the
+    sampled units' own sum). One sample has no spread: the interval is unbounded."""
+    x = np.asarray(samples, np.float64)
+    n = len(x)
+    if n == 0:
+        raise ValueError("no samples")
+    est = population * float(x.mean())
+    if n == 1:
+        return est, -math.inf, math.inf
+    fpc = math.sqrt(max(0.0, 1 - n / population))
+    half = t_quantile(n - 1) * population * float(x.std(ddof=1)) / math.sqrt(n) * fpc
+    low = est - half
+    if x.min() >= 0:  # a total of non-negative units is at least the sampled units' sum
+        low = max(low, float(x.sum()))
+    return est, low, est + half
+
+
+# ------------------------------------------------------------------------------------------------
+# What the numbers mean: one sentence per axis and scene
+
+
+def depth_settles(rows: list[Row]) -> int | None:
+    """The first depth from which every depth row's image equals the truth's (None: never)."""
+    settled = None
+    for r in sorted((r for r in rows if not r.truth), key=lambda r: int(r.values["depth"]),
+                    reverse=True):
+        if r.error["max_u8"] == 0:
+            settled = int(r.values["depth"])
+        else:
+            break
+    return settled
+
+
+def axis_sentences(axis: str, rows: list[Row]) -> list[str]:
+    """What an axis's rows say, per scene, in words."""
+    out = []
+    for scene in dict.fromkeys(r.scene for r in rows):
+        mine = [r for r in rows if r.scene == scene]
+        truth = next((r for r in mine if r.truth), None)
+        others = [r for r in mine if not r.truth]
+        if truth is None or not others:
+            continue
+        if axis == "precision":
+            worst = max(others, key=lambda r: r.error["rmse_u8"])
+            exact = [r.setting for r in others if not any(r.error.values())]
+            out.append(f"{scene}: the largest image error is {worst.setting} (RMS "
+                       f"{worst.error['rmse_u8']:.2f} of 255, hit ids differ on "
+                       f"{100 * worst.error['hit_ids']:.1f} % of samples); "
+                       + (f"{', '.join(exact)} equal the fp64 truth exactly." if exact else
+                          "no setting equals the fp64 truth exactly."))
+        elif axis == "depth":
+            d = depth_settles(mine)
+            if d == 1:
+                out.append(f"{scene}: no change past depth 1 — nothing spawns secondary surface "
+                           "rays (no mirrors or glass), so every depth gives the same image, rays "
+                           "and cycles.")
+            elif d is not None:
+                r = next(r for r in others if int(r.values["depth"]) == d)
+                out.append(f"{scene}: the image stops changing at depth {d} (8-bit identical to depth "
+                           f"{int(truth.values['depth'])}), at {r.cost['cycles'] / truth.cost['cycles']:.0%} "
+                           "of the truth's cycles.")
+            else:
+                out.append(f"{scene}: every depth up to 8 still differs from depth "
+                           f"{int(truth.values['depth'])}.")
+        elif axis == "prepass":
+            best = min(others, key=lambda r: (r.error["cycles"], r.cost["rays"]))
+            out.append(f"{scene}: the cheapest ranking within 1 % of the full-resolution ranking's "
+                       "cycles is " + _cheapest(others, "cycles", 0.01)
+                       + f"; the best is {best.setting} ({100 * best.error['cycles']:.2f} % off).")
+        elif axis == "fidelity":
+            parts = []
+            for r in others:
+                s = f"{r.setting} {100 * r.error['cycles']:.1f} % off in {r.seconds:.2f} s"
+                if r.ci_low is not None:
+                    s += " (interval " + ("covers" if r.values.get("covers") else "misses") + " the truth)"
+                parts.append(s)
+            out.append(f"{scene}: truth {int(truth.values['cycles']):,} cycles in {truth.seconds:.2f} s; "
+                       + "; ".join(parts) + ".")
+    return out
+
+
+def _cheapest(rows: list[Row], metric: str, within: float) -> str:
+    ok = [r for r in rows if r.error[metric] <= within]
+    if not ok:
+        return "none"
+    r = min(ok, key=lambda r: r.cost["rays"])
+    return f"{r.setting} ({int(r.cost['rays']):,} pre-pass eye rays)"

@@ -1,0 +1,232 @@
+"""The outputs of `netsushisen accuracy`: terminal tables, accuracy.json, one CSV per axis,
+report.md and a Pareto plot per axis (error against time, log scales).
+
+The tables are `reports/tables.Section`s, so they print and turn into Markdown the way every
+other report of the project does. A Pareto plot puts each setting where a researcher weighs it:
+the further left the cheaper, the lower the closer to the truth; an error of exactly 0 cannot sit
+on a log axis, so it is drawn on a dashed floor line marked "exact".
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+from netsushisen.reports.accuracy import AXES, RAY_KINDS, Row, axis_sentences
+from netsushisen.reports.tables import Section, render_md, render_table
+
+SCHEMA = {"name": "netsushisen-accuracy", "version": 1}
+
+PLOT_METRIC = {"precision": ("rmse_u8", "image RMS error (8-bit levels)"),
+               "depth": ("rmse_u8", "image RMS error against depth 10 (8-bit levels)"),
+               "prepass": ("cycles", "relative error of machine cycles"),
+               "fidelity": ("cycles", "relative error of total cycles")}
+"""The error each axis's plot shows (the tables show them all)."""
+
+TITLES = {"precision": "Precision: error against the golden model in fp64",
+          "depth": "Ray depth: error against depth 10",
+          "prepass": "Pre-pass resolution: against the full-resolution ranking",
+          "fidelity": "Simulation fidelity: against the full cycle-accurate run"}
+
+HOW = {
+    "precision": "Truth: the golden model in float64. `golden fp16` runs the golden model with "
+                 "numpy float16 as its precision (every stored value and every operation rounded to "
+                 "float16; Phong's pow goes through libm in float64; SPD's shine 100000 overflows to "
+                 "inf). `golden bf16 scene` rounds every number stored in the scene (vertices, normals, "
+                 "centres, radii, cone ends, materials, lights, camera) to bfloat16 and then computes "
+                 "in float32: only the stored values are bf16, not the arithmetic. The machine rows run "
+                 "the kernels; their cost is machine cycles.",
+    "depth": "Truth: depth 10 (the table says from which depth the 8-bit image stops changing). "
+             "Rays are the golden model's (the machine's equal them; the `how` column says so per "
+             "row), cycles the machine's at the same depth.",
+    "prepass": "The pre-pass (paper §4.3) ranks primitives by references in a coarse golden render "
+               "and makes the top ones resident. Each row is the main run on the machine with the "
+               "ranking of one pre-pass size; truth is the ranking from the full resolution. Errors: "
+               "ρ absolute, t and cycles relative. Cost: pre-pass eye rays and the pre-pass time as a "
+               "share of the main machine run's.",
+    "fidelity": "Truth: the whole render on the chosen engine. (a) analytic: ρ, μ from the pre-pass "
+                "render's trace, t from the paper's formula, cycles scaled from an 8×8 machine run by "
+                "pixels; (b) trace-driven: the full golden trace through the resident + cache model, "
+                "cycles scaled from the 8×8 run by intersection tests; (c) sampled: random tiles of "
+                "consecutive eye samples simulated after a warm-up, total cycles extrapolated with a "
+                "95 % interval from the tiles' spread (SMARTS); (e) the reference engine, compared "
+                "byte for byte (over a cycle budget on long runs, its time extrapolated and plotted so).",
+}
+
+
+def _g(row: Row, where: str, key: str):
+    return getattr(row, where).get(key)
+
+
+def _psnr(row: Row) -> str:
+    v = row.values.get("psnr_db")
+    return "∞" if v is None else f"{v:.1f}"
+
+
+def _ci(row: Row) -> str:
+    if row.ci_low is None:
+        return ""
+    return f"{row.ci_low:,.0f} … {row.ci_high:,.0f}" + (" ✓" if row.values.get("covers") else " ✗")
+
+
+def axis_section(axis: str, rows: list[Row]) -> Section:
+    """One table per axis: the settings' errors and costs, scenes one after another."""
+    if axis == "precision":
+        cols = ["scene", "setting", "hit ids", "RMS", "max", ">1 off", "PSNR dB", "rays err",
+                "seconds", "rays", "cycles"]
+        fmt = {"hit ids": "pct", "RMS": "f2", "max": "int", ">1 off": "pct", "rays err": "pct",
+               "seconds": "f2", "rays": "int", "cycles": "int"}
+        body = [[r.scene, r.setting + (" (truth)" if r.truth else ""), r.error["hit_ids"], r.error["rmse_u8"],
+                 r.error["max_u8"], r.error["channels_off"], _psnr(r),
+                 max(r.error[f"rays_{k}"] for k in RAY_KINDS), r.seconds, r.cost.get("rays"),
+                 r.cost.get("cycles")] for r in rows]
+    elif axis == "depth":
+        cols = ["scene", "setting", "RMS", "max", ">1 off", "PSNR dB", "rays", "cycles", "seconds"]
+        fmt = {"RMS": "f2", "max": "int", ">1 off": "pct", "rays": "int", "cycles": "int", "seconds": "f2"}
+        body = [[r.scene, r.setting + (" (truth)" if r.truth else ""), r.error["rmse_u8"], r.error["max_u8"],
+                 r.error["channels_off"], _psnr(r), r.cost["rays"], r.cost["cycles"], r.seconds] for r in rows]
+    elif axis == "prepass":
+        cols = ["scene", "setting", "ρ", "t", "cycles", "ρ err", "t err", "cycles err", "eye rays",
+                "time share", "seconds"]
+        fmt = {"ρ": "f3", "t": "f3", "cycles": "int", "ρ err": "f3", "t err": "pct", "cycles err": "pct",
+               "eye rays": "int", "time share": "pct", "seconds": "f2"}
+        body = [[r.scene, r.setting + (" (truth)" if r.truth else ""), r.values["rho"], r.values["t"],
+                 r.cost["cycles"], r.error["rho"], r.error["t"], r.error["cycles"], r.cost["rays"],
+                 r.cost["time_share"], r.seconds] for r in rows]
+    else:
+        cols = ["scene", "setting", "cycles", "95 % interval", "ρ", "μ", "t", "cycles err", "ρ err",
+                "μ err", "t err", "seconds", "simulated"]
+        fmt = {"cycles": "int", "ρ": "f3", "μ": "f3", "t": "f3", "cycles err": "pct", "ρ err": "pct",
+               "μ err": "pct", "t err": "pct", "seconds": "f2", "simulated": "int"}
+        body = [[r.scene, r.setting + (" (truth)" if r.truth else ""), r.values["cycles"], _ci(r),
+                 r.values["rho"], r.values["mu"], r.values["t"], r.error["cycles"], r.error["rho"],
+                 r.error["mu"], r.error["t"], r.seconds, r.cost.get("cycles")] for r in rows]
+    return Section(axis, TITLES[axis], cols, body, fmt)
+
+
+def tables_text(axes: dict[str, list[Row]], width: int = 140) -> str:
+    return render_table([axis_section(a, rows) for a, rows in axes.items()], width=width)
+
+
+# ------------------------------------------------------------------------------------------------
+# Files
+
+
+def write_json(path: Path, axes: dict[str, list[Row]], meta: dict) -> None:
+    data = {"schema": SCHEMA} | meta | {
+        "axes": {a: [r.to_json() for r in rows] for a, rows in axes.items()},
+        "notes": {a: axis_sentences(a, rows) for a, rows in axes.items()}}
+    path.write_text(json.dumps(data, indent=1, allow_nan=False, ensure_ascii=False) + "\n", encoding="utf-8")
+
+
+def write_csv(path: Path, rows: list[Row]) -> None:
+    """Tidy: one line per scene × setting; every error, cost and value its own column."""
+    keys = {w: list(dict.fromkeys(k for r in rows for k in getattr(r, w))) for w in ("error", "cost", "values")}
+    header = ["scene", "setting", "truth", "seconds"] + [f"{w}_{k}" for w in keys for k in keys[w]] + [
+        "ci_low", "ci_high", "how"]
+    with path.open("w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(header)
+        for r in rows:
+            w.writerow([r.scene, r.setting, r.truth, f"{r.seconds:.6f}"]
+                       + ["" if getattr(r, wh).get(k) is None else getattr(r, wh)[k]
+                          for wh in keys for k in keys[wh]]
+                       + ["" if r.ci_low is None else r.ci_low, "" if r.ci_high is None else r.ci_high, r.how])
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+MARKERS = "osD^v<>phX*P8"
+
+
+def plot_seconds(row: Row) -> float:
+    """A row's time on the plot: measured, or extrapolated to the whole run where it was cut."""
+    return float(row.values.get("seconds_full") or row.seconds)
+
+
+def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
+    plt = _plt()
+    metric, label = PLOT_METRIC[axis]
+    settings = list(dict.fromkeys(r.setting for r in rows))
+    scenes = list(dict.fromkeys(r.scene for r in rows))
+    positive = [r.error[metric] for r in rows if r.error.get(metric)]
+    floor = min(positive) / 10 if positive else 1e-3
+    fig, ax = plt.subplots(figsize=(8, 5.2), dpi=110)
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for si, scene in enumerate(scenes):
+        c = colours[si % len(colours)]
+        mine = sorted((r for r in rows if r.scene == scene), key=plot_seconds)
+        xs = [max(plot_seconds(r), 1e-4) for r in mine]
+        ys = [r.error[metric] or floor for r in mine]
+        ax.plot(xs, ys, color=c, alpha=0.35, lw=1)
+        for r, x, y in zip(mine, xs, ys):
+            m = MARKERS[settings.index(r.setting) % len(MARKERS)]
+            ax.scatter([x], [y], marker=m, s=130 if r.truth else 55, color=c,
+                       edgecolors="black" if r.truth else "none", linewidths=1.6, zorder=3)
+            if r.ci_low is not None and axis == "fidelity":
+                truth = next(t for t in rows if t.scene == scene and t.truth).values["cycles"]
+                lo = abs(r.ci_low - truth) / truth
+                hi = abs(r.ci_high - truth) / truth
+                ax.plot([x, x], [max(min(lo, hi, y), floor), max(lo, hi, y)], color=c, lw=1, alpha=0.6)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.axhline(floor, color="grey", ls="--", lw=0.8)
+    ax.text(ax.get_xlim()[0], floor, " exact (error 0)", va="bottom", ha="left", fontsize=8, color="grey")
+    ax.set_xlabel("wall seconds (log)")
+    ax.set_ylabel(f"{label} (log)")
+    ax.set_title(f"{TITLES[axis]} — {res}×{res}")
+    from matplotlib.lines import Line2D
+
+    scene_h = [Line2D([], [], color=colours[i % len(colours)], marker="o", ls="", label=s)
+               for i, s in enumerate(scenes)]
+    set_h = [Line2D([], [], color="black", marker=MARKERS[i % len(MARKERS)], ls="", label=s)
+             for i, s in enumerate(settings)]
+    set_h.append(Line2D([], [], color="white", marker="o", markeredgecolor="black", ms=10, ls="",
+                        label="truth (black edge)"))
+    first = ax.legend(handles=scene_h, loc="upper right", fontsize=8, title="scene")
+    ax.add_artist(first)
+    ax.legend(handles=set_h, loc="upper left", bbox_to_anchor=(1.01, 1), fontsize=8, title="setting")
+    ax.grid(True, which="major", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def report_markdown(axes: dict[str, list[Row]], meta: dict, files: list[str]) -> str:
+    lines = ["# What accuracy costs", "",
+             f"`{meta['command']}` — {meta['res']}×{meta['res']}, machine rows on the `{meta['engine']}` "
+             f"engine, {meta['machine']}; {meta['seconds']:.0f} s in all.", "",
+             "Each setting of each knob is one row: its error against that axis's truth and its cost "
+             "(wall seconds on this machine, and rays traced or machine cycles, which do not depend "
+             "on it). Every row's `how` (in accuracy.json and the CSV files) says how it was obtained.",
+             ""]
+    for axis, rows in axes.items():
+        lines += [f"## {axis}", "", HOW[axis], "", render_md([axis_section(axis, rows)]).rstrip(), ""]
+        lines += [f"- {s}" for s in axis_sentences(axis, rows)] + [""]
+        lines += [f"![{axis}](accuracy_{axis}.png)", ""]
+    lines += ["Files: " + ", ".join(f"`{f}`" for f in files), ""]
+    return "\n".join(lines)
+
+
+def write_all(out: Path, axes: dict[str, list[Row]], meta: dict) -> list[Path]:
+    """accuracy.json, accuracy_<axis>.csv and .png per axis, report.md; the paths written."""
+    paths = [out / "accuracy.json"]
+    for axis in AXES:
+        if axis in axes:
+            paths.append(out / f"accuracy_{axis}.csv")
+            write_csv(paths[-1], axes[axis])
+            paths.append(out / f"accuracy_{axis}.png")
+            write_plot(paths[-1], axis, axes[axis], meta["res"])
+    write_json(out / "accuracy.json", axes, meta)
+    report = out / "report.md"
+    paths.append(report)
+    report.write_text(report_markdown(axes, meta, [p.name for p in paths]), encoding="utf-8")
+    return paths

@@ -46,7 +46,7 @@ did just before it: its warm-up)."""
 SAMPLE_SHARES = (0.10, 0.25, 0.50)
 REFERENCE_BUDGET = 2_000_000
 """Cycles the reference engine (≈60 k cycles/s) is given; a longer run is compared over this
-prefix with the compiled engine's, and its full time extrapolated."""
+prefix with the compiled engine's, and its full time extrapolated (0: no reference row)."""
 CALIBRATION_RES = 8
 """The analytic and trace-driven rows' cycles come from one machine run this small."""
 
@@ -352,7 +352,7 @@ def fidelity_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
     samples = sample_tiles(setup, engine, sorted(order[:max(counts)]), n_tiles, progress)
     for share, n in zip(shares, counts):
         rows.append(sampled_row(name, share, samples, order[:n], truth, mem, n_tiles, engine))
-    if engine != "reference":
+    if engine != "reference" and reference_budget > 0:
         rows.append(reference_row(setup, full, full_seconds, truth, engine, reference_budget, progress))
     return rows
 

@@ -205,7 +205,7 @@ def axis_sentences(axis: str, rows: list[Row]) -> list[str]:
             out.append(f"{scene}: the largest image error is {worst.setting} (RMS "
                        f"{worst.error['rmse_u8']:.2f} of 255, hit ids differ on "
                        f"{100 * worst.error['hit_ids']:.1f} % of samples); "
-                       + (f"{', '.join(exact)} equal the fp64 truth exactly." if exact else
+                       + (f"{', '.join(exact)}: identical to the fp64 truth." if exact else
                           "no setting equals the fp64 truth exactly."))
         elif axis == "depth":
             d = depth_settles(mine)
@@ -223,9 +223,9 @@ def axis_sentences(axis: str, rows: list[Row]) -> list[str]:
                            f"{int(truth.values['depth'])}.")
         elif axis == "prepass":
             best = min(others, key=lambda r: (r.error["cycles"], r.cost["rays"]))
-            out.append(f"{scene}: the cheapest ranking within 1 % of the full-resolution ranking's "
-                       "cycles is " + _cheapest(others, "cycles", 0.01)
-                       + f"; the best is {best.setting} ({100 * best.error['cycles']:.2f} % off).")
+            out.append(f"{scene}: " + _cheapest(others, "cycles", 0.01) + f"; the closest is "
+                       f"{best.setting}, {100 * best.error['cycles']:.2f} % more or fewer cycles, "
+                       f"ρ {best.values['rho']:.3f} against {truth.values['rho']:.3f}.")
         elif axis == "fidelity":
             parts = []
             for r in others:
@@ -241,6 +241,7 @@ def axis_sentences(axis: str, rows: list[Row]) -> list[str]:
 def _cheapest(rows: list[Row], metric: str, within: float) -> str:
     ok = [r for r in rows if r.error[metric] <= within]
     if not ok:
-        return "none"
+        return f"no smaller pre-pass comes within {within:.0%} of the full-resolution ranking's cycles"
     r = min(ok, key=lambda r: r.cost["rays"])
-    return f"{r.setting} ({int(r.cost['rays']):,} pre-pass eye rays)"
+    return (f"the smallest pre-pass within {within:.0%} of the full-resolution ranking's cycles is "
+            f"{r.setting} ({int(r.cost['rays']):,} eye rays)")

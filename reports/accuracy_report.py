@@ -3,8 +3,9 @@ report.md and a Pareto plot per axis (error against time, log scales).
 
 The tables are `reports/tables.Section`s, so they print and turn into Markdown the way every
 other report of the project does. A Pareto plot puts each setting where a researcher weighs it:
-the further left the cheaper, the lower the closer to the truth; an error of exactly 0 cannot sit
-on a log axis, so it is drawn on a dashed floor line marked "exact".
+the further left the cheaper, the lower the closer to the truth; a step line per scene joins its
+Pareto front (the settings no other beats in both); an error of exactly 0 cannot sit on a log
+axis, so it is drawn on a dashed floor line marked "exact".
 """
 
 from __future__ import annotations
@@ -152,6 +153,16 @@ def plot_seconds(row: Row) -> float:
     return float(row.values.get("seconds_full") or row.seconds)
 
 
+def pareto_front(xs: list[float], ys: list[float]) -> tuple[list[float], list[float]]:
+    """The settings no other beats in both time and error, by ascending time."""
+    fx, fy = [], []
+    for x, y in sorted(zip(xs, ys)):
+        if not fy or y < fy[-1]:
+            fx.append(x)
+            fy.append(y)
+    return fx, fy
+
+
 def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
     plt = _plt()
     metric, label = PLOT_METRIC[axis]
@@ -159,14 +170,15 @@ def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
     scenes = list(dict.fromkeys(r.scene for r in rows))
     positive = [r.error[metric] for r in rows if r.error.get(metric)]
     floor = min(positive) / 10 if positive else 1e-3
-    fig, ax = plt.subplots(figsize=(8, 5.2), dpi=110)
+    fig, ax = plt.subplots(figsize=(8.5, 5.2), dpi=110)
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for si, scene in enumerate(scenes):
         c = colours[si % len(colours)]
         mine = sorted((r for r in rows if r.scene == scene), key=plot_seconds)
         xs = [max(plot_seconds(r), 1e-4) for r in mine]
         ys = [r.error[metric] or floor for r in mine]
-        ax.plot(xs, ys, color=c, alpha=0.35, lw=1)
+        fx, fy = pareto_front(xs, ys)
+        ax.step(fx, fy, where="post", color=c, alpha=0.45, lw=1.2)
         for r, x, y in zip(mine, xs, ys):
             m = MARKERS[settings.index(r.setting) % len(MARKERS)]
             ax.scatter([x], [y], marker=m, s=130 if r.truth else 55, color=c,
@@ -191,7 +203,8 @@ def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
              for i, s in enumerate(settings)]
     set_h.append(Line2D([], [], color="white", marker="o", markeredgecolor="black", ms=10, ls="",
                         label="truth (black edge)"))
-    first = ax.legend(handles=scene_h, loc="upper right", fontsize=8, title="scene")
+    first = ax.legend(handles=scene_h, loc="lower left", bbox_to_anchor=(1.01, 0), fontsize=8,
+                      title="scene")
     ax.add_artist(first)
     ax.legend(handles=set_h, loc="upper left", bbox_to_anchor=(1.01, 1), fontsize=8, title="setting")
     ax.grid(True, which="major", alpha=0.3)

@@ -1,0 +1,233 @@
+"""`netsushisen accuracy` (issue 12): the metrics and intervals on numbers chosen to flip them,
+the axes on small renders on every engine, and the command's files and contract."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from netsushisen.accuracy import (depth_rows, fidelity_rows, machine_point, precision_rows, prepass_rows,
+                                  prepass_sides, round_bf16, sampled_row, with_sets)
+from netsushisen.host.catalog import load_scene
+from netsushisen.host.golden import render as golden_render
+from netsushisen.isa.config import MachineConfig
+from netsushisen.render import render
+from netsushisen.reports.accuracy import (Row, axis_sentences, depth_settles, image_errors, relative,
+                                          sampled_estimate, traced_rays)
+from netsushisen.reports.summary import memory_figures
+
+# ------------------------------------------------------------------------------------------------
+# Metrics and intervals
+
+
+def test_image_errors_zero_for_identical_and_count_what_differs():
+    a = np.zeros((4, 4, 3), np.uint8)
+    errors, psnr = image_errors(a, a.copy())
+    assert not any(errors.values()) and psnr is None
+    b = a.copy()
+    b[0, 0, 0] = 2  # off by 2: counts as off by more than 1
+    b[1, 1, 1] = 1  # off by 1: does not
+    errors, psnr = image_errors(b, a)
+    assert errors["max_u8"] == 2
+    assert errors["channels_off"] == pytest.approx(1 / 48)
+    assert errors["rmse_u8"] == pytest.approx(math.sqrt(5 / 48))
+    assert psnr == pytest.approx(10 * math.log10(255 ** 2 / (5 / 48)))
+
+
+def test_relative_error():
+    assert relative(110, 100) == pytest.approx(0.1)
+    assert relative(3, 0) == 3
+
+
+def test_sampled_interval_is_computed_from_the_samples():
+    est, low, high = sampled_estimate([10, 10, 10, 10], 16)
+    assert (est, low, high) == (160, 160, 160)  # no spread: no width
+    est2, low2, high2 = sampled_estimate([4, 16, 10, 10], 16)
+    assert est2 == 160 and low2 < 160 < high2  # same mean, spread: a wider interval
+    _, low3, high3 = sampled_estimate([0, 20, 10, 10], 16)
+    assert high3 - low3 > high2 - low2  # more spread, wider
+    # every unit sampled: the exact total, whatever the spread
+    assert sampled_estimate([1, 5, 9, 3], 4) == (18, 18, 18)
+    # the half-width is Student's t(3) · N · s / √n · √(1 − n/N)
+    x = np.array([4, 16, 10, 10.0])
+    half = 3.182 * 16 * x.std(ddof=1) / 2 * math.sqrt(1 - 4 / 16)
+    assert high2 - est2 == pytest.approx(half)
+
+
+def test_sampled_row_interval_follows_its_tiles():
+    truth = {"cycles": 1000, "rho": 0.5, "mu": 0.9, "t": 2.0}
+    mem = {"t_r": 1, "t_c": 2, "t_g": 8}
+
+    def tile(c):
+        return {"cycles": c, "res": 5, "acc": 5, "hits": 4, "seconds": 0.1, "simulated": 2 * c}
+
+    tiles = {0: tile(100), 1: tile(150), 2: tile(50), 3: tile(100), 4: tile(400)}
+    a = sampled_row("x", 0.5, tiles, [0, 1, 2], truth, mem, n_tiles=10)
+    b = sampled_row("x", 0.5, tiles, [0, 3, 4], truth, mem, n_tiles=10)
+    assert a.values["cycles"] == 1000 and a.values["covers"] and a.error["cycles"] == 0
+    assert (a.ci_low, a.ci_high) != (b.ci_low, b.ci_high)
+    assert b.values["cycles"] == pytest.approx(2000)
+    assert b.ci_low <= b.values["cycles"] <= b.ci_high
+    assert b.cost["cycles"] == 2 * 600  # warm-ups are simulated too
+    assert a.values["rho"] == 0.5 and a.values["mu"] == pytest.approx(0.8)
+
+
+def test_round_bf16_keeps_8_significant_bits():
+    x = np.array([1.0, 1 + 2 ** -8, 1 + 3 * 2 ** -8, 1 + 2 ** -7, -3.0, 0.0, np.inf])
+    assert round_bf16(x).tolist() == [1.0, 1.0, 1 + 2 ** -6, 1 + 2 ** -7, -3.0, 0.0, np.inf]
+
+
+def _depth_row(depth: int, max_u8: float, truth: bool = False) -> Row:
+    return Row("depth", "s", f"depth {depth}", truth, {"rmse_u8": max_u8, "max_u8": max_u8, "channels_off": 0.0},
+               0.1, {"rays": 10 * depth, "cycles": 100 * depth}, "", {"depth": depth})
+
+
+def test_depth_sentence_flips_with_the_data():
+    rows = [_depth_row(d, 0) for d in (1, 2, 3)] + [_depth_row(10, 0, True)]
+    assert depth_settles(rows) == 1
+    assert "no change past depth 1" in axis_sentences("depth", rows)[0]
+    rows[0] = _depth_row(1, 7)
+    assert depth_settles(rows) == 2
+    text = axis_sentences("depth", rows)[0]
+    assert "no change past depth 1" not in text and "stops changing at depth 2" in text
+    rows[2] = _depth_row(3, 1)
+    assert depth_settles(rows) is None
+
+
+def test_prepass_sides():
+    assert prepass_sides(32, 0.01) == [3, 8, 16, 32]
+    assert prepass_sides(512, 0.01) == [51, 8, 16, 32, 64, 128, 256, 512]
+    assert prepass_sides(8, 1.0) == [8]
+
+
+# ------------------------------------------------------------------------------------------------
+# The axes on small renders
+
+
+def _truth_rows_zero(rows: list[Row]) -> None:
+    truth = [r for r in rows if r.truth]
+    assert len(truth) == len({r.scene for r in rows})
+    for r in truth:
+        assert r.error and all(v == 0 for v in r.error.values()), r
+
+
+@pytest.mark.heavy
+def test_precision_axis(engine_name):
+    scene = load_scene("balls")
+    rows = {r.setting: r for r in precision_rows(scene, 4, MachineConfig(), engine_name)}
+    _truth_rows_zero(list(rows.values()))
+    assert rows["machine fp32"].error == rows["golden fp32"].error  # the machine is the golden model
+    assert not any(rows["machine fp64"].error.values())
+    assert rows["machine fp32"].cost["cycles"] > 0
+    assert any(rows["golden fp16"].error.values())
+
+
+@pytest.mark.heavy
+def test_depth_axis_rays_grow_and_equal_the_golden_model(engine_name):
+    scene = load_scene("balls")
+    config = MachineConfig()
+    rows = depth_rows(scene, 6, config, engine_name, depths=(1, 2, 3), truth_depth=4)
+    _truth_rows_zero(rows)
+    assert [r.values["depth"] for r in rows] == [1, 2, 3, 4]
+    rays = [r.cost["rays"] for r in rows]
+    assert rays == sorted(rays) and rays[0] < rays[-1]
+    for r in rows:
+        g = golden_render(scene, with_sets(config, **{"render.max_depth": r.values["depth"]}), res=6)
+        assert r.cost["rays"] == traced_rays(g.rays) == r.values["machine_rays"]
+    assert rows[0].error["max_u8"] > 0  # balls has mirrors: depth 1 misses the reflections
+    assert "no change past depth 1" not in axis_sentences("depth", rows)[0]
+
+
+@pytest.mark.heavy
+def test_depth_axis_without_mirrors_or_glass_stops_at_depth_1(engine_name):
+    scene = load_scene("tetra")
+    assert not scene.reflective and not scene.transparent
+    rows = depth_rows(scene, 4, MachineConfig(), engine_name, depths=(1, 2, 3))
+    for r in rows:
+        assert not any(r.error.values())
+        assert r.cost == rows[0].cost
+    assert "no change past depth 1" in axis_sentences("depth", rows)[0]
+
+
+@pytest.mark.heavy
+def test_prepass_axis(engine_name):
+    rows = prepass_rows(load_scene("tetra"), 8, MachineConfig(), engine_name)
+    _truth_rows_zero(rows)
+    assert [r.setting for r in rows] == ["pre-pass 1x1 (config share)", "pre-pass 8x8"]
+    assert rows[-1].cost["rays"] == 64 and rows[-1].cost["ray_share"] == 1
+
+
+@pytest.mark.heavy
+def test_fidelity_full_run_equals_render_statistics(engine_name):
+    config = MachineConfig()
+    rows = fidelity_rows(load_scene("tetra"), 6, config, engine_name, shares=(0.25, 0.5), n_tiles=8)
+    _truth_rows_zero(rows)
+    full = next(r for r in rows if r.truth)
+    stats = render("tetra", config, res=6, engine=engine_name).stats
+    shape = memory_figures(stats, "pe0.ic", "shape_data")
+    assert full.values["cycles"] == stats["run"]["cycles"]
+    assert full.values["rho"] == shape["rho"] and full.values["mu"] == shape["mu"]
+    assert full.values["t"] == shape["measured"]
+    assert machine_point(stats) == {k: full.values[k] for k in machine_point(stats)}
+    sampled = [r for r in rows if r.ci_low is not None]
+    assert len(sampled) == 2 and all(r.ci_low <= r.values["cycles"] <= r.ci_high for r in sampled)
+    reference = [r for r in rows if r.setting == "(e) reference engine"]
+    if engine_name == "reference":
+        assert not reference  # the truth already is the reference engine
+    else:
+        assert reference[0].values["identical"] and not any(reference[0].error.values())
+
+
+@pytest.mark.heavy
+def test_sampled_rows_change_with_the_sample(engine_name):
+    def intervals(seed: int):
+        rows = fidelity_rows(load_scene("balls"), 4, MachineConfig(), engine_name, shares=(0.25,),
+                             n_tiles=8, seed=seed, reference_budget=0)
+        r = next(r for r in rows if r.ci_low is not None)
+        return r.values["tiles"], r.ci_low, r.ci_high
+
+    a, b = intervals(1), intervals(2)
+    assert a[0] == b[0] == 2
+    assert a[1:] != b[1:]
+
+
+# ------------------------------------------------------------------------------------------------
+# The command
+
+
+def test_cli_bad_input_is_one_line(cli, tmp_path):
+    for argv, needle in ((("tetra", "--axes", "precision,speed"), "unknown axis 'speed'"),
+                         (("nosuchscene",), "nosuchscene"),
+                         (("tetra", "--res", "0"), "--res 0"),
+                         (("tetra", "--engine", "warp"), "warp")):
+        code, out, err = cli("accuracy", *argv, "--out", tmp_path / "x", "--quiet")
+        assert code == 1, (argv, err)
+        assert needle in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+        assert not (tmp_path / "x" / "accuracy.json").exists()
+
+
+def test_cli_writes_every_file_and_keeps_the_contract(cli, tmp_path):
+    out = tmp_path / "acc"
+    code, stdout, err = cli("accuracy", "tetra", "--res", "4", "--engine", "compiled", "--out", out)
+    assert code == 0, err
+    for axis in ("precision", "depth", "prepass", "fidelity"):
+        assert (out / f"accuracy_{axis}.csv").stat().st_size > 0
+        assert (out / f"accuracy_{axis}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert axis in stdout.lower() or axis == "prepass"
+    data = json.loads((out / "accuracy.json").read_text())
+    assert set(data["axes"]) == {"precision", "depth", "prepass", "fidelity"}
+    assert set(data["scenes"]) == {"tetra"} and len(data["scenes"]["tetra"]["sha256"]) == 64
+    for axis, rows in data["axes"].items():
+        assert rows and sum(r["truth"] for r in rows) == 1
+        for r in rows:
+            assert {"scene", "setting", "truth", "error", "seconds", "cost", "how"} <= set(r)
+            assert isinstance(r["setting"], str) and r["how"]
+            if r["truth"]:
+                assert all(v == 0 for v in r["error"].values())
+    sampled = [r for r in data["axes"]["fidelity"] if r["setting"].startswith("(c)")]
+    assert len(sampled) == 3 and all(r["ci_low"] <= r["ci_high"] for r in sampled)
+    report = (out / "report.md").read_text()
+    assert "no change past depth 1" in report and "accuracy_fidelity.png" in report

@@ -710,8 +710,22 @@ def run_cycles(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn,
     pooled = g[G_POOLED]
     limit = g[G_DEADLOCK_CYCLES]
     nmsgs = dis[D_NMSGS]
+    # the CMUs' round robin starts at input c mod n: counted along, not divided, when every CMU
+    # has the same n
+    rn = cm[0, M_N]
+    uniform = True
+    for m in range(npes * 3):
+        if cm[m, M_N] != rn:
+            uniform = False
+    rr = 0
+    rr_c = -2
     while g[G_CYCLE] < until:
         c = g[G_CYCLE]
+        if c == rr_c + 1:
+            rr = rr + 1 if rr + 1 < rn else 0
+        else:
+            rr = c % rn
+        rr_c = c
         dis_changed = False
         # DIS (machine.Dis.step)
         if dis[D_DYNAMIC] and dis[D_NEXT] < nmsgs:
@@ -763,7 +777,7 @@ def run_cycles(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn,
                         g[G_CYCLE] = c + 1
                         return S_FAULT
             moved = 0
-            start = c % cm[pe * 3, M_N]  # every CMU of a PE has as many inputs
+            start = rr if uniform else c % cm[pe * 3, M_N]  # a PE's CMUs: as many inputs
             for s in range(3):
                 r = cmu_step(c, start, pe * 3 + s, cm, cin, cout, route, rem, lown, linkw, fq,
                              fbt, fbw, pw, pooled, finfo)

@@ -2,14 +2,14 @@
 in the same run on the four paper scenes, and their ratio (prints; never asserts).
 
 The reference engine renders each scene at a small size (default 16×16), the compiled engine at
-a larger one (default 64×64): cycles per CPU-second are steady across sizes, and the larger run
+a larger one (default 128×128): cycles per CPU-second are steady across sizes, and the larger run
 amortises the compiled engine's start (flattening the state, writing it back). Each engine runs
 each scene `--repeat` times, alternating, and the best rate counts (as timeit does): on a shared
 machine the slower runs measure the neighbours, not the engine. The compiled
 loop is loaded (and, the first time on a machine, compiled and cached) before timing starts;
 that first-compile time is printed separately. Both runs are checked to end alike.
 
-Usage: python benchmarks/bench_engines.py [--ref-res 16] [--res 64] [--repeat 3]
+Usage: python benchmarks/bench_engines.py [--ref-res 16] [--res 128] [--repeat 3]
                                          [--scenes tetra balls ...]
 """
 
@@ -36,7 +36,7 @@ def measure(scene: str, res: int, engine: str) -> tuple[int, float]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--ref-res", type=int, default=16)
-    ap.add_argument("--res", type=int, default=64)
+    ap.add_argument("--res", type=int, default=128)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--scenes", nargs="+", default=["tetra", "balls", "mount", "rings"])
     args = ap.parse_args()

@@ -19,7 +19,8 @@ Metrics, and why these:
     t_r·{ρ + (1 − ρ)(8 − 6μ)} under its t_c = 2·t_r, t_g = 8·t_r);
   - cycles: relative error of the total.
 A sampled estimate (SMARTS) extrapolates per-tile samples to the whole image with a 95 %
-confidence interval computed from the samples' spread (`sampled_estimate`).
+confidence interval computed from the samples' spread (`sampled_estimate`; stratified by position
+in `stratified_estimate`).
 """
 
 from __future__ import annotations
@@ -171,6 +172,40 @@ def sampled_estimate(samples, population: int) -> tuple[float, float, float]:
     low = est - half
     if x.min() >= 0:  # a total of non-negative units is at least the sampled units' sum
         low = max(low, float(x.sum()))
+    return est, low, est + half
+
+
+def stratified_estimate(strata) -> tuple[float, float, float]:
+    """(estimate, low, high) of a total from a stratified random sample: `strata` is a list of
+    (samples, units) — each stratum's simple random sample and how many units it has. Estimate
+    Σ N_h·mean_h; interval ± t(n − H)·√Σ N_h²·(1 − n_h/N_h)·s_h²/n_h (each stratum's spread from its
+    own samples, so a stratum needs 2 samples unless all its units are sampled; degrees of freedom
+    n − H, conservative). One stratum is `sampled_estimate`; sampling every unit gives the exact
+    total and a zero-width interval; a total of non-negative units never falls below the sampled
+    units' own sum."""
+    if not strata or any(len(x) == 0 for x, _ in strata):
+        raise ValueError("no samples")
+    if len(strata) == 1:
+        return sampled_estimate(*strata[0])
+    est, var, n, low_sum, nonneg, spread = 0.0, 0.0, 0, 0.0, True, True
+    for samples, units in strata:
+        x = np.asarray(samples, np.float64)
+        est += units * float(x.mean())
+        n += len(x)
+        low_sum += float(x.sum())
+        nonneg = nonneg and x.min() >= 0
+        if len(x) < units:
+            if len(x) == 1:
+                spread = False  # a stratum with one sample of several units: no interval
+            else:
+                var += units ** 2 * (1 - len(x) / units) * float(x.var(ddof=1)) / len(x)
+    if not spread:
+        return est, -math.inf, math.inf
+    dof = n - len(strata)
+    half = t_quantile(dof) * math.sqrt(var) if dof > 0 else 0.0
+    low = est - half
+    if nonneg:
+        low = max(low, low_sum)
     return est, low, est + half
 
 

@@ -32,7 +32,8 @@ def dtype_of(precision: str) -> type:
     try:
         return PRECISIONS[precision]
     except KeyError:
-        raise ValueError(f"precision must be fp32 or fp64, got {precision!r}") from None
+        names = ", ".join(PRECISIONS)
+        raise ValueError(f"precision must be one of {names}, got {precision!r}") from None
 
 
 def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import json
 import time
 import zlib
 from typing import Callable
@@ -31,7 +32,7 @@ from netsushisen.errors import NetsushisenError
 from netsushisen.host import golden
 from netsushisen.host.prepass import coarse_resolution
 from netsushisen.host.scenes import Scene
-from netsushisen.isa.config import MachineConfig
+from netsushisen.isa.config import MachineConfig, apply_override
 from netsushisen.render import RenderResult, RenderSetup, finish, prepare
 from netsushisen.reports.accuracy import (Row, fidelity_errors, hit_id_share, ic_regions, image_errors,
                                           memory_point, ray_errors, relative, stratified_estimate,
@@ -61,14 +62,12 @@ def _quiet(_: str) -> None:
 
 
 def with_sets(config: MachineConfig, **fields) -> MachineConfig:
-    """A copy of `config` with dotted fields set: with_sets(c, **{"render.max_depth": 3})."""
+    """A copy of `config` with dotted fields set, through `--set`'s own rule (converted to the
+    field's type, then validated): with_sets(c, **{"render.max_depth": 3})."""
     c = copy.deepcopy(config)
     for path, value in fields.items():
-        *parents, name = path.split(".")
-        obj = c
-        for p in parents:
-            obj = getattr(obj, p)
-        setattr(obj, name, value)
+        apply_override(c, f"{path}={json.dumps(value)}")
+    c.validate("accuracy")
     return c
 
 

@@ -232,6 +232,13 @@ FAULTS = {
                            "COL sent on the ring"),
     "fault-in-pe1": ({"ic": " li r1, 3\n ldg r2, [r1 + 40]\n halt\n"}, ("--pes", "2"),
                      "ICGM address 43"),
+    # OS and SC wait on the ring the whole run (the compiled engine lets them sleep): the cycle
+    # of IC's fault counts for the OS, stepped before IC, and not for the SC, stepped after it
+    "fault-beside-waiting-processors": ({"os": " recv r1, ring\n halt\n",
+                                        "ic": " li r1, 3\n nop\n nop\n nop\n"
+                                              " ldg r2, [r1 + 40]\n halt\n",
+                                        "sc": " recv r1, ring\n halt\n"}, (),
+                                       "ICGM address 43"),
 }
 
 

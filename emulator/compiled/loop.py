@@ -22,7 +22,7 @@ from numba import njit
 from netsushisen.emulator.compiled.bits import as_f, as_i, ctz, word_i
 from netsushisen.emulator.compiled.state import (
     B_NOPS, B_NREADS, B_READS, B_NWRITES, B_WRITES, B_NUNITS, B_UNITS, B_NRECVS, B_RECVS, B_NSENDS,
-    B_UFIT, B_NWTOTAL, C_BUSYMAX, C_SLEEP, Q_RSTAGE, Q_SSTAGE, W_WAKE,
+    B_UFIT, B_NWTOTAL, C_BUSYMAX, C_SLEEP, C_RUN_N, C_RUN_PC, C_RUN_CAUSE, Q_RSTAGE, Q_SSTAGE, W_WAKE,
     B_SENDS, B_WAITS, B_LOAD0, B_NWLAT, B_WLAT, B_LATE, B_UNPIPED, O_KIND, O_MN, O_UNIT, O_LAT,
     O_PIPE, O_RD, O_SRC, O_R, O_BASE, O_SPACE, O_PORT, O_TARGET, O_NWRITES, K_ALU, K_LOAD, K_STORE,
     K_BRANCH, K_JUMP, K_JUMPR, K_CALL, K_RET, K_SEND, K_RECV, K_POLL, K_ROOM, K_HALT, C_PC,
@@ -126,13 +126,13 @@ def count_region(rg, rmap, rdense, rcnt, pcnt, p, space, addr, hit):
     i = rdense[rmap[p, space, 0] + addr]
     if i < 0:
         return
-    name = rg[2, i]
+    name = rg[i, 0]
     rcnt[p, space, name, 0] += 1
     if hit == 1:
         rcnt[p, space, name, 1] += 1
     elif hit == 0:
         rcnt[p, space, name, 2] += 1
-    prim = rg[3, i]
+    prim = rg[i, 1]
     if prim >= 0:
         pcnt[p, space, prim] += 1
 
@@ -161,10 +161,25 @@ def cache_probe(cs, ctags, p, addr):
 
 
 @njit(**_INLINE)
-def stall(cs, stpc, p, cause, pc):
-    stpc[p, pc, cause] += 1
+def stall(cs, stpc, p, cause, pc, k):
+    """k stall cycles of one cause at one PC, counted into the processor's run (state.py
+    C_RUN_N); the counters get the run when the PC or cause changes."""
+    if cs[p, C_RUN_PC] != pc or cs[p, C_RUN_CAUSE] != cause:
+        stpc[p, cs[p, C_RUN_PC], cs[p, C_RUN_CAUSE]] += cs[p, C_RUN_N]
+        cs[p, C_RUN_N] = 0
+        cs[p, C_RUN_PC] = pc
+        cs[p, C_RUN_CAUSE] = cause
+    cs[p, C_RUN_N] += k
     cs[p, C_CAUSE] = cause
     cs[p, C_LAST_PC] = pc
+
+
+@njit(**_INLINE)
+def flush_stalls(cs, stpc, nproc):
+    """Add every processor's pending stall run to the counters (before the loop returns)."""
+    for p in range(nproc):
+        stpc[p, cs[p, C_RUN_PC], cs[p, C_RUN_CAUSE]] += cs[p, C_RUN_N]
+        cs[p, C_RUN_N] = 0
 
 
 @njit(**_INLINE)
@@ -507,11 +522,11 @@ def core_step(c, p, A, W, finfo):
         cause = issue_checks(c, p, pc, A, W)
         if cause < 0:
             return issue(c, p, pc, A, W, finfo)
-        stall(cs, stpc, p, cause, pcx)
+        stall(cs, stpc, p, cause, pcx, 1)
         if cs[p, C_FIFOWAIT]:
             fall_asleep(c, p, cs, A[16], A[17], A[18], A[19], A[29])
         return 0
-    stall(cs, stpc, p, cause, pcx)
+    stall(cs, stpc, p, cause, pcx, 1)
     return 0
 
 
@@ -536,9 +551,8 @@ def fall_asleep(c, p, cs, recvq, sendq, fq, fbt, pw):
 def wake(cs, stpc, p, upto):
     """Charge a sleeping processor's cycles up to cycle `upto` (exclusive) to its stall, as
     stepping it each cycle would have, and wake it."""
-    k = upto - cs[p, C_SLEEP]
-    cs[p, C_CYCLES] += k
-    stpc[p, cs[p, C_LAST_PC], cs[p, C_CAUSE]] += k
+    cs[p, C_CYCLES] += upto - cs[p, C_SLEEP]
+    stall(cs, stpc, p, cs[p, C_CAUSE], cs[p, C_LAST_PC], upto - cs[p, C_SLEEP])
     cs[p, C_SLEEP] = 0
 
 
@@ -693,6 +707,7 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
                       dcur, doff, dup, dasg, moff, mwords, col, cpart, cplen, frame, ids, cflags,
                       pw, finfo)
     wake_all(cs, stpc, g[G_NPES] * 3, g[G_CYCLE] - 1, g[G_NPES] * 3)
+    flush_stalls(cs, stpc, g[G_NPES] * 3)
     return code
 
 
@@ -943,9 +958,7 @@ def skip_quiet(c, until, limit, npes, W, cs, regs, wbn, wbr, wbw, stpc, pes, pw,
             cause = cs[p, C_CAUSE]
             pcx = cs[p, C_LAST_PC]
         cs[p, C_CYCLES] += k
-        stpc[p, pcx, cause] += k
-        cs[p, C_CAUSE] = cause
-        cs[p, C_LAST_PC] = pcx
+        stall(cs, stpc, p, cause, pcx, k)
     last = T - 1 if T - 1 < c + W - 1 else c + W - 1
     for p in range(npes * 3):
         if cs[p, C_NPEND]:

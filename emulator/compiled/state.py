@@ -32,13 +32,14 @@ _C = _enum("PC HALTED HOLD_UNTIL HOLD_MEM_UNTIL HOLD_CAUSE HOLD_PC CYCLES BUNDLE
            "LAST_ISSUED CAUSE PRESENT NB WPORTS PENALTY PE T_LOCAL T_R T_C T_G SEG_LOCAL "
            "SEG_RES SEG_GLOBAL CACHE_SETS CACHE_OFF BLOCK_BYTES WORD_BYTES LOCAL_READS "
            "LOCAL_WRITES RES_READS CACHE_ACC CACHE_HITS CACHE_MISSES GLOBAL_ACC WAKE WAKE_CAUSE NPEND "
-           "FIFOWAIT BSHIFT SSHIFT BUSYMAX SLEEP")
+           "FIFOWAIT BSHIFT SSHIFT BUSYMAX SLEEP RUN_N RUN_PC RUN_CAUSE")
 (C_PC, C_HALTED, C_HOLD_UNTIL, C_HOLD_MEM_UNTIL, C_HOLD_CAUSE, C_HOLD_PC, C_CYCLES, C_BUNDLES,
  C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY, C_PE,
  C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL, C_CACHE_SETS,
  C_CACHE_OFF, C_BLOCK_BYTES, C_WORD_BYTES, C_LOCAL_READS, C_LOCAL_WRITES, C_RES_READS,
  C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE,
- C_NPEND, C_FIFOWAIT, C_BSHIFT, C_SSHIFT, C_BUSYMAX, C_SLEEP) = range(len(_C))
+ C_NPEND, C_FIFOWAIT, C_BSHIFT, C_SSHIFT, C_BUSYMAX, C_SLEEP, C_RUN_N, C_RUN_PC,
+ C_RUN_CAUSE) = range(len(_C))
 """C_WAKE, C_WAKE_CAUSE: derived, not written back â€” a processor stalled on an operand, a
 destination or a busy unit stalls for that same cause until the cycle C_WAKE (nothing but its
 own issue changes what those checks read), so the loop charges those cycles without checking.
@@ -51,7 +52,12 @@ C_SLEEP (derived): 0, or the first cycle not yet charged of a processor asleep â
 its FIFOs with nothing in flight and no word on its way, whose stall can end only when a word
 reaches one of its receive FIFOs or leaves one of its send FIFOs (pw W_WAKE says when). Asleep,
 it is not stepped; its cycles are charged to its stall at once when it wakes or the loop
-returns (loop.py wake)."""
+returns (loop.py wake).
+C_RUN_N, C_RUN_PC, C_RUN_CAUSE (derived): stall cycles not yet added to the counters (stpc),
+all at the same PC and cause. A stalled processor usually stalls for the same cause at the same
+PC for several cycles running; counting the run and adding it once, when the PC or cause
+changes or the loop returns (loop.py stall, flush_stalls), spares a scattered increment per
+stalled cycle in a table too big for the cache (~2 MB)."""
 N_C = len(_C)
 
 # decoded bundles: bun[processor, pc, B_*]; reads up to 8, writes up to 4, (class, count) pairs
@@ -156,8 +162,9 @@ ARG_ORDER = ("g", "until", "cs", "regs", "ready", "prod", "wbn", "wbr", "wbw", "
 
 
 def _words(a: np.ndarray) -> np.ndarray:
-    """Raw words as int64 (uint32 widened, uint64 reinterpreted)."""
-    return a.view(np.int64).copy() if a.dtype == np.uint64 else a.astype(np.int64)
+    """Raw words: uint32 kept (fp32 words; half the bytes of the scene's databases in the
+    cache, and read into an int64 register they widen exactly), uint64 reinterpreted as int64."""
+    return a.view(np.int64).copy() if a.dtype == np.uint64 else a.astype(np.uint32)
 
 
 def _as_signed(w: int) -> int:
@@ -243,7 +250,7 @@ def flatten(machine: Machine) -> State:
 
     gseg = {stage: add_seg(g.words) for stage, g in machine.globals.items()}
     region_names: list[str] = []
-    rg_parts: list[tuple[int, int, int, int]] = []
+    rg_parts: list[tuple[int, int]] = []  # per region: (name id, primitive or -1)
     rmap = np.zeros((P, 3, 2), np.int64)
     rmap[:, :, 1] = -1
     max_prim = 0
@@ -282,12 +289,13 @@ def flatten(machine: Machine) -> State:
                     prim = -1 if r.primitive is None else r.primitive
                     max_prim = max(max_prim, prim + 1)
                     d[max(r.start, 0):max(min(r.end, sizes[sp]), 0)] = len(rg_parts)
-                    rg_parts.append((r.start, r.end, name_id(r.name), prim))
+                    rg_parts.append((name_id(r.name), prim))
                 dense_of[key] = (dense_len, d)
                 dense_parts.append(d)
                 dense_len += len(d)
             rmap[p, sp] = (dense_of[key][0], sizes[sp])
-    rg = np.array(rg_parts, np.int64).T.copy() if rg_parts else np.zeros((4, 1), np.int64)
+    # side by side (one cache line per counted access)
+    rg = np.array(rg_parts, np.int32) if rg_parts else np.zeros((1, 2), np.int32)
     rdense = np.concatenate(dense_parts) if dense_parts else np.zeros(1, np.int32)
     rcnt = np.zeros((P, 3, max(len(region_names), 1), 3), np.int64)
     pcnt = np.zeros((P, 3, max(max_prim, 1)), np.int64)

@@ -168,21 +168,46 @@ def check_fifo_depth(config: MachineConfig) -> None:
             f"fits its send FIFO whole), got {config.ring.fifo_depth}", file="config"))
 
 
+class HostMemo:
+    """Host work kept between `prepare` calls of one process (a sweep's worker runs many points
+    of a scene): the scene, its grid and the assembled kernels, each under the inputs it is a
+    function of — the scene's name, and the grid's settings (`grid`, OS's local words, the
+    precision) or the kernels' folder and defines. Images and the pre-pass depend on the memory
+    configuration a sweep varies, so they are built per point."""
+
+    def __init__(self) -> None:
+        self.items: dict[tuple, object] = {}
+
+    def get(self, key: tuple, build):
+        if key not in self.items:
+            self.items[key] = build()
+        return self.items[key]
+
+
 def prepare(scene: Scene | str, config: MachineConfig, res: int = 32, corners: bool = False,
             generic: bool = False, slots: int = DEFAULT_SLOTS, kernel_dir: str | Path | None = None,
             kernels: dict[str, str | Path] | None = None,
-            defines: dict[str, int | float] | None = None) -> RenderSetup:
+            defines: dict[str, int | float] | None = None,
+            memo: HostMemo | None = None) -> RenderSetup:
     """Host work before a run: grid, pre-pass, images, kernels, eye rays. `defines` adds (or
-    overrides) kernel symbols, e.g. {"SERIAL_TREES": 1} for the serial mode."""
+    overrides) kernel symbols, e.g. {"SERIAL_TREES": 1} for the serial mode. `memo` keeps the
+    scene, grid and kernels for later calls (only for a scene given by name)."""
+    name = scene if isinstance(scene, str) else None
+
+    def cached(key: tuple, build):
+        return build() if memo is None or name is None else memo.get((name, *key), build)
+
     if isinstance(scene, str):
-        scene = load_scene(scene)
+        scene = cached(("scene",), lambda: load_scene(name))
     config.validate()
     check_fifo_depth(config)
-    grid = build_grid(scene, config)
+    grid = cached(("grid", repr(config.grid), config.os.local_words, config.precision),
+                  lambda: build_grid(scene, config))
     prepass = run_prepass(scene, config, res=res, corners=corners, grid=grid)
     images = build_images(scene, config, priorities=prepass.priorities, grid=grid)
     defines = kernel_defines(images, generic, slots, defines)
-    programs = assemble_kernels(defines, kernel_dir, kernels)
+    programs = cached(("kernels", str(kernel_dir), repr(kernels), tuple(sorted(defines.items()))),
+                      lambda: assemble_kernels(defines, kernel_dir, kernels))
     images.check_programs(programs)
     wf = word_format(config.precision)
     return RenderSetup(scene, config, res, corners, generic, images, prepass, programs, defines,

@@ -1,0 +1,242 @@
+"""Design-space sweeps on Dask: every point of a spec rendered on the emulated machine.
+
+    netsushisen sweep SPEC.toml [--scheduler ADDRESS] [--workers N] [--out DIR] [--engine NAME]
+                                [--quiet]
+    netsushisen sweep plot RESULTS [--x FIELD] [--y METRIC] [--hue FIELD] [--kind line|heat]
+                                   [-o FILE]
+
+The spec format is in netsushisen/sweep.py (and the README's "Sweeps"). Without --scheduler the
+points run on a Dask LocalCluster with one worker process per core (or --workers N); with it,
+on the cluster whose scheduler listens at ADDRESS (`dask scheduler`, then `dask worker ADDRESS`
+on each machine). Each finished point is written at once to DIR/points/KEY.json (DIR default
+`sweep/`); a rerun computes only the missing points. A failed point (fault, deadlock, cycle
+limit, bad configuration, a worker lost too often) is recorded with its error and the sweep goes
+on. At the end, and on Ctrl-C (exit 130), DIR/results.csv and DIR/results.parquet hold one row
+per finished point; the last line says `sweep: P points, C computed, K cached, F failed`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import logging
+import os
+import sys
+import time
+from pathlib import Path
+
+from netsushisen.errors import NetsushisenError
+from netsushisen.sweep import Point, Spec, load_spec, point_config, points, run_point, tidy_row, with_keys
+
+FAILED = ("error", "fault", "deadlock", "max_cycles", "interrupted", "lost")
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("spec", metavar="SPEC.toml | plot",
+                        help="the sweep spec; or `plot RESULTS` to draw a results table")
+    parser.add_argument("results", nargs="?", metavar="RESULTS",
+                        help="(plot) results.csv or results.parquet of a sweep")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="a running Dask scheduler (tcp://host:8786); default: a LocalCluster")
+    parser.add_argument("--workers", type=int, metavar="N",
+                        help="LocalCluster worker processes (default: one per core)")
+    parser.add_argument("--out", default="sweep", metavar="DIR", help="output folder (default sweep/)")
+    parser.add_argument("--engine", help="engine of every point (default: the spec's, else compiled)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    plot = parser.add_argument_group("plot")
+    plot.add_argument("--x", help="(plot) field on the x axis (default: the first varied field)")
+    plot.add_argument("--y", default="cycles", help="(plot) metric (default cycles)")
+    plot.add_argument("--hue", help="(plot) field drawn as one line per value (or the heat map's y axis)")
+    plot.add_argument("--kind", choices=("line", "heat"), default="line", help="(plot) line plot or heat map")
+    plot.add_argument("-o", "--output", metavar="FILE", help="(plot) image file (default next to RESULTS)")
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.spec == "plot":
+        from netsushisen.reports.sweep_plot import plot_results
+        if not args.results:
+            raise NetsushisenError("sweep plot: give the results file (DIR/results.csv)")
+        out = plot_results(args.results, x=args.x, y=args.y, hue=args.hue, kind=args.kind,
+                           output=args.output)
+        print(f"wrote {out}")
+        return 0
+    if args.results:
+        raise NetsushisenError(f"sweep: unexpected argument {args.results!r} (only `sweep plot` takes RESULTS)")
+    if args.workers is not None and args.workers < 1:
+        raise NetsushisenError(f"--workers {args.workers}: give at least 1")
+    spec = load_spec(args.spec)
+    engine = _engine(args.engine or spec.engine)
+    summary = run_sweep(spec, Path(args.out), engine, scheduler=args.scheduler,
+                        workers=args.workers, show=not args.quiet and sys.stderr.isatty())
+    print(summary.line())
+    if summary.interrupted:
+        return 130
+    return 1 if summary.failed else 0
+
+
+def _engine(name: str | None) -> str:
+    from netsushisen.emulator.engine import DEFAULT_ENGINE, check_engine
+    return check_engine(name) if name else DEFAULT_ENGINE
+
+
+class Summary:
+    def __init__(self, total: int) -> None:
+        self.total, self.computed, self.cached, self.failed = total, 0, 0, 0
+        self.interrupted = False
+
+    def line(self) -> str:
+        return (f"sweep: {self.total} points, {self.computed} computed, {self.cached} cached, "
+                f"{self.failed} failed" + (" (interrupted)" if self.interrupted else ""))
+
+
+def _task(spec: Spec, p: Point, engine: str) -> dict:
+    return {"key": p.key, "scene": p.scene, "values": list(p.values), "sets": list(p.sets),
+            "config_file": spec.config_file, "res": spec.res, "engine": engine}
+
+
+def _write_point(folder: Path, result: dict) -> None:
+    """Atomically: a killed sweep leaves whole files only."""
+    path = folder / f"{result['key']}.json"
+    tmp = path.with_suffix(f".{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(result, default=str), encoding="utf-8")
+    os.replace(tmp, path)
+
+
+def _warm(spec: Spec, pts: list[Point], engine: str) -> None:
+    """Compile (or load) the compiled engine once here, so workers load it from the disk cache
+    instead of each compiling it."""
+    if engine not in ("compiled", "tandem"):
+        return
+    from netsushisen.emulator.compiled.build import load
+    for precision in sorted({point_config(spec, p).precision for p in pts}):
+        load(precision)
+
+
+def _client(scheduler: str | None, workers: int | None):
+    from dask.distributed import Client, LocalCluster
+    if scheduler:
+        try:
+            return Client(scheduler, timeout="10s"), None
+        except (OSError, TimeoutError) as err:
+            raise NetsushisenError(f"--scheduler {scheduler}: cannot connect ({err})") from None
+    n = workers or os.cpu_count() or 1
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                           dashboard_address=None, silence_logs=logging.ERROR)
+    return Client(cluster), cluster
+
+
+def run_sweep(spec: Spec, out: Path, engine: str, scheduler: str | None = None,
+              workers: int | None = None, show: bool = False) -> Summary:
+    """Run every point not already in out/points; write the results tables (also on Ctrl-C)."""
+    pts = with_keys(spec, points(spec), engine)
+    folder = out / "points"
+    folder.mkdir(parents=True, exist_ok=True)
+    summary = Summary(len(pts))
+    todo: dict[str, Point] = {}
+    for p in pts:
+        if (folder / f"{p.key}.json").exists():
+            summary.cached += 1
+            summary.failed += _load(folder, p.key)["status"] in FAILED
+        else:
+            todo.setdefault(p.key, p)
+    client = cluster = None
+    progress = None
+    try:
+        if todo:
+            _warm(spec, list(todo.values()), engine)
+            client, cluster = _client(scheduler, workers)
+            from dask.distributed import as_completed
+            futures = [client.submit(run_point, _task(spec, p, engine), key=f"point-{p.key}",
+                                     pure=False) for p in todo.values()]
+            progress = _progress(show, summary)
+            for fut in as_completed(futures):
+                try:
+                    result = fut.result()
+                except Exception as err:  # a worker lost too often (KilledWorker) or the like
+                    p = todo[fut.key.removeprefix("point-")]
+                    result = {"key": p.key, "scene": p.scene, "values": list(p.values),
+                              "status": "lost", "error": f"{type(err).__name__}: {err}",
+                              "stats": None, "seconds": 0.0, "engine": engine}
+                _write_point(folder, result)
+                summary.computed += 1
+                summary.failed += result["status"] in FAILED
+                if progress:
+                    progress.update(summary)
+    except KeyboardInterrupt:
+        summary.interrupted = True
+    finally:
+        if progress:
+            progress.stop()
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+        write_tables(spec, pts, folder, out)
+    return summary
+
+
+def _load(folder: Path, key: str) -> dict:
+    return json.loads((folder / f"{key}.json").read_text(encoding="utf-8"))
+
+
+def write_tables(spec: Spec, pts: list[Point], folder: Path, out: Path) -> list[dict]:
+    """results.csv and results.parquet: one row per finished point of this spec, in spec order."""
+    rows, seen = [], set()
+    for p in pts:
+        if p.key in seen or not (folder / f"{p.key}.json").exists():
+            continue
+        seen.add(p.key)
+        rows.append(tidy_row(spec.fields, _load(folder, p.key)))
+    head = ["scene", *spec.fields, "status", "cycles"]
+    tail = ["seconds", "error", "key"]
+    middle = sorted({k for r in rows for k in r} - set(head) - set(tail))
+    columns = head + middle + tail
+    with open(out / "results.csv", "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(columns)
+        for r in rows:
+            w.writerow(["" if r.get(c) is None else r.get(c) for c in columns])
+    _write_parquet(out / "results.parquet", columns, rows)
+    return rows
+
+
+def _write_parquet(path: Path, columns: list[str], rows: list[dict]) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    arrays = {}
+    for c in columns:
+        vals = [r.get(c) for r in rows]
+        kinds = {type(v) for v in vals if v is not None}
+        if kinds <= {int} and kinds:
+            arrays[c] = pa.array(vals, pa.int64())
+        elif kinds <= {int, float} and kinds:
+            arrays[c] = pa.array([None if v is None else float(v) for v in vals], pa.float64())
+        else:
+            arrays[c] = pa.array([None if v is None else str(v) for v in vals], pa.string())
+    pq.write_table(pa.table(arrays), path)
+
+
+class _Bar:
+    def __init__(self, summary: Summary) -> None:
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+        self.p = Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
+                          TextColumn("{task.description}"), TimeRemainingColumn(),
+                          transient=True, redirect_stdout=False, redirect_stderr=False)
+        self.p.start()
+        self.task = self.p.add_task(self._text(summary), total=summary.total,
+                                    completed=summary.cached)
+
+    @staticmethod
+    def _text(s: Summary) -> str:
+        return f"{s.computed} computed, {s.cached} cached, {s.failed} failed"
+
+    def update(self, s: Summary) -> None:
+        self.p.update(self.task, completed=s.cached + s.computed, description=self._text(s))
+
+    def stop(self) -> None:
+        self.p.stop()
+
+
+def _progress(show: bool, summary: Summary):
+    return _Bar(summary) if show else None

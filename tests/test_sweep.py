@@ -1,0 +1,237 @@
+"""`netsushisen sweep`: spec checking, points on Dask (LocalCluster and a separately started
+scheduler), the content-key cache, failed and lost points, and Ctrl-C."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from netsushisen.errors import NetsushisenError
+from netsushisen.isa.config import load_config
+from netsushisen.render import render
+from netsushisen.sweep import evaluate, load_spec, points
+
+pytest.importorskip("distributed")
+
+SMALL = """\
+scenes = ["tetra", "balls"]
+res = 8
+{extra}
+[vary]
+"ic_memory.cache_bytes" = [1024, 4096, 16384]
+"""
+
+
+def write(tmp_path: Path, text: str, name: str = "spec.toml") -> Path:
+    p = tmp_path / name
+    p.write_text(text, encoding="utf-8")
+    return p
+
+
+def rows(out: Path) -> list[dict]:
+    with open(out / "results.csv", newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))
+
+
+# -- the spec -------------------------------------------------------------------------------------
+
+
+def test_points_are_scenes_times_the_product_of_the_axes(tmp_path):
+    spec = load_spec(write(tmp_path, """\
+scenes = ["tetra", "balls"]
+res = 4
+[vary]
+"ic_memory.cache_bytes" = [1024, 2048]
+"ic_memory.t_g" = {start = 4, stop = 12, step = 4}
+[zip]
+"ring.fifo_depth" = [32, 64]
+"ring.link_buffer_words" = [2, 4]
+"""))
+    pts = points(spec)
+    assert len(pts) == 2 * 2 * 3 * 2
+    assert spec.fields == ["ic_memory.cache_bytes", "ic_memory.t_g", "ring.fifo_depth",
+                           "ring.link_buffer_words"]
+    zipped = {(dict(p.values)["ring.fifo_depth"], dict(p.values)["ring.link_buffer_words"]) for p in pts}
+    assert zipped == {(32, 2), (64, 4)}  # varied together, not crossed
+    assert sorted({dict(p.values)["ic_memory.t_g"] for p in pts}) == [4, 8, 12]
+
+
+def test_derived_fields_and_parameters(tmp_path):
+    spec = load_spec(write(tmp_path, """\
+scenes = ["tetra"]
+res = 4
+[vary]
+local = [0.1, 0.5]
+split = {start = 0.0, stop = 1.0, step = 0.5}
+[derive]
+"ic_memory.resident_share" = "local * split"
+"ic_memory.cache_share" = "local * (1 - split)"
+"""))
+    pts = points(spec)
+    assert len(pts) == 6
+    v = dict(pts[1].values)
+    assert (v["local"], v["split"]) == (0.1, 0.5)
+    assert v["ic_memory.resident_share"] == 0.1 * 0.5
+    assert v["ic_memory.cache_share"] == 0.1 * (1 - 0.5)
+    assert "local=0.1" not in " ".join(pts[1].sets)  # a parameter is no configuration field
+    assert "ic_memory.cache_share=0.05" in pts[1].sets
+
+
+@pytest.mark.parametrize("text, message, line", [
+    ('scenes = ["tetra"]\n[vary]\n"ic_memory.cache_bites" = [1, 2]\n', "unknown configuration field", 3),
+    ('scenes = ["tetra"]\n[vary]\n"ring.fifo_depth" = [64, -3]\n', "ring.fifo_depth must be at least 1", 3),
+    ('scenes = ["tetra"]\nres = 0\n[vary]\n"ring.fifo_depth" = [64]\n', "'res' must be", 2),
+    ('scenes = ["tetra"]\n[zip]\n"ring.fifo_depth" = [32, 64]\n"ring.link_buffer_words" = [2]\n',
+     "equal lengths", None),
+    ('scenes = ["tetra"]\n[vary]\nx = [1]\n[derive]\n"ic_memory.cache_share" = "y * 2"\n',
+     "unknown name 'y'", 5),
+    ('scenes = ["tetra"]\n[vary]\nx = [1]\n[derive]\n"ic_memory.cache_share" = "__import__(1)"\n',
+     "only numbers", 5),
+    ('scenes = ["tetra"]\nsteps = 3\n[vary]\n"ring.fifo_depth" = [64]\n', "unknown key 'steps'", 2),
+    ('scenes = ["tetra"]\n', "nothing to vary", None),
+])
+def test_a_bad_spec_is_a_located_error_before_anything_runs(tmp_path, text, message, line):
+    path = write(tmp_path, text)
+    with pytest.raises(NetsushisenError) as err:
+        load_spec(path)
+    d = next(d for d in err.value.diagnostics if message in d.message)
+    assert d.file == str(path)
+    assert d.line == line
+
+
+def test_evaluate_is_arithmetic_only():
+    assert evaluate("a * (1 - b) + 2 ** 3", {"a": 2, "b": 0.5}) == 9.0
+    with pytest.raises(ValueError):
+        evaluate("a.b", {"a": 1})
+
+
+# -- running ------------------------------------------------------------------------------------
+
+
+def test_a_small_sweep_on_a_local_cluster_then_a_rerun_computes_nothing(tmp_path, cli, engine_name):
+    spec = write(tmp_path, SMALL.format(extra=f'engine = "{engine_name}"'))
+    out = tmp_path / "out"
+    code, text, err = cli("sweep", spec, "--out", out, "--workers", "2")
+    assert code == 0, err
+    assert text.strip().splitlines()[-1] == "sweep: 6 points, 6 computed, 0 cached, 0 failed"
+    table = rows(out)
+    assert [(r["scene"], r["ic_memory.cache_bytes"]) for r in table] == [
+        (s, c) for s in ("tetra", "balls") for c in ("1024", "4096", "16384")]
+    assert all(r["status"] == "finished" for r in table)
+    assert len(list((out / "points").glob("*.json"))) == 6
+    # a point's cycles are a direct render's with the same settings
+    direct = render("balls", load_config(None, ["ic_memory.cache_bytes=4096"]), res=8,
+                    engine=engine_name)
+    assert int(table[4]["cycles"]) == direct.run.cycles
+    point = json.loads((out / "points" / f"{table[4]['key']}.json").read_text())
+    assert point["stats"]["run"]["cycles"] == direct.run.cycles
+    # bigger caches miss less: the columns carry the memory figures
+    mu = [float(r["mu.all"]) for r in table[:3]]
+    assert mu[0] < mu[1] < mu[2]
+    import pyarrow.parquet as pq
+    assert pq.read_table(out / "results.parquet").num_rows == 6
+    code, text, _ = cli("sweep", spec, "--out", out, "--workers", "2")
+    assert code == 0
+    assert text.strip().splitlines()[-1] == "sweep: 6 points, 0 computed, 6 cached, 0 failed"
+
+
+def test_a_failed_point_is_recorded_and_the_sweep_goes_on(tmp_path, cli):
+    spec = write(tmp_path, 'scenes = ["tetra"]\nres = 8\n[vary]\nmax_cycles = [500, 0]\n')
+    out = tmp_path / "out"
+    code, text, _ = cli("sweep", spec, "--out", out, "--workers", "1")
+    assert code == 1
+    assert text.strip().splitlines()[-1] == "sweep: 2 points, 2 computed, 0 cached, 1 failed"
+    assert [r["status"] for r in rows(out)] == ["max_cycles", "finished"]
+
+
+def test_a_worker_killed_mid_sweep_loses_no_point(tmp_path):
+    from dask.distributed import Client, LocalCluster
+
+    from netsushisen.commands.sweep import run_sweep
+    spec = load_spec(write(tmp_path, SMALL.replace("res = 8", "res = 12").format(extra="")))
+    out = tmp_path / "out"
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        pids = list(client.run(os.getpid).values())
+
+        def kill_one_when_a_point_is_done():
+            deadline = time.time() + 120
+            while time.time() < deadline and not list((out / "points").glob("*.json")):
+                time.sleep(0.05)
+            os.kill(pids[0], signal.SIGKILL)
+
+        killer = threading.Thread(target=kill_one_when_a_point_is_done)
+        killer.start()
+        summary = run_sweep(spec, out, "compiled", scheduler=cluster.scheduler_address)
+        killer.join()
+    assert (summary.computed, summary.failed) == (6, 0)
+    assert [r["status"] for r in rows(out)] == ["finished"] * 6
+
+
+def test_a_scheduler_and_two_workers_started_apart(tmp_path):
+    """`dask scheduler` and two `dask worker`s as separate processes on the loopback address."""
+    bindir = Path(sys.executable).parent
+    dask_cli = [str(bindir / "dask")] if (bindir / "dask").exists() else [sys.executable, "-m", "dask"]
+    sched_file = tmp_path / "scheduler.json"
+    procs = [subprocess.Popen(dask_cli + ["scheduler", "--host", "127.0.0.1", "--port", "0",
+                                          "--no-dashboard", "--scheduler-file", str(sched_file)],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    try:
+        deadline = time.time() + 60
+        while not sched_file.exists() and time.time() < deadline:
+            time.sleep(0.1)
+        address = json.loads(sched_file.read_text())["address"]
+        for _ in range(2):
+            procs.append(subprocess.Popen(dask_cli + ["worker", address, "--nthreads", "1",
+                                                      "--no-dashboard"],
+                                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        spec = write(tmp_path, SMALL.format(extra=""))
+        out = tmp_path / "out"
+        done = subprocess.run([sys.executable, "-m", "netsushisen.cli", "sweep", str(spec), "--out",
+                               str(out), "--scheduler", address], capture_output=True, text=True,
+                              timeout=240)
+        assert done.returncode == 0, done.stderr
+        assert done.stdout.strip().splitlines()[-1] == "sweep: 6 points, 6 computed, 0 cached, 0 failed"
+    finally:
+        for p in procs:
+            p.terminate()
+        for p in procs:
+            try:
+                p.wait(10)
+            except subprocess.TimeoutExpired:
+                p.kill()
+
+
+def test_an_unreachable_scheduler_is_one_line(tmp_path, cli):
+    spec = write(tmp_path, SMALL.format(extra=""))
+    code, _, err = cli("sweep", spec, "--out", tmp_path / "out", "--scheduler", "tcp://127.0.0.1:9")
+    assert code == 1
+    assert "cannot connect" in err and "Traceback" not in err
+
+
+def test_ctrl_c_keeps_every_finished_point(tmp_path):
+    spec = write(tmp_path, SMALL.replace("res = 8", "res = 24").format(extra=""))
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "netsushisen.cli", "sweep", str(spec), "--out",
+                             str(out), "--workers", "1"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 180
+    while time.time() < deadline and not list((out / "points").glob("*.json")):
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 130, stderr
+    assert "(interrupted)" in stdout.strip().splitlines()[-1]
+    finished = list((out / "points").glob("*.json"))
+    assert 1 <= len(finished) < 6
+    assert len(rows(out)) == len(finished)
+    assert "Traceback" not in stderr

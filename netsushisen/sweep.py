@@ -395,8 +395,7 @@ def tidy_row(spec_fields: list[str], result: dict) -> dict[str, Any]:
     if s:
         for proc, p in sorted(s["processors"].items()):
             for cause, n in sorted(p.get("stalls", {}).items()):
-                kind = cause.split(":")[0]
-                row[f"stall.{proc}.{kind}"] = row.get(f"stall.{proc}.{kind}", 0) + n
+                row[f"stall.{proc}.{cause}"] = n
         merged = _merge_ic(s)
         regions = sorted({k.split(".", 1)[1] for k in merged["memory"]["ic"]["regions"]
                           if not k.startswith("local.")})

@@ -137,6 +137,10 @@ def test_a_small_sweep_on_a_local_cluster_then_a_rerun_computes_nothing(tmp_path
     # bigger caches miss less: the columns carry the memory figures
     mu = [float(r["mu.all"]) for r in table[:3]]
     assert mu[0] < mu[1] < mu[2]
+    ic = point["stats"]["processors"]["pe0.ic"]["stalls"]
+    assert {k.removeprefix("stall.pe0.ic.") for k, v in table[4].items()
+            if k.startswith("stall.pe0.ic.") and v != ""} == {k for k, n in ic.items() if n}
+    assert int(table[4]["stall.pe0.ic.cache_miss"]) == ic["cache_miss"]
     import pyarrow.parquet as pq
     assert pq.read_table(out / "results.parquet").num_rows == 6
     code, text, _ = cli("sweep", spec, "--out", out, "--workers", "2")

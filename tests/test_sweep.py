@@ -117,6 +117,7 @@ def test_evaluate_is_arithmetic_only():
 # -- running ------------------------------------------------------------------------------------
 
 
+@pytest.mark.heavy  # [reference]: 1.5 M reference-engine cycles, under -m slow
 def test_a_small_sweep_on_a_local_cluster_then_a_rerun_computes_nothing(tmp_path, cli, engine_name):
     spec = write(tmp_path, SMALL.format(extra=f'engine = "{engine_name}"'))
     out = tmp_path / "out"

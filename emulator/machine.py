@@ -28,9 +28,16 @@ End of a run (checked after every cycle, first match wins):
             waiting on an empty receive FIFO, no word in any FIFO or link) and COL is empty
   deadlock  some PE made no progress (pe.py) for ring.deadlock_cycles consecutive cycles while
             not idle (exit 3; the report names every FIFO's occupancy and held channel, and each
-            processor's PC and wait reason)
+            processor's PC and wait reason); or every PE is idle and COL holds an incomplete
+            pixel message (`col_report`); or the run would end `halted` or `finished` while a
+            processor has stopped in the middle of sending a message on the ring
+            (`unsent_messages`, `unsent_report`)
   max_cycles  config.max_cycles cycles have run (exit 4)
 Words left in FIFOs when a run ends `halted` are counted in the statistics (`left_in_flight`).
+No message is lost silently: a processor that halts (or waits forever) after sending part of a
+message leaves words that can never be delivered — in COL, its send FIFO, links or a receive
+FIFO — and the run ends `deadlock` (exit 3) with a report naming the processor, its PC, the
+words never sent and where the message's words are, never `halted` or `finished` (exit 0).
 """
 
 from __future__ import annotations
@@ -53,6 +60,7 @@ from netsushisen.isa.images import MemoryImage
 from netsushisen.emulator.memories import Memory
 from netsushisen.emulator.pe import PE
 
+DEST_NAMES = {v: k for k, v in DESTS.items()}
 EXIT_CODES = {"halted": 0, "finished": 0, "fault": 2, "deadlock": 3, "max_cycles": 4,
               "interrupted": 130}
 
@@ -273,7 +281,7 @@ class Machine:
     def _check_end(self) -> str | None:
         active = self._active
         if all(core.halted for core in active) and self.col_empty():
-            return "halted"
+            return self._unless_unsent("halted")
         # A PE where a processor issued this cycle is neither idle nor stuck: only the others
         # need the (costly) idle test, and the run can only be finished if none issued.
         issued = [pe.issued() for pe in self.pes]
@@ -282,7 +290,7 @@ class Machine:
             idle = [pe.idle() for pe in self.pes]
             if all(idle) and self.dis.exhausted():
                 if self.col_empty():
-                    return "finished"
+                    return self._unless_unsent("finished")
                 if not any(len(pe.ring.col) for pe in self.pes):  # nothing can complete COL's message
                     self.error = DeadlockError(self.col_report())
                     return "deadlock"
@@ -296,6 +304,33 @@ class Machine:
                 self.error = DeadlockError(self.deadlock_report(pe))
                 return "deadlock"
         return None
+
+    def _unless_unsent(self, status: str) -> str:
+        """`status` (halted, finished) unless a message was left incomplete: then deadlock."""
+        if self.unsent_messages():
+            self.error = DeadlockError(self.unsent_report())
+            return "deadlock"
+        return status
+
+    def unsent_messages(self) -> list[tuple[PE, str, int, int | None]]:
+        """The processors in the middle of sending a message on the ring: (PE, stage, words of
+        the message never sent, its header if still in the send FIFO else None). A send FIFO
+        has one producer, its processor; its CMU knows how many words of the message it is
+        passing are still to come (`remaining`), and the FIFO's words after those are whole
+        messages (header + length words) unless the processor stopped mid-way."""
+        out = []
+        for pe in self.pes:
+            for cmu in pe.ring.cmus:
+                need = cmu.remaining[0] if cmu.route[0] is not None else 0
+                header = None
+                for w in cmu.inputs[0].words():
+                    if need == 0:
+                        header, need = w, parse_header(w).length
+                    else:
+                        need -= 1
+                if need:
+                    out.append((pe, cmu.stage, need, header))
+        return out
 
     def col_empty(self) -> bool:
         return not self.col.busy() and all(len(pe.ring.col) == 0 for pe in self.pes)
@@ -332,6 +367,34 @@ class Machine:
             if part:
                 lines.append(Diagnostic(f"  from pe{i}: {len(part)} of 5 words received",
                                         severity="note"))
+        return lines
+
+    def unsent_report(self) -> list[Diagnostic]:
+        lines = [Diagnostic(f"deadlock at cycle {self.cycle}: every processor has halted or is "
+                            "waiting, but a message was left incomplete: its sender stopped before "
+                            "its last word, so it can never be delivered")]
+        unsent = self.unsent_messages()
+        for pe in dict.fromkeys(u[0] for u in unsent):  # each PE once, in order
+            for _, stage, need, header in (u for u in unsent if u[0] is pe):
+                core = pe.cores[stage]
+                where = (f"halted at {core.where(core.last_pc)}" if core.halted
+                         else f"{core.where(core.pc)}: waiting on {core.cause}")
+                if header is None:
+                    what = "its header has left the send FIFO"
+                else:
+                    h = parse_header(header)
+                    what = (f"header {header & 0xFFFFFFFF:#x} (dest {DEST_NAMES[h.dest]}, "
+                            f"length {h.length}) still in FIFO {pe.ring.send[stage].name}")
+                lines.append(Diagnostic(f"  {core.name}: {where}, with "
+                                        f"{need} word{'s' if need != 1 else ''} of its message "
+                                        f"on `ring` never sent; {what}", severity="note"))
+            for f in pe.ring.fifos():
+                if len(f):
+                    lines.append(Diagnostic(f"  FIFO {f.name}: {len(f)}/{f.capacity} words",
+                                            severity="note"))
+            for cmu in pe.ring.cmus:
+                for text in cmu.describe_locks():
+                    lines.append(Diagnostic(f"  CMU {cmu.stage}: {text}", severity="note"))
         return lines
 
     def summary(self) -> str:

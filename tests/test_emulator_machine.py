@@ -323,3 +323,128 @@ def test_room_reports_free_send_fifo_words(engine_name):
     with pytest.raises(Exception) as exc:  # room names a send FIFO: host is a receive FIFO
         assemble_text("room r1, host\n halt\n", proc="os")
     assert "expected a FIFO port of OS: ring" in str(exc.value)
+
+
+# -- no pixel or message is lost silently (machine.py, end of a run) ---------------------------
+
+
+def test_sc_halting_in_the_middle_of_a_pixel_message_is_a_deadlock(engine_name):
+    # the header and 2 of the 4 words reach COL, then SC halts: the pixel can never complete
+    sc = assemble_text("""
+        li r1, (DEST_COL << HDR_DEST_SHIFT) | 4
+        li r2, 5
+        send col, r1
+        send col, r2
+        send col, r0
+        halt
+    """, proc="sc")
+    m = run_machine(engine_name, load_config(), {"sc": sc}, image(0), max_cycles=1000)
+    r = m.result()
+    assert (r.status, r.exit_code) == ("deadlock", 3)
+    text = r.error.format()
+    assert "every PE is idle but COL holds an incomplete pixel message" in text
+    assert "from pe0: 3 of 5 words received" in text
+    assert not m.frame.any()
+
+
+def test_sc_halting_after_a_whole_pixel_message_halts(engine_name):
+    # the control: the same pixel sent whole ends `halted` with the pixel in the frame
+    sc = assemble_text("""
+        li r1, (DEST_COL << HDR_DEST_SHIFT) | 4
+        li r2, 5
+        lf r3, 0.25
+        send col, r1
+        send col, r2
+        send col, r3
+        send col, r3
+        send col, r3
+        halt
+    """, proc="sc")
+    m = run_machine(engine_name, load_config(), {"sc": sc}, image(0), max_cycles=1000)
+    r = m.result()
+    assert (r.status, r.exit_code) == ("halted", 0)
+    want = np.zeros((2, 3, 3))
+    want[1, 2] = 0.25  # pixel 5 = (x 2, y 1) of the 3x2 frame
+    assert np.array_equal(m.frame, want)
+
+
+RING_HALF = """
+        li r1, (DEST_IC << HDR_DEST_SHIFT) | 3     # a 3-word message to IC
+        li r2, 7
+        send ring, r1
+        send ring, r2
+        halt                                      # 2 of its words never sent
+"""
+
+
+def test_a_processor_halting_in_the_middle_of_a_ring_message_is_a_deadlock(engine_name):
+    os_ = assemble_text(RING_HALF, proc="os")
+    r = run_machine(engine_name, load_config(), {"os": os_}, image(0), max_cycles=1000).result()
+    assert (r.status, r.exit_code) == ("deadlock", 3)
+    text = r.error.format()
+    assert "a message was left incomplete" in text
+    assert "pe0.os" in text and "halted at pc 4, with 2 words of its message on `ring` never sent" in text
+
+
+def test_a_ring_message_cut_short_in_pe1_is_located_there(engine_name):
+    # each PE's OS sends a 2-word message to SC with as many payload words as its host message
+    # says: pe0 is told 2 (whole), pe1 is told 1 (one word short)
+    os_ = assemble_text("""
+        recv r1, host
+        recv r2, host                             # payload words to send
+        li r3, (DEST_SC << HDR_DEST_SHIFT) | 2
+        send ring, r3
+loop:   beqz r2, done
+        send ring, r2
+        addi r2, r2, -1
+        j loop
+done:   halt
+    """, proc="os")
+    img = image_from_json({"host": [{"header": {"length": 1, "dest": "os"}}, 2,
+                                    {"header": {"length": 1, "dest": "os"}}, 1],
+                           "frame": {"width": 3, "height": 2}})
+    r = run_machine(engine_name, load_config(None, ["pes=2"]), {"os": os_}, img,
+                    max_cycles=1000).result()
+    assert (r.status, r.exit_code) == ("deadlock", 3)
+    notes = [d.message for d in r.error.diagnostics[1:]]
+    senders = [n for n in notes if "never sent" in n]
+    assert len(senders) == 1 and senders[0].startswith("  pe1.os: ") \
+        and "halted at pc 8 (done), with 1 word of its message on `ring` never sent" in senders[0], notes
+
+
+def test_a_processor_waiting_in_the_middle_of_a_ring_message_is_a_deadlock(engine_name):
+    # IC sends 1 of 2 payload words to OS and waits forever; OS has taken what came and waits
+    # for the rest: every processor waits on an empty FIFO (formerly `finished`, exit 0)
+    ic = assemble_text("""
+        li r1, (DEST_OS << HDR_DEST_SHIFT) | 2
+        li r2, 9
+        send ring, r1
+        send ring, r2
+        recv r5, ring
+        halt
+    """, proc="ic")
+    os_ = assemble_text("""
+        recv r1, ring
+        recv r2, ring
+        recv r3, ring                             # never comes
+        halt
+    """, proc="os")
+    m = run_machine(engine_name, load_config(), {"os": os_, "ic": ic}, image(0),
+                    max_cycles=20_000)
+    r = m.result()
+    assert (r.status, r.exit_code) == ("deadlock", 3)
+    text = r.error.format()
+    assert "pe0.ic" in text and "waiting on" in text \
+        and "with 1 word of its message on `ring` never sent" in text, text
+    assert ProcessorView(m, "pe0.os").int(2) == 9
+
+
+def test_a_whole_ring_message_left_in_flight_still_halts(engine_name):
+    # the control: a processor that sends its message whole and halts loses nothing it could
+    # have finished; words still travelling when every processor has halted are counted
+    # (left_in_flight), the run ends `halted`
+    os_ = assemble_text(RING_HALF.replace("halt ", "send ring, r2\n        send ring, r2\n"
+                                          "        halt "), proc="os")
+    m = run_machine(engine_name, load_config(), {"os": os_}, image(0), max_cycles=1000)
+    r = m.result()
+    assert (r.status, r.exit_code) == ("halted", 0), r.error

@@ -271,6 +271,24 @@ DEADLOCKS = {
     # COL left in the middle of a pixel message
     "col-half-a-message": ({"sc": f" li r1, {COL_PIXEL}\n send col, r1\n send col, r0\n halt\n"},
                            (), "deadlock"),
+    # a ring message cut short by its sender's halt (machine.unsent_messages): its header has
+    # passed the CMU, or (a slow, one-word link) is still in the send FIFO behind a whole one
+    "ring-half-a-message": ({"os": f" li r1, {make_header(3, 1)}\n send ring, r1\n"
+                                   " send ring, r0\n halt\n"}, (),
+                            "halted at pc 3, with 2 words of its message on `ring` never sent"),
+    "ring-header-still-in-send-fifo": ({"os": f" li r1, {make_header(1, 2)}\n send ring, r1\n"
+                                              " send ring, r0\n li r1, "
+                                              f"{make_header(2, 1)}\n send ring, r1\n"
+                                              " send ring, r0\n halt\n"},
+                                       ("--set", "ring.link_buffer_words=1",
+                                        "--set", "ring.link_latency=8"),
+                                       "still in FIFO pe0.send.os"),
+    # ... or by a sender that waits forever (formerly `finished`, exit 0)
+    "ring-half-a-message-waiting": ({"ic": f" li r1, {make_header(2, 0)}\n send ring, r1\n"
+                                           " send ring, r0\n recv r2, ring\n halt\n",
+                                     "os": " recv r1, ring\n recv r1, ring\n recv r1, ring\n"
+                                           " halt\n"}, (),
+                                    "with 1 word of its message on `ring` never sent"),
 }
 
 

@@ -119,6 +119,8 @@ class CompiledEngine(Engine):
             m.status = "finished"
         elif code == S.S_DEADLOCK_COL:
             m.status, m.error = "deadlock", DeadlockError(m.col_report())
+        elif code == S.S_DEADLOCK_MSG:
+            m.status, m.error = "deadlock", DeadlockError(m.unsent_report())
         elif code == S.S_DEADLOCK_PE:
             m.status, m.error = "deadlock", DeadlockError(m.deadlock_report(m.pes[int(finfo[1])]))
         elif code == S.S_FAULT:

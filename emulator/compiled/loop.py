@@ -39,7 +39,7 @@ from netsushisen.emulator.compiled.state import (
     D_DYNAMIC, D_NEXT, D_NMSGS, D_WORDS_SENT, L_MESSAGES, L_WORDS, L_WIDTH, L_HEIGHT, G_CYCLE,
     G_DEADLOCK_CYCLES, G_POOLED, G_NPES, G_W, G_STOP_P, G_STOP_PC, S_RUNNING, S_HALTED, S_FINISHED,
     S_DEADLOCK_PE, S_DEADLOCK_COL, S_FAULT, S_STOPPED, F_PC, F_MEMORY, F_RING_COL, F_COL_HEADER,
-    F_COL_PIXEL, SP_LOCAL, SP_RESIDENT,
+    F_COL_PIXEL, SP_LOCAL, SP_RESIDENT, S_DEADLOCK_MSG,
 )
 
 _OPTS = dict(cache=True, nogil=True, error_model="numpy", boundscheck=False, _nrt=False)
@@ -693,6 +693,26 @@ def pe_progressed(pe, cs, cflags, pes):
     return False
 
 
+@njit(**_INLINE)
+def unsent(npes, cm, cin, route, rem, fq, fbw):
+    """machine.Machine.unsent_messages, as a test: some processor is in the middle of sending
+    a message on the ring (its CMU still waits for words of it, or its send FIFO ends in a
+    message cut short)."""
+    cap = fbw.shape[1]
+    for m in range(npes * 3):
+        need = rem[m, 0] if route[m, 0] != -2 else 0
+        f = cin[m, 0]
+        h = fq[f, Q_HEAD]
+        for k in range(fq[f, Q_CNT]):
+            if need == 0:
+                need = fbw[f, (h + k) % cap] & 255
+            else:
+                need -= 1
+        if need:
+            return True
+    return False
+
+
 @njit(**_OPTS)
 def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops,
              opk, opf, bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense,
@@ -857,6 +877,8 @@ def run_cycles(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn,
                 col_empty = False
                 break
         if all_halted and col_empty:
+            if unsent(npes, cm, cin, route, rem, fq, fbw):
+                return S_DEADLOCK_MSG
             return S_HALTED
         any_issued = False
         for i in range(npes):
@@ -882,6 +904,8 @@ def run_cycles(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn,
                             exhausted = False
             if all_idle and exhausted:
                 if col_empty:
+                    if unsent(npes, cm, cin, route, rem, fq, fbw):
+                        return S_DEADLOCK_MSG
                     return S_FINISHED
                 anycol = False
                 for i in range(npes):

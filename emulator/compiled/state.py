@@ -134,6 +134,8 @@ G_CYCLE, G_DEADLOCK_CYCLES, G_POOLED, G_NPES, G_W, G_STOP_P, G_STOP_PC = range(7
 
 # run-loop status codes and fault kinds (finfo[0])
 S_RUNNING, S_HALTED, S_FINISHED, S_DEADLOCK_PE, S_DEADLOCK_COL, S_FAULT, S_STOPPED = range(7)
+S_DEADLOCK_MSG = 7
+"""A processor stopped in the middle of sending a message on the ring (machine.unsent_messages)."""
 F_PC, F_MEMORY, F_RING_COL, F_COL_HEADER, F_COL_PIXEL = range(1, 6)
 
 _ROUTE_NONE = -2

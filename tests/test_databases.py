@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 
 from netsushisen.asm.assembler import assemble_text
+from netsushisen.asm.disasm import disassemble
 from netsushisen.emulator.machine import Machine
 from netsushisen.emulator.memories import RegionMap
 from netsushisen.errors import ConfigError
 from netsushisen.host.catalog import load_scene
-from netsushisen.host.databases import RESIDENT, build_images, database_bytes
+from netsushisen.host.databases import RESIDENT, build_images, database_bytes, resident_fill
 from netsushisen.host.golden import Luminance, render, scene_epsilon
 from netsushisen.host.ic_access import golden_stream, golden_stream_chunks, ic_address_stream
 from netsushisen.host.nff import parse_nff
@@ -230,6 +231,41 @@ def test_resident_records_are_the_global_records_word_for_word(precision):
     assert lay.record_size[order[:lay.resident_count + 1]].sum() * split.config.word_bytes > 4000
 
 
+@pytest.mark.parametrize("sizes, capacity, m", [
+    ([3, 5, 2], 8, 2),    # 3 + 5 fill the capacity exactly: both are resident
+    ([3, 5, 2], 7, 1),    # 5 more would not fit after 3
+    ([3, 5, 2], 10, 3),   # all of them, exactly
+    ([3, 5, 2], 11, 3),
+    ([3, 5, 2], 2, 0),    # not even the first
+    ([3, 5, 2], 3, 1),    # the first, exactly
+    ([3, 5, 2], 0, 0),
+    ([4], 4, 1),
+    ([], 5, 0),
+    ([3, 5, 1], 8, 2),    # stops at the first that does not fit (in priority order)
+])
+def test_resident_fill_counts_a_record_that_fits_exactly(sizes, capacity, m):
+    assert resident_fill(np.array(sizes, dtype=np.int64), capacity) == m
+
+
+@pytest.mark.parametrize("precision", ["fp32", "fp64"])
+def test_resident_capacity_exactly_filled_by_the_first_records(precision):
+    # a resident memory exactly as large as the 3 highest-priority records holds all 3
+    sc = load_scene("rings:2")
+    pri = shuffled(sc.n_primitives, 3)
+    flat = build_images(sc, config(precision, resident_bytes=0), priorities=pri).layout
+    first3 = np.argsort(pri)[:3]
+    words = int(flat.record_size[first3].sum())
+    wb = MachineConfig(precision=precision).word_bytes
+    img = build_images(sc, config(precision, resident_bytes=words * wb), priorities=pri)
+    lay = img.layout
+    assert lay.resident_count == 3
+    assert sorted(np.flatnonzero(lay.record_space == RESIDENT)) == sorted(first3)
+    assert len(img.ic_resident) == words == lay.resident_words
+    # one word less: the third no longer fits
+    short = build_images(sc, config(precision, resident_bytes=words * wb - wb), priorities=pri)
+    assert short.layout.resident_count == 2
+
+
 @pytest.mark.parametrize("precision", ["fp32", "fp64"])
 def test_database_bytes_sum_to_the_images(precision):
     sc = load_scene("mount:2")
@@ -342,8 +378,12 @@ def test_symbols_select_kernel_code():
     assert (sym["VOXEL_BASE"], sym["TOP_VOXELS"], sym["SCENE_BASE"], sym["LIGHTS_BASE"]) == (256, 272, 256, 264)
     tetra = build_images(load_scene("tetra:2"), config()).symbols
     assert (tetra["HAS_SPHERES"], tetra["HAS_REFLECTION"], tetra["HAS_PATCHES"]) == (0, 0, 0)
+    # the symbols select and fill kernel code: mixed has spheres, tetra has none
     text = ".proc ic\n.if HAS_SPHERES\n ldr r1, [r2 + SPH_R2]\n.endif\n ldg r3, [r4 + CELL_SHAPE]\n halt\n"
-    assert assemble_text(text, defines=sym) is not None
+    assert disassemble(assemble_text(text, defines=sym)).splitlines()[1:] == \
+        ["    ldr r1, [r2 + 6]", "    ldg r3, [r4 + 1]", "    halt"]
+    assert disassemble(assemble_text(text, defines=tetra)).splitlines()[1:] == \
+        ["    ldg r3, [r4 + 1]", "    halt"]
     assert img.defines()[:2] == ["-D", f"{next(iter(sym))}={next(iter(sym.values()))}"]
 
 

@@ -7,8 +7,9 @@ from __future__ import annotations
 import math
 import struct
 
+import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from netsushisen.asm.assembler import assemble_text
@@ -162,21 +163,78 @@ INT3 = [m for m, o in OPCODES.items()
         and o.source_types == ("i", "i") and "sc" in o.procs]
 
 
+def _u(x):
+    return x & 0xFFFFFFFF
+
+
+def _s(x):
+    x &= 0xFFFFFFFF
+    return x - (1 << 32) if x >> 31 else x
+
+
+def _div(a, b):
+    if b == 0:
+        return -1
+    if a == INT_MIN and b == -1:
+        return INT_MIN
+    q = abs(a) // abs(b)
+    return q if (a < 0) == (b < 0) else -q
+
+
+INT_MODEL = {
+    # the ISA's integer operations (isa/opcodes.py docstring, docs/isa.md) written out again on
+    # Python integers: 32-bit two's complement, shift amounts masked to their low 5 bits
+    "add": lambda a, b: _s(a + b),
+    "sub": lambda a, b: _s(a - b),
+    "mul": lambda a, b: _s(a * b),
+    "div": _div,
+    "rem": lambda a, b: a if b == 0 else _s(a - _div(a, b) * b),
+    "and": lambda a, b: _s(_u(a) & _u(b)),
+    "or": lambda a, b: _s(_u(a) | _u(b)),
+    "xor": lambda a, b: _s(_u(a) ^ _u(b)),
+    "sll": lambda a, b: _s(_u(a) << (_u(b) % 32)),
+    "srl": lambda a, b: _s(_u(a) >> (_u(b) % 32)),
+    "sra": lambda a, b: a >> (_u(b) % 32),
+    "slt": lambda a, b: int(a < b),
+    "sltu": lambda a, b: int(_u(a) < _u(b)),
+    "seq": lambda a, b: int(a == b),
+    "sne": lambda a, b: int(a != b),
+}
+
+
+def test_the_integer_model_covers_every_integer_op():
+    assert sorted(INT_MODEL) == sorted(INT3)
+
+
 @settings(max_examples=15, deadline=None)
 @given(st.integers(INT_MIN, INT_MAX), st.integers(INT_MIN, INT_MAX))
-def test_every_integer_op_matches_the_table(engine_name, a, b):
+@example(INT_MIN, 32).via("shift by 32: the low 5 bits are 0")
+@example(-16, 63).via("shift by 63: 31")
+@example(INT_MIN, -1).via("INT_MIN / -1, INT_MIN % -1")
+@example(7, 0).via("division by zero")
+def test_every_integer_op_matches_an_independent_model(engine_name, a, b):
     lines = [f"li r1, {a}", f"li r2, {b}"]
     lines += [f"{m} r{3 + i}, r1, r2" for i, m in enumerate(INT3)]
     r = run_sc(engine_name, "\n".join(lines + ["halt"]))
-    for i, m in enumerate(INT3):
-        assert r.int(3 + i) == wrap32(int(OPCODES[m].semantics(None, a, b))), m
+    got = {m: r.int(3 + i) for i, m in enumerate(INT3)}
+    assert got == {m: INT_MODEL[m](a, b) for m in INT3}
+
+
+def _same_word(got: int, want, precision: str) -> bool:
+    """Bit for bit (so -0 and +0 differ); any NaN matches a NaN."""
+    if np.isnan(want):
+        return math.isnan(float(word_format(precision).to_float(got)))
+    dtype = np.uint32 if precision == "fp32" else np.uint64
+    return got == int(np.asarray(want).view(dtype))
 
 
 @settings(max_examples=10, deadline=None)
 @given(st.floats(width=32), st.floats(width=32))
+@example(-0.0, -0.0).via("-0 + -0 = -0; -0 * -0 = +0; -0 - -0 = +0")
+@example(0.0, -0.0).via("+0 + -0 = +0; +0 * -0 = -0; +0 - -0 = +0")
+@example(-0.0, 0.0).via("-0 - +0 = -0")
+@example(1.0, -1.0).via("1 + -1 = +0")
 def test_fp32_arithmetic_matches_numpy_float32(engine_name, x, y):
-    import numpy as np
-
     fx = struct.unpack("<I", struct.pack("<f", x))[0]
     fy = struct.unpack("<I", struct.pack("<f", y))[0]
     r = run_sc(engine_name, """
@@ -185,11 +243,36 @@ def test_fp32_arithmetic_matches_numpy_float32(engine_name, x, y):
         fadd r3, r1, r2
         fmul r4, r1, r2
         fsub r5, r1, r2
+        fdiv r6, r1, r2
         halt
     """, "fp32", {"sc.local": [hex(fx), hex(fy)]})
+    a, b = np.float32(x), np.float32(y)
     with np.errstate(all="ignore"):
-        want = [np.float32(x) + np.float32(y), np.float32(x) * np.float32(y),
-                np.float32(x) - np.float32(y)]
-    for reg, w in zip((3, 4, 5), want):
-        got = r.float(reg)
-        assert (math.isnan(got) and math.isnan(w)) or got == w
+        want = [a + b, a * b, a - b, a / b]
+    for reg, w in zip((3, 4, 5, 6), want):
+        assert _same_word(r.raw(reg), w, "fp32"), (reg, hex(r.raw(reg)), w)
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.floats(), st.floats())
+@example(-0.0, -0.0).via("signs of zero")
+@example(0.0, -0.0).via("signs of zero")
+@example(-1.0, 0.0).via("-1 / +0 = -inf")
+@example(1.0, -0.0).via("1 / -0 = -inf")
+def test_fp64_arithmetic_matches_numpy_float64(engine_name, x, y):
+    fx = struct.unpack("<Q", struct.pack("<d", x))[0]
+    fy = struct.unpack("<Q", struct.pack("<d", y))[0]
+    r = run_sc(engine_name, """
+        ld r1, [r0]
+        ld r2, [r0 + 1]
+        fadd r3, r1, r2
+        fmul r4, r1, r2
+        fsub r5, r1, r2
+        fdiv r6, r1, r2
+        halt
+    """, "fp64", {"sc.local": [hex(fx), hex(fy)]})
+    a, b = np.float64(x), np.float64(y)
+    with np.errstate(all="ignore"):
+        want = [a + b, a * b, a - b, a / b]
+    for reg, w in zip((3, 4, 5, 6), want):
+        assert _same_word(r.raw(reg), w, "fp64"), (reg, hex(r.raw(reg)), w)

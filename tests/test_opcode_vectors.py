@@ -20,8 +20,11 @@ Words are 4 bytes in fp32 and 8 in fp64; in fp64 an integer is sign-extended to 
 
 from __future__ import annotations
 
+import math
+import random
 import struct
 from dataclasses import dataclass
+from fractions import Fraction
 
 import pytest
 
@@ -764,6 +767,188 @@ def _cases():
 @pytest.mark.parametrize("precision, mnemonic, xfail", list(_cases()))
 def test_opcode_vectors(engine_name, precision, mnemonic, xfail):
     check_vectors(engine_name, precision, mnemonic, vectors_for(precision, mnemonic, xfail))
+
+
+# ---------------------------------------------------------------------------------------------
+# Seeded random vectors against an exact model of IEEE 754
+#
+# The hand vectors above pin the corner cases one by one; these add many ordinary and extreme
+# operands (normal and subnormal, near overflow, cancelling sums, exact ties) whose expected
+# words come from an exact model written here: operands decoded to `Fraction`s, the exact
+# result rounded to nearest even by hand (`round_bits`: subnormals, overflow to inf, the sign
+# of an exact zero), comparisons and conversions on the exact values. Nothing of the opcode
+# table or of numpy's arithmetic is used.
+
+FORMATS = {"fp32": (8, 23), "fp64": (11, 52)}  # exponent bits, fraction bits
+
+
+def _exp2_floor(q: Fraction) -> int:
+    """e with 2**e <= q < 2**(e + 1), for q > 0."""
+    e = q.numerator.bit_length() - q.denominator.bit_length()
+    if Fraction(2) ** e > q:
+        e -= 1
+    elif Fraction(2) ** (e + 1) <= q:
+        e += 1
+    return e
+
+
+def _encode(p: str, negative: bool, e: int, m: int) -> int:
+    """The word of (-1)**negative * m * 2**(e - fraction bits), m < 2**(fraction bits + 1),
+    e >= emin (m below 2**fraction bits only at e == emin: a subnormal); inf if too large."""
+    eb, fb = FORMATS[p]
+    bias = 2 ** (eb - 1) - 1
+    if m == 2 ** (fb + 1):  # rounding carried into the next binade
+        m, e = m // 2, e + 1
+    if e > bias:
+        word = (2 ** eb - 1) << fb  # overflow: inf (round to nearest)
+    elif m < 2 ** fb:
+        word = m  # subnormal (or zero): exponent field 0
+    else:
+        word = ((e + bias) << fb) | (m - 2 ** fb)
+    return word | (int(negative) << (eb + fb))
+
+
+def round_bits(p: str, q: Fraction, zero_negative: bool = False) -> int:
+    """The word of the exact value q rounded to nearest, ties to even, in precision p; an
+    exact zero is -0 when `zero_negative`, a result that rounds to zero keeps q's sign."""
+    eb, fb = FORMATS[p]
+    if q == 0:
+        return int(zero_negative) << (eb + fb)
+    emin = 2 - 2 ** (eb - 1)
+    e = max(_exp2_floor(abs(q)), emin)
+    n = abs(q) / Fraction(2) ** (e - fb)  # q in units of the last place
+    m = n.numerator // n.denominator
+    r = n - m
+    if r > Fraction(1, 2) or (r == Fraction(1, 2) and m % 2):
+        m += 1
+    return _encode(p, q < 0, e, m)
+
+
+def sqrt_bits(p: str, q: Fraction) -> int:
+    """The word of sqrt(q), q > 0, rounded to nearest even (exactly: integer square roots)."""
+    eb, fb = FORMATS[p]
+    emin = 2 - 2 ** (eb - 1)
+    e = max(_exp2_floor(q) // 2, emin)  # floor(log2 sqrt(q))
+    t = q / Fraction(4) ** (e - fb)     # sqrt(t) = sqrt(q) in units of the last place
+    m = math.isqrt(t.numerator // t.denominator)  # floor(sqrt(t)) = isqrt(floor(t))
+    half = Fraction(2 * m + 1, 2) ** 2
+    if t > half or (t == half and m % 2):
+        m += 1
+    return _encode(p, False, e, m)
+
+
+def value(p: str, w: int) -> Fraction:
+    """The exact value of a finite word."""
+    x = struct.unpack("<f", struct.pack("<I", w))[0] if p == "fp32" else \
+        struct.unpack("<d", struct.pack("<Q", w))[0]
+    assert math.isfinite(x), hex(w)
+    return Fraction(x)
+
+
+def negative(p: str, w: int) -> bool:
+    eb, fb = FORMATS[p]
+    return bool(w >> (eb + fb))
+
+
+def random_word(rng: random.Random, p: str, spread: str) -> int:
+    """A finite word: exponents across the whole range (subnormals to the largest binade) or
+    near 1 ('mid'), random fraction bits (sometimes few, to make exact results and ties)."""
+    eb, fb = FORMATS[p]
+    top = 2 ** eb - 2  # largest finite exponent field
+    field = rng.randint(0, top) if spread == "wide" else rng.randint(top // 2 - 30, top // 2 + 30)
+    frac = rng.getrandbits(fb) if rng.random() < 0.7 else rng.getrandbits(4) << (fb - 4)
+    return (rng.getrandbits(1) << (eb + fb)) | (field << fb) | frac
+
+
+def _q(p, w):
+    return value(p, w)
+
+
+def _to_int(q: Fraction, down: bool) -> int:
+    n = math.floor(q) if down else math.trunc(q)
+    return max(INT_MIN, min(INT_MAX, n))
+
+
+MODEL = {  # mnemonic -> (number of float operands, exact result word from the operand words)
+    "fadd": (2, lambda p, a, b: round_bits(p, _q(p, a) + _q(p, b),
+                                           negative(p, a) and negative(p, b))),
+    "fsub": (2, lambda p, a, b: round_bits(p, _q(p, a) - _q(p, b),
+                                           negative(p, a) and not negative(p, b))),
+    "fmul": (2, lambda p, a, b: round_bits(p, _q(p, a) * _q(p, b),
+                                           negative(p, a) != negative(p, b))),
+    "fdiv": (2, lambda p, a, b: round_bits(p, _q(p, a) / _q(p, b),
+                                           negative(p, a) != negative(p, b))),
+    "fsqrt": (1, lambda p, a: sqrt_bits(p, _q(p, a)) if _q(p, a) > 0 else a),  # +-0: itself
+    "flt": (2, lambda p, a, b: int(_q(p, a) < _q(p, b))),
+    "fle": (2, lambda p, a, b: int(_q(p, a) <= _q(p, b))),
+    "feq": (2, lambda p, a, b: int(_q(p, a) == _q(p, b))),
+    "fmin": (2, lambda p, a, b: a if _q(p, a) < _q(p, b) or (_q(p, a) == _q(p, b)
+                                                           and negative(p, a)) else b),
+    "fmax": (2, lambda p, a, b: a if _q(p, a) > _q(p, b) or (_q(p, a) == _q(p, b)
+                                                           and not negative(p, a)) else b),
+    "ftoi": (1, lambda p, a: _to_int(_q(p, a), False)),
+    "floor": (1, lambda p, a: _to_int(_q(p, a), True)),
+    "itof": (0, lambda p, i: round_bits(p, Fraction(i))),
+}
+N_RANDOM = 96
+
+
+def random_vectors(p: str, m: str) -> list[V]:
+    """N_RANDOM vectors of opcode m in precision p, seeded by (p, m): the same every run."""
+    rng = random.Random(f"{p}-{m}")
+    n_float, model = MODEL[m]
+    raw = (lambda w: W(w, None)) if p == "fp32" else (lambda w: W(None, w))
+    out = []
+    while len(out) < N_RANDOM:
+        if n_float == 0:  # itof: integers, many of them wider than the fraction
+            i = rng.randint(INT_MIN, INT_MAX) >> rng.randint(0, 31)
+            out.append(V((I(i),), raw(model(p, i))))
+            continue
+        spread = "wide" if rng.random() < 0.5 else "mid"
+        ws = [random_word(rng, p, spread) for _ in range(n_float)]
+        if n_float == 2 and rng.random() < 0.2:  # the same magnitude: cancellation, equality
+            ws[1] = ws[0] ^ (rng.getrandbits(1) << (sum(FORMATS[p])))
+        if m == "fsqrt":
+            ws[0] &= ~(1 << sum(FORMATS[p]))  # non-negative (negatives: the hand vectors)
+        if m == "fdiv" and _q(p, ws[1]) == 0:
+            continue  # x/0: the hand vectors
+        got = model(p, *ws)
+        expect = I(got) if m in ("flt", "fle", "feq", "ftoi", "floor") else raw(got)
+        out.append(V(tuple(raw(w) for w in ws), expect))
+    return out
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
+@pytest.mark.parametrize("mnemonic", list(MODEL))
+def test_random_vectors_against_an_exact_model(engine_name, precision, mnemonic):
+    check_vectors(engine_name, precision, mnemonic, random_vectors(precision, mnemonic))
+
+
+@pytest.mark.parametrize("p, q, word", [
+    # the model's rounding, checked against words worked out by hand
+    ("fp32", Fraction(1) + Fraction(1, 2 ** 24), 0x3F80_0000),        # tie -> even (down)
+    ("fp32", Fraction(1) + Fraction(3, 2 ** 24), 0x3F80_0002),        # tie -> even (up)
+    ("fp32", Fraction(1, 3), 0x3EAA_AAAB),
+    ("fp64", Fraction(1, 3), 0x3FD5_5555_5555_5555),
+    ("fp32", Fraction(2) ** -149, 0x0000_0001),                         # smallest subnormal
+    ("fp32", Fraction(2) ** -150, 0x0000_0000),                         # tie -> even: 0
+    ("fp32", -Fraction(3, 2) * Fraction(2) ** -150, 0x8000_0001),   # rounds up to -2**-149
+    ("fp32", Fraction(2) ** -126 - Fraction(2) ** -150, 0x0080_0000),  # carries to the normal
+    ("fp32", Fraction(2) ** 128 - Fraction(2) ** 103, 0x7F80_0000),     # tie at the top: inf
+    ("fp32", Fraction(2) ** 128 - Fraction(2) ** 103 - 1, 0x7F7F_FFFF),
+    ("fp64", Fraction(2) ** -1074, 0x0000_0000_0000_0001),
+    ("fp64", -Fraction(2) ** 1024, 0xFFF0_0000_0000_0000),
+])
+def test_the_exact_model_rounds_as_worked_out_by_hand(p, q, word):
+    assert round_bits(p, q) == word
+
+
+def test_the_exact_square_root_as_worked_out_by_hand():
+    assert sqrt_bits("fp32", Fraction(2)) == 0x3FB5_04F3
+    assert sqrt_bits("fp64", Fraction(2)) == 0x3FF6_A09E_667F_3BCD
+    assert sqrt_bits("fp32", Fraction(2) ** -148) == 0x1A80_0000       # of a subnormal: 2**-74
+    assert sqrt_bits("fp32", Fraction(1, 4)) == 0x3F00_0000
+    assert sqrt_bits("fp64", Fraction(9, 4)) == 0x3FF8_0000_0000_0000
 
 
 # ---------------------------------------------------------------------------------------------

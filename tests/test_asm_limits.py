@@ -72,10 +72,11 @@ def test_write_ports(proc):
     units = [u for u, n in p.units.items() for _ in range(n)]
     makers = {"int": lambda i: f"li r{i + 1}, {i}", "fp": lambda i: f"lf r{i + 1}, {i}.5",
               "gen": lambda i: f"li r{i + 1}, {i}"}
-    if proc == "sc":
-        _assemble("sc", "  li r1, 1")
-        return
     ops = [makers[u](i) for i, u in enumerate(units)]
+    if proc == "sc":  # sequential, one general unit and one write port: a second write in a
+        # bundle is one over the ports (and the unit, and SC's one operation per instruction)
+        assert (w, units) == (1, ["gen"])
+        ops.append(makers["gen"](1))
     _assemble(proc, _bundle(ops[:w]))
     # one more write than the ports allow, still within the unit counts
     _rejects(proc, _bundle(ops[:w + 1]), f"write-port overflow: the bundle writes {w + 1}")

@@ -206,6 +206,8 @@ def test_fault_names_label_and_offset(engine_name):
 
 
 def test_running_off_the_program_is_a_fault(engine_name):
-    m, r = run(engine_name, ic="nop")
-    assert r.status == "fault" and "pc 1 is outside the program" in r.error.format()
-    assert isinstance(m.memory("pe0.ic", "local"), np.ndarray)
+    # the store before the end has happened: the machine is left as the fault found it
+    m, r = run(engine_name, ic="li r1, 7\nst r1, [r0 + 5]\nnop")
+    assert r.status == "fault" and "pc 3 is outside the program (0..2)" in r.error.format()
+    local = m.memory("pe0.ic", "local")
+    assert len(local) == 1 << 16 and int(local[5]) == 7 and not local[:5].any()

@@ -1,17 +1,19 @@
 """The disassembler: a Program back to source that reassembles to the identical program.
 
-Labels come back from the symbol table (branch targets print as label names); constants and
+Labels come back from the symbol table (branch targets print as the label at the address, or
+`label+N` from the nearest one before it: `listing.target_names`); constants and
 aliases do not survive assembly, so numbers and register names print as themselves. Floats print
 with `repr`, which round-trips every double exactly.
 """
 
 from __future__ import annotations
 
+from netsushisen.asm.listing import target_names
 from netsushisen.asm.objects import Program, format_float
 
 
 def disassemble(program: Program) -> str:
-    labels = program.code_labels()
+    labels = target_names(program)
     text_labels: dict[int, list[str]] = {}
     data_labels: dict[int, list[str]] = {}
     for name, (section, addr) in sorted(program.labels.items()):

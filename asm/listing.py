@@ -33,9 +33,30 @@ def slot_assignment(program: Program, bundle: tuple[Op, ...]) -> list[tuple[str,
     return out
 
 
+def target_names(program: Program) -> dict[int, str]:
+    """Every code address -> how to name it as a branch target: the label at it (the first
+    alphabetically among equals, as `Program.code_labels`), else `label+N` from the nearest
+    label before it (gdb's `<loop+4>`). The assembler reads `label+N` back to the same address,
+    so a disassembly that names targets this way reassembles to the identical program; an
+    address before the first label stays a number."""
+    text = sorted((addr, name) for name, (section, addr) in program.labels.items()
+                  if section == "text")
+    out: dict[int, str] = {}
+    i = 0
+    best: tuple[int, str] | None = None
+    for addr in range(len(program.bundles) + 1):
+        while i < len(text) and text[i][0] <= addr:
+            if best is None or text[i][0] > best[0]:
+                best = text[i]
+            i += 1
+        if best is not None:
+            out[addr] = best[1] if best[0] == addr else f"{best[1]}+{addr - best[0]}"
+    return out
+
+
 def listing(program: Program) -> str:
     """Address, slots and source of every bundle; then the data words."""
-    labels = program.code_labels()
+    labels = target_names(program)
     rows = [f"; listing of a {program.processor.title} program: "
             f"{len(program.bundles)} bundles, {len(program.data)} data words"]
     by_addr: dict[int, list[str]] = {}

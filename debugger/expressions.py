@@ -38,6 +38,16 @@ _FLOAT_SUFFIX = re.compile(r"(?<![\w.])((?:\d+\.\d*|\.\d+)(?:[eE][+-]?\d+)?|\d+[
 _QUALIFIER = re.compile(r"^\s*(?:pe(?P<pe>\d+)\.)?(?:(?P<proc>os|ic|sc)\.)?(?P<rest>.*)$", re.S)
 
 
+_FILE_LINE = re.compile(r"^(?P<file>[^\s:()\[\]]+):(?P<line>\d+)$")
+
+
+def same_file(path: str, asked: str) -> bool:
+    """Whether `asked` names the source file `path` (as given, or by its trailing parts)."""
+    path, asked = path.replace("\\", "/"), asked.replace("\\", "/")
+    return path == asked or path.endswith("/" + asked.lstrip("./")) or \
+        asked.endswith("/" + path.lstrip("./")) or path.lstrip("./") == asked.lstrip("./")
+
+
 class DebugError(Exception):
     """A bad command, expression or location: one line, and the prompt comes back."""
 
@@ -237,8 +247,21 @@ class Context:
         pe = int(m["pe"]) if m["pe"] is not None else None
         stage = m["proc"] or self.stage
         rest = m["rest"].strip()
+        if rest.startswith("*"):  # gdb's spelling of an address: *12
+            rest = rest[1:].strip()
         if not rest:
             raise DebugError("expected a label or an address")
+        fl = _FILE_LINE.match(rest)
+        whole = _FILE_LINE.match(text.strip())
+        if whole and (pe is not None or m["proc"]):  # ic.s:9 is a file before it is ic. + s:9
+            try:
+                found = self.source_line(whole["file"], int(whole["line"]))
+                return None, found[0], found[1]
+            except DebugError:
+                pass
+        if fl:
+            found = self.source_line(fl["file"], int(fl["line"]), m["proc"])
+            return pe, found[0], found[1]
         sub = Context(self.machine, self.pe if pe is None else pe, stage)
         if sub.program() is None:
             raise DebugError(f"{stage.upper()} has no program")
@@ -249,6 +272,36 @@ class Context:
         if not 0 <= addr < n:
             raise DebugError(f"address {addr} is outside the {stage.upper()} program (0..{n - 1})")
         return pe, stage, int(addr)
+
+    def source_line(self, file: str, line: int, stage: str | None = None) -> tuple[str, int]:
+        """FILE:LINE -> (stage, address of the first bundle of that line, or of the next line
+        of the file that has code, as gdb does). The file is matched by its path as the
+        assembler saw it or by its name; unqualified, every program is searched (the viewed
+        processor's first when several include the file)."""
+        found: dict[str, list[tuple[int, int]]] = {}
+        names = set()
+        stages = [stage] if stage else [self.stage] + [s for s in self.machine.programs
+                                                       if s != self.stage]
+        for s in stages:
+            prog = self.machine.programs.get(s)
+            if prog is None:
+                continue
+            for addr, loc in enumerate(prog.source_map):
+                names.add(loc.file.rsplit("/", 1)[-1])
+                if same_file(loc.file, file):
+                    found.setdefault(s, []).append((loc.line, addr))
+        if not found:
+            where = f"the {stage.upper()} program" if stage else "the programs"
+            known = ", ".join(sorted(names)) or "none"
+            raise DebugError(f"no source file {file!r} in {where} (files: {known})")
+        for s, rows in found.items():  # the viewed processor's first
+            later = [r for r in rows if r[0] >= line]
+            if later:
+                best = min(later)
+                return s, min(a for ln, a in rows if ln == best[0])
+        last = max(ln for rows in found.values() for ln, _ in rows)
+        raise DebugError(f"{file}:{line}: no code at or after line {line} (the last line with "
+                         f"code is {last})")
 
     def memory_ref(self, text: str) -> Place:
         """A memory reference for `x` and `set *`: `local[E]`, `icgm E`, `local E`, or an

@@ -16,7 +16,8 @@ from rich.text import Text
 from netsushisen.debugger.commands import Commands
 from netsushisen.debugger.expressions import REGIONS
 from netsushisen.debugger.help import ALIASES, HELP, INFO_TOPICS
-from netsushisen.debugger.view import screen, where_line
+from netsushisen.debugger.layout import screen
+from netsushisen.debugger.view import where_line
 from netsushisen.isa.processors import STAGES
 
 PROMPT = "(nss) "
@@ -39,14 +40,18 @@ class FrontEnd:
         self.failed = False
 
     def draw(self) -> None:
+        """The screen: on a terminal redrawn in place from the top, sized to fit (layout.py);
+        in a batch or a pipe printed at natural height, as a log."""
         if self.interactive:
             self.console.clear()
         size = self.console.size
         self.console.print(screen(self.session, size.width,
-                                  size.height if self.interactive else None))
+                                  size.height if self.interactive else None,
+                                  self.commands.layout))
 
     def show(self, outcome) -> None:
-        if outcome.redraw and self.commands.auto_screen:
+        if (outcome.redraw or (outcome.refresh and self.interactive)) \
+                and self.commands.auto_screen:
             self.draw()
         elif outcome.moved:
             self.console.print(where_line(self.session))
@@ -79,7 +84,19 @@ class FrontEnd:
             self.console.print(Text(line), soft_wrap=True)
 
     def interactive_loop(self) -> None:
+        """The full-screen session: the terminal's alternate screen (as gdb's TUI, less or vim:
+        the shell's scrollback is back as it was on quit), the screen redrawn in place after
+        every stop, the prompt below it."""
         _setup_readline(self.session)
+        alt = self.console.is_terminal and self.console.set_alt_screen(True)
+        try:
+            self._loop()
+        finally:
+            if alt:
+                self.console.set_alt_screen(False)
+        _save_history()
+
+    def _loop(self) -> None:
         self.draw()
         self.banner()
         old = signal.getsignal(signal.SIGINT)
@@ -103,7 +120,6 @@ class FrontEnd:
                 signal.signal(signal.SIGINT, old)
             if not going:
                 break
-        _save_history()
 
 
 def _setup_readline(session) -> None:

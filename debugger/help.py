@@ -1,48 +1,88 @@
-"""The debugger's commands: usage, help texts and aliases (`help`, tab completion, dispatch)."""
+"""The debugger's commands: usage, help texts and aliases (`help`, tab completion, dispatch).
+
+Aliases are listed once, by `help COMMAND` from ALIASES (the texts do not repeat them)."""
 
 from __future__ import annotations
 
 # name -> (usage, one line, more)
 HELP: dict[str, tuple[str, str, str]] = {
     "step": ("step [N]", "run N cycles (default 1)",
-             "Stops early at a breakpoint, a watchpoint or the end of the run. Alias: s."),
+             "Stops early at a breakpoint, a watchpoint or the end of the run."),
     "stepi": ("stepi [N]", "run until the viewed processor has issued N bundles",
-              "Cycles in which it stalls do not count. Alias: si."),
+              "Cycles in which it stalls do not count."),
     "next": ("next [N]", "like stepi, but a call counts as one bundle with its whole subroutine",
-             "Alias: n."),
-    "continue": ("continue", "run until a breakpoint, a watchpoint or the end of the run",
-                 "Ctrl-C stops it between two cycles. Alias: c."),
+             ""),
+    "continue": ("continue [N]", "run until a breakpoint, a watchpoint or the end of the run",
+                 "Ctrl-C stops it between two cycles. With N: ignore the breakpoint that "
+                 "stopped the run N-1 more times (gdb's `continue N`)."),
     "until": ("until [LOCATION]", "run until the viewed processor issues the bundle at LOCATION",
               "Without a location: until it issues a bundle after the current one (leave a "
-              "loop). Alias: u."),
+              "loop)."),
+    "finish": ("finish", "run until the viewed processor returns from the current subroutine",
+               "Stops after the `ret` that leaves the routine the processor is in (calls made "
+               "on the way return first). Not meaningful outside a subroutine (lr is 0: no "
+               "call has been made)."),
     "break": ("break LOCATION [if CONDITION]",
               "stop in the cycle the bundle at LOCATION issues (and CONDITION holds)",
               "LOCATION is a label or an address, optionally `label+N`, qualified as ic.loop or "
-              "pe1.ic.loop; unqualified it means the viewed processor on every PE. CONDITION is "
-              "an expression evaluated after that cycle, e.g. `break loop if r9 == 2 && "
-              "f:r7 < 1.5`. Alias: b."),
+              "pe1.ic.loop, or FILE:LINE (sum.s:9: the first bundle of that source line, or of "
+              "the next line with code); unqualified it means the viewed processor on every PE. "
+              "CONDITION is an expression evaluated after that cycle, e.g. `break loop if r9 == "
+              "2 && f:r7 < 1.5`."),
+    "tbreak": ("tbreak LOCATION [if CONDITION]", "a breakpoint deleted when it first stops",
+               "As break; `info breakpoints` shows it with Disp `del`."),
     "watch": ("watch REGISTER|ADDRESS",
               "stop in every cycle that writes a register or a local memory word",
               "Reports old -> new value, the cycle, and the bundle that wrote it (for a register: "
               "the op, its PC and its issue cycle). ADDRESS: local[E], a data label or a number "
               "(local memory). Views: watch f:r6 shows floats."),
-    "delete": ("delete [N]", "delete breakpoint or watchpoint N (all without N)", "Alias: d."),
-    "info": ("info break|registers|fifo|cache|stats|scoreboard|checkpoints|state",
-             "show breakpoints, all registers, FIFOs and CMU locks, cache, counters, ...",
-             "`info state` prints a digest of the machine's entire state (equal digests: equal "
-             "states). Alias: i."),
+    "rwatch": ("rwatch ADDRESS", "stop in every cycle that reads a memory word",
+               "Any memory: local[E], resident[E], icgm[E], scgm[E] (global memory: a read by "
+               "any PE). Reports the value read, the loading op and, for a global word, whether "
+               "the cache hit or missed."),
+    "awatch": ("awatch ADDRESS", "stop in every cycle that reads or writes a memory word",
+               "Reads as rwatch reports them, writes (local memory) as watch."),
+    "delete": ("delete [N...]", "delete breakpoints, watchpoints (all without N)",
+               "N may be a range: delete 2-4."),
+    "disable": ("disable [N...]", "disable breakpoints or watchpoints (all without N)",
+                "A disabled breakpoint stays in `info breakpoints` (Enb n) but never stops."),
+    "enable": ("enable [N...]", "enable breakpoints or watchpoints (all without N)", ""),
+    "condition": ("condition N [EXPRESSION]",
+                  "stop at breakpoint N only when EXPRESSION holds; without it: always",
+                  "The expression is checked when given and evaluated after the cycle the "
+                  "bundle issues in, as with break ... if."),
+    "ignore": ("ignore N COUNT", "let breakpoint N pass its next COUNT crossings",
+               "A crossing is a hit whose condition holds; ignored crossings count as hits."),
+    "display": ("display[/x|/d|/u|/f] [EXPRESSION]",
+                "print EXPRESSION now and at every stop; without it: print them all",
+                "Numbered; `undisplay N` removes one, `info display` lists them."),
+    "undisplay": ("undisplay [N...]", "stop displaying expressions (all without N)", ""),
+    "list": ("list [LOCATION|FILE:LINE|-]", "show source lines",
+             "Without an argument: around the viewed processor's PC, then the next lines on "
+             "each repeat; `list -`: the lines before. LOCATION: a label or an address (list "
+             "loop), or FILE:LINE. Marks: => the PC's line, B1 a breakpoint's."),
+    "info": ("info breakpoints|display|registers|fifo|cache|stats|scoreboard|checkpoints|state",
+             "show breakpoints, displays, all registers, FIFOs and CMU locks, cache, counters, ...",
+             "`info breakpoints` is gdb's table (Num Type Disp Enb Address What) with hit "
+             "counts. `info state` prints a digest of the machine's entire state (equal digests: "
+             "equal states)."),
     "print": ("print[/x|/d|/u|/f] EXPRESSION", "evaluate an expression",
               "Names: r5, zero, lr, pc, cycle, labels, -D symbols; memory local[E], resident[E], "
               "icgm[E], scgm[E], global[E]; another processor: ic.r5, pe1.sc.local[3]; views: "
-              "f:r5 (float), u:, x:, i:. Operators as in the assembler (C). Alias: p."),
+              "f:r5 (float), u:, x:, i:. Operators as in the assembler (C)."),
     "x": ("x/N[x|d|u|f|a] [REGION] ADDRESS", "dump N words of memory",
           "REGION: local (default), resident, icgm, scgm, global; e.g. `x/8 icgm 512`, "
           "`x/4f local[table]`. Formats: x hex (default), d signed, u unsigned, f float, a all."),
     "disassemble": ("disassemble [LOCATION]", "list the bundles from LOCATION to the next label",
-                    "Without a location: the code around the PC. Every slot is shown. "
-                    "Alias: disas."),
+                    "Without a location: the code around the PC. Every slot is shown."),
     "proc": ("proc os|ic|sc", "view another processor of the PE", ""),
     "pe": ("pe K", "view another PE", ""),
+    "layout": ("layout [auto|asm|regs|full|PANEL...]", "choose the panels of the screen",
+               "auto (default): as many panels as the terminal holds, one stop per screen "
+               "(80x24: listing and registers). asm: the listing; regs: listing and registers; "
+               "full: every panel. Or name panels: layout listing registers fifos (listing, "
+               "registers, scoreboard, fifos, memory, counters). Without an argument: the "
+               "current choice."),
     "set": ("set REGISTER=VALUE | set *ADDRESS=VALUE | set pc=LOCATION",
             "write a register, a local memory word or the PC",
             "A float value (1.5, 1.5f, or any value written to f:rN) is stored as a float, an "
@@ -51,28 +91,32 @@ HELP: dict[str, tuple[str, str, str]] = {
             "reverse steps before it undo it."),
     "reverse-step": ("reverse-step [N]", "go back N cycles (exactly: checkpoints + replay)",
                      "Not before the start of the history: cycle 0, or the cycle where "
-                     "--fast-forward handed the machine over. Alias: rs."),
+                     "--fast-forward handed the machine over."),
     "reverse-stepi": ("reverse-stepi [N]",
-                      "go back to the stop after the viewed processor's N-th previous bundle",
-                      "Alias: rsi."),
+                      "go back to the stop after the viewed processor's N-th previous bundle", ""),
     "reverse-continue": ("reverse-continue",
                          "go back to the latest earlier cycle where a breakpoint or watchpoint "
-                         "fires", "Alias: rc."),
+                         "fires", ""),
     "trace": ("trace on|off", "print a line per cycle per processor of the PE while running", ""),
     "screen": ("screen [on|off]", "draw the panels now; on/off: draw them after every stop", ""),
     "restart": ("restart", "start the run again from a freshly built machine",
                 "Breakpoints and watchpoints stay; edits are lost. After --fast-forward: back "
                 "to the state it handed over."),
     "source": ("source FILE", "run the commands in FILE", "Lines starting with # are comments."),
-    "help": ("help [COMMAND]", "list the commands, or explain one", "Alias: h."),
-    "quit": ("quit", "leave the debugger", "Also: q, exit, end of input."),
+    "help": ("help [COMMAND]", "list the commands, or explain one", ""),
+    "quit": ("quit", "leave the debugger", "Also at the end of input."),
 }
 
 ALIASES = {"s": "step", "si": "stepi", "n": "next", "c": "continue", "cont": "continue",
-           "u": "until", "b": "break", "d": "delete", "i": "info", "p": "print",
+           "u": "until", "fin": "finish", "b": "break", "tb": "tbreak", "d": "delete",
+           "dis": "disable", "en": "enable", "i": "info", "p": "print", "l": "list",
            "disas": "disassemble", "rs": "reverse-step", "rsi": "reverse-stepi",
            "rc": "reverse-continue", "h": "help", "q": "quit", "exit": "quit"}
 
-INFO_TOPICS = ("break", "registers", "fifo", "cache", "stats", "scoreboard", "checkpoints", "state")
-MOVES = ("step", "stepi", "next", "continue", "until", "reverse-step", "reverse-stepi",
+INFO_TOPICS = ("breakpoints", "display", "registers", "fifo", "cache", "stats", "scoreboard",
+               "checkpoints", "state")
+INFO_ALIASES = {"b": "breakpoints", "break": "breakpoints", "watchpoints": "breakpoints",
+                "r": "registers"}
+MOVES = ("step", "stepi", "next", "continue", "until", "finish", "reverse-step", "reverse-stepi",
          "reverse-continue", "restart")
+LAYOUTS = ("auto", "asm", "regs", "full")

@@ -35,8 +35,9 @@ from netsushisen.debugger.expressions import Context, DebugError, Place, short_w
 from netsushisen.debugger.fastforward import fast_forward
 from netsushisen.debugger.reverse import Checkpoint, Hit, ReverseExecution, Stop
 from netsushisen.debugger.state import Frozen, thaw
+from netsushisen.debugger.view import bundle_text, focus_pc
 from netsushisen.emulator.machine import CycleLimit, Machine
-from netsushisen.isa.processors import STAGES
+from netsushisen.isa.processors import LINK_REGISTER, STAGES
 
 
 class MachineFactory(Protocol):
@@ -86,22 +87,35 @@ class SceneFactory:
 
 @dataclass
 class Breakpoint:
-    number: int
+    number: int  # 0: `until`'s own temporary breakpoint (not listed)
     pe: int | None  # None: every PE
     stage: str
     address: int
     label: str
     condition: str | None = None
-    temporary: bool = False
+    temporary: bool = False  # tbreak (and until): deleted when it stops the run
     hits: int = 0
+    enabled: bool = True
+    ignore: int = 0  # crossings still to let pass (`ignore N COUNT`)
+    where: str = ""  # FILE:LINE of the bundle, for `info breakpoints`
 
-    def describe(self) -> str:
+    @property
+    def kind(self) -> str:
+        return "breakpoint"
+
+    def place_text(self) -> str:
         where = (f"pe{self.pe}." if self.pe is not None else "") + f"{self.stage} pc {self.address}"
         if self.label != str(self.address):
             where += f" ({self.label})"
+        return where
+
+    def describe(self) -> str:
         cond = f" if {self.condition}" if self.condition else ""
-        return f"breakpoint {self.number} at {where}{cond}, hit {self.hits} time" \
-               f"{'' if self.hits == 1 else 's'}"
+        what = "temporary breakpoint" if self.temporary else "breakpoint"
+        return f"{what} {self.number} at {self.place_text()}{cond}"
+
+
+WATCH_TYPES = {"watch": "watchpoint", "rwatch": "read watchpoint", "awatch": "acc watchpoint"}
 
 
 @dataclass
@@ -109,10 +123,29 @@ class Watchpoint:
     number: int
     place: Place
     hits: int = 0
+    kind: str = "watch"  # watch (writes), rwatch (reads), awatch (both)
+    enabled: bool = True
+    condition: str | None = None
+    ignore: int = 0
+
+    @property
+    def reads(self) -> bool:
+        return self.kind in ("rwatch", "awatch")
+
+    @property
+    def writes(self) -> bool:
+        return self.kind in ("watch", "awatch")
 
     def describe(self) -> str:
-        return (f"watchpoint {self.number} on {self.place.name(qualify=True)}, hit {self.hits} "
-                f"time{'' if self.hits == 1 else 's'}")
+        return f"{WATCH_TYPES[self.kind]} {self.number} on {self.place.name(qualify=True)}"
+
+
+def read_key(place: Place, core_name: str) -> tuple:
+    """What identifies a memory word's reads: a global word is read by any PE, a local or
+    resident word by its own processor."""
+    if place.region in ("icgm", "scgm"):
+        return (place.region, place.index)
+    return (place.region, core_name, place.index)
 
 
 END_TEXT = {"halted": "every processor halted", "finished": "quiescent: nothing left to do",
@@ -132,6 +165,7 @@ class Session(ReverseExecution):
         self.breakpoints: dict[int, Breakpoint] = {}
         self.watchpoints: dict[int, Watchpoint] = {}
         self._next_number = 1
+        self.last_hits: list[int] = []  # the breakpoints that stopped the last movement
         self.interrupt = False  # set by a signal handler: stop between cycles
         self.trace_out: Callable[[str], None] | None = None  # `trace on`: one line per cycle
         self.fast_forward = fast_forward  # `--fast-forward` target text, or None
@@ -240,19 +274,22 @@ class Session(ReverseExecution):
         return n
 
     def add_breakpoint(self, location: str, condition: str | None = None,
-                       temporary: bool = False) -> Breakpoint:
+                       temporary: bool = False, until: bool = False) -> Breakpoint:
         ctx = self.context()
         pe, stage, addr = ctx.location(location)
         if condition:
             Context(self.machine, self.pe if pe is None else pe, stage).value(condition)
-        label = self.machine.programs[stage].label_at(addr)
-        bp = Breakpoint(0 if temporary else self._number(), pe, stage, addr, label,
-                        condition or None, temporary)
-        if not temporary:
+        program = self.machine.programs[stage]
+        label = program.label_at(addr)
+        smap = program.source_map
+        where = f"{smap[addr].file}:{smap[addr].line}" if addr < len(smap) else ""
+        bp = Breakpoint(0 if until else self._number(), pe, stage, addr, label,
+                        condition or None, temporary or until, where=where)
+        if not until:
             self.breakpoints[bp.number] = bp
         return bp
 
-    def add_watchpoint(self, text: str) -> Watchpoint:
+    def add_watchpoint(self, text: str, kind: str = "watch") -> Watchpoint:
         ctx = self.context()
         place = ctx.place(text)
         if place is None:
@@ -260,15 +297,32 @@ class Session(ReverseExecution):
                 place = ctx.memory_ref(text)
             except DebugError:
                 place = None
-        if place is None or place.kind == "pc":
+        if kind != "watch":
+            if place is None or place.kind != "mem":
+                raise DebugError(f"{kind} takes a memory word (local[E], resident[E], icgm[E], "
+                                 f"scgm[E], a data label), not {text!r}: registers are read by "
+                                 "almost every bundle")
+        elif place is None or place.kind == "pc":
             raise DebugError(f"watch takes a register or a local memory word, not {text!r}")
         if place.kind == "reg" and place.index == 0:
             raise DebugError("r0 is never written")
-        if place.kind == "mem" and place.region != "local":
-            raise DebugError(f"{place.region} memory is read-only during a run: nothing writes it")
-        wp = Watchpoint(self._number(), place)
+        if kind == "watch" and place.kind == "mem" and place.region != "local":
+            raise DebugError(f"{place.region} memory is read-only during a run: nothing writes "
+                             f"it (rwatch {text} stops where it is read)")
+        wp = Watchpoint(self._number(), place, kind=kind)
         self.watchpoints[wp.number] = wp
         return wp
+
+    def item(self, number: int) -> Breakpoint | Watchpoint:
+        found = self.breakpoints.get(number) or self.watchpoints.get(number)
+        if found is None:
+            raise DebugError(f"no breakpoint or watchpoint {number}")
+        return found
+
+    def items(self) -> list[Breakpoint | Watchpoint]:
+        """Breakpoints and watchpoints in number order (`info breakpoints`)."""
+        both = [*self.breakpoints.values(), *self.watchpoints.values()]
+        return sorted(both, key=lambda b: b.number)
 
     def delete(self, number: int | None = None) -> int:
         if number is None:
@@ -284,18 +338,44 @@ class Session(ReverseExecution):
             raise DebugError(f"no breakpoint or watchpoint {number}")
         return 1
 
+    def set_enabled(self, numbers: list[int] | None, on: bool) -> int:
+        """`enable`/`disable` N... (every one without numbers); how many changed state."""
+        chosen = self.items() if numbers is None else [self.item(n) for n in numbers]
+        changed = sum(1 for b in chosen if b.enabled != on)
+        for b in chosen:
+            b.enabled = on
+        return changed
+
+    def set_condition(self, number: int, condition: str | None) -> Breakpoint | Watchpoint:
+        b = self.item(number)
+        if condition:
+            if isinstance(b, Breakpoint):
+                Context(self.machine, self.pe if b.pe is None else b.pe, b.stage).value(condition)
+            else:
+                Context(self.machine, b.place.pe, b.place.stage).value(condition)
+        b.condition = condition or None
+        return b
+
+    def set_ignore(self, number: int, count: int) -> Breakpoint | Watchpoint:
+        if count < 0:
+            raise DebugError("ignore takes a count of 0 or more")
+        b = self.item(number)
+        b.ignore = count
+        return b
+
     # -- one cycle ---------------------------------------------------------------------------
 
     def _index(self, temp: list[Breakpoint] = ()) -> dict[tuple[str, int], list[Breakpoint]]:
-        """Breakpoints by (stage, address), for the per-cycle check."""
+        """Enabled breakpoints by (stage, address), for the per-cycle check."""
         index: dict[tuple[str, int], list[Breakpoint]] = {}
         for bp in [*self.breakpoints.values(), *temp]:
-            index.setdefault((bp.stage, bp.address), []).append(bp)
+            if bp.enabled:
+                index.setdefault((bp.stage, bp.address), []).append(bp)
         return index
 
     def _cycle(self, index: dict | None = None, replay: bool = False) -> list[Hit]:
         """Run one cycle (taking a checkpoint first when due); the breakpoints and watchpoints
-        it fires."""
+        that fired in it."""
         m = self.machine
         c = m.cycle
         if c % self.interval == 0 and c not in self.checkpoints:
@@ -306,7 +386,7 @@ class Session(ReverseExecution):
             m.error = CycleLimit(f"cycle limit reached: {limit} cycles (max_cycles); the run did "
                                  "not end")
             return []
-        watches = list(self.watchpoints.values())
+        watches = [w for w in self.watchpoints.values() if w.enabled]
         old = {}
         if watches:
             ctx = self.context()
@@ -315,6 +395,7 @@ class Session(ReverseExecution):
         m.step()
         hits: list[Hit] = []
         written: dict[tuple, int] = {}
+        read: dict[tuple, tuple] = {}  # read_key -> (core, hit: True/False/None for a cache)
         for pe in m.pes:
             for core in pe.active:
                 aux = self.aux[core.name]
@@ -328,10 +409,15 @@ class Session(ReverseExecution):
                             written[("mem", core.name, e[3])] = e[4]
                         elif e[2] == "global":  # ("load", core, space, address, cache set)
                             misses = pe.memories[core.proc.name].cache.misses
-                            aux["ldg"] = (e[3], e[4], misses == aux.get("misses", 0), c)
+                            hit = misses == aux.get("misses", 0)
+                            aux["ldg"] = (e[3], e[4], hit, c)
                             aux["misses"] = misses
-                        elif e[2] == "resident":
-                            aux["ldr"] = (e[3], c)
+                            region = "icgm" if core.proc.name == "ic" else "scgm"
+                            read[(region, e[3])] = (core, hit)
+                        else:
+                            if e[2] == "resident":
+                                aux["ldr"] = (e[3], c)
+                            read[(e[2], core.name, e[3])] = (core, None)
                     ev.clear()
                 if core.last_issued:
                     pc = core.last_pc
@@ -344,7 +430,7 @@ class Session(ReverseExecution):
                             if hit is not None:
                                 hits.append(hit)
         if watches:
-            hits += self._check_watches(watches, old, written, c, replay)
+            hits += self._check_watches(watches, old, written, read, c, replay)
         edit = self.checkpoints.get(m.cycle)
         if edit is not None and edit.pinned:  # an edit made at this point of the history
             self._restore_before(m.cycle)
@@ -352,25 +438,40 @@ class Session(ReverseExecution):
             self._trace(c)
         return hits
 
+    def _passes(self, b: Breakpoint | Watchpoint, ctx: Context, replay: bool) -> str | bool:
+        """Whether a crossing of `b` stops: its condition holds (an error in it stops, with the
+        error's text), and it is not one of the crossings `ignore` lets pass. A crossing counts
+        as a hit either way (gdb); replays (reverse execution) neither count nor ignore."""
+        if b.condition:
+            try:
+                ok = ctx.value(b.condition)
+            except DebugError as err:
+                return f"error in condition {b.condition!r}: {err}"
+            if not ok:
+                return False
+        if replay:
+            return True
+        b.hits += 1
+        if b.ignore > 0:
+            b.ignore -= 1
+            return False
+        return True
+
     def _check_breakpoint(self, bp: Breakpoint, pe: int, core, c: int, replay: bool) -> Hit | None:
         if bp.pe is not None and bp.pe != pe:
             return None
-        if bp.condition:
-            try:
-                ok = Context(self.machine, pe, bp.stage).value(bp.condition)
-            except DebugError as err:
-                return Hit(c, pe, bp.stage, f"breakpoint {bp.number}: error in condition "
-                           f"{bp.condition!r}: {err}", bp.number)
-            if not ok:
-                return None
-        if not replay:
-            bp.hits += 1
-        what = "until" if bp.temporary else f"breakpoint {bp.number}"
+        ok = self._passes(bp, Context(self.machine, pe, bp.stage), replay)
+        if ok is False:
+            return None
+        what = ("until" if bp.number == 0 else
+                f"{'temporary ' if bp.temporary else ''}breakpoint {bp.number}")
+        if isinstance(ok, str):
+            return Hit(c, pe, bp.stage, f"{what}: {ok}", bp.number)
         cond = f" [{bp.condition}]" if bp.condition else ""
         return Hit(c, pe, bp.stage, f"{what}: pe{pe}.{bp.stage} issued pc {bp.address} "
                    f"({core.label(bp.address)}) in cycle {c}{cond}", bp.number)
 
-    def _check_watches(self, watches, old, written, c: int, replay: bool) -> list[Hit]:
+    def _check_watches(self, watches, old, written, read, c: int, replay: bool) -> list[Hit]:
         m = self.machine
         hits = []
         ctx = self.context()
@@ -378,20 +479,35 @@ class Session(ReverseExecution):
             p = w.place
             core = m.pes[p.pe].cores[p.stage]
             key = (p.kind, core.name, p.index)
-            if key in written:
+            name = p.name(qualify=True)
+            rkey = read_key(p, core.name) if p.kind == "mem" else None
+            if w.writes and key in written:
                 new = written[key]
-                how = self._write_origin(core, p, c)
-            elif m.status is not None and ctx.read_word(p) != old[w.number]:
+                text = (f"{self._show(core, p, old[w.number])} -> {self._show(core, p, new)} in "
+                        f"cycle {c} ({self._write_origin(core, p, c)})")
+            elif w.writes and m.status is not None and ctx.read_word(p) != old[w.number]:
                 new = ctx.read_word(p)  # a result in flight written when the run ended
-                how = "a result in flight, written when the run ended"
+                text = (f"{self._show(core, p, old[w.number])} -> {self._show(core, p, new)} in "
+                        f"cycle {c} (a result in flight, written when the run ended)")
+            elif w.reads and rkey in read:
+                reader, cache_hit = read[rkey]
+                value = self._show(core, p, old[w.number])
+                pc = reader.last_pc
+                ops = [op.mnemonic for op in reader.program.bundles[pc]
+                       if op.opcode.kind == "load"]
+                by = f"{ops[0] if ops else 'load'} at {reader.name} pc {pc} ({reader.label(pc)})"
+                cache = "" if cache_hit is None else f", cache {'hit' if cache_hit else 'miss'}"
+                text = f"read {value} in cycle {c} ({by}{cache})"
             else:
                 continue
-            if not replay:
-                w.hits += 1
-            before = self._show(core, p, old[w.number])
-            after = self._show(core, p, new)
-            hits.append(Hit(c, p.pe, p.stage, f"watchpoint {w.number}: {p.name(qualify=True)}: "
-                            f"{before} -> {after} in cycle {c} ({how})", w.number))
+            ok = self._passes(w, Context(m, p.pe, p.stage), replay)
+            if ok is False:
+                continue
+            what = f"{WATCH_TYPES[w.kind]} {w.number}"
+            if isinstance(ok, str):
+                hits.append(Hit(c, p.pe, p.stage, f"{what}: {ok}", w.number))
+            else:
+                hits.append(Hit(c, p.pe, p.stage, f"{what}: {name}: {text}", w.number))
         return hits
 
     @staticmethod
@@ -419,8 +535,7 @@ class Session(ReverseExecution):
             if not core.present:
                 continue
             if core.last_issued:
-                labels = core.program.code_labels()
-                what = " ; ".join(op.format(labels) for op in core.program.bundles[core.last_pc])
+                what = bundle_text(core.program, core.last_pc)
             elif core.halted:
                 continue
             else:
@@ -439,6 +554,7 @@ class Session(ReverseExecution):
             return Stop([self.end_message() + "; nothing more to run (reverse-step, restart "
                          "or inspect)"], ended=True)
         self.interrupt = False
+        self.last_hits = []
         n = 0
         stop = Stop(moved=True)
         index = self._index(temp)
@@ -446,6 +562,8 @@ class Session(ReverseExecution):
             hits = self._cycle(index)
             n += 1
             c = m.cycle - 1
+            self._retire_temporary(hits)
+            self.last_hits = [h.number for h in hits if h.number]
             if m.status is not None:
                 stop.hits = hits
                 stop.messages = [h.message for h in hits] + self.end_report()
@@ -465,6 +583,13 @@ class Session(ReverseExecution):
                 self.interrupt = False
                 stop.messages = [f"interrupted after cycle {c}"]
                 return stop
+
+    def _retire_temporary(self, hits: list[Hit]) -> None:
+        """A tbreak that stopped the run is deleted (gdb: `Disp del`)."""
+        for h in hits:
+            bp = self.breakpoints.get(h.number)
+            if bp is not None and bp.temporary:
+                del self.breakpoints[h.number]
 
     def step(self, n: int = 1) -> Stop:
         if n < 1:
@@ -504,14 +629,62 @@ class Session(ReverseExecution):
             stop.messages.append(f"pe{pe}.{stage} halted")
         return stop
 
-    def cont(self) -> Stop:
+    def cont(self, times: int = 1) -> Stop:
+        """`continue`; `continue N` first sets the ignore count of the breakpoint the run
+        stopped at to N-1, as gdb does."""
+        if times > 1:
+            if not self.last_hits:
+                raise DebugError("continue N: the run did not stop at a breakpoint")
+            b = self.item(self.last_hits[0])
+            b.ignore = times - 1
+            stop = self.advance()
+            stop.messages.insert(0, f"will ignore next {times - 1} crossings of "
+                                    f"{'breakpoint' if isinstance(b, Breakpoint) else b.kind} "
+                                    f"{b.number}")
+            return stop
         return self.advance()
+
+    def finish(self) -> Stop:
+        """Run until the viewed processor issues the `ret` that leaves its current subroutine:
+        calls made on the way nest, and their returns do not count."""
+        pe, stage = self.pe, self.stage
+        core = self.core
+        if not core.present:
+            raise DebugError(f"pe{pe}.{stage} has no program")
+        if core.regs[LINK_REGISTER] == 0:
+            raise DebugError('"finish" not meaningful in the outermost frame: lr is 0, no call '
+                             "has been made")
+        start = core.label(focus_pc(core))
+        depth = [0]
+
+        def done(c: int) -> bool:
+            core = self.machine.pes[pe].cores[stage]
+            if not core.last_issued:
+                return False
+            for op in core.program.bundles[core.last_pc]:
+                if op.mnemonic == "call":
+                    depth[0] += 1
+                elif op.mnemonic == "ret":
+                    if depth[0] == 0:
+                        return True
+                    depth[0] -= 1
+            return False
+
+        stop = self.advance(done)
+        core = self.core
+        stop.messages.insert(0, f"run till exit from pc {start}")
+        if not stop.hits and not stop.ended and (pe, stage) == (self.pe, self.stage):
+            ret = core.last_pc
+            stop.messages.append(f"finish: pe{pe}.{stage} returned: ret at pc {ret} "
+                                 f"({core.label(ret)}) in cycle {self.machine.cycle - 1}, back "
+                                 f"to pc {core.pc} ({core.label(core.pc)})")
+        return stop
 
     def until(self, location: str | None = None) -> Stop:
         """Run until the viewed processor issues the bundle at `location` (a temporary
         breakpoint); without one, until it issues a bundle past the current one (out of a loop)."""
         if location:
-            bp = self.add_breakpoint(location, temporary=True)
+            bp = self.add_breakpoint(location, until=True)
             return self.advance(temp=[bp])
         pe, stage = self.pe, self.stage
         here = self.core.last_pc

@@ -5,7 +5,7 @@ panels come out as plain text, with markers standing in for colour:
     =>  the bundle the viewed processor issued in the last cycle
     !>  the bundle it stalled on in the last cycle (the stall's PC)
     ->  its PC (the next bundle to issue)
-    B1  breakpoint 1 is on this bundle
+    B1  breakpoint 1 is on this bundle (T2: temporary breakpoint 2; b1, t2: disabled)
     *   a register changed since the previous stop
     ~   a register with a result in flight (the scoreboard panel says when it lands)
 """
@@ -14,12 +14,13 @@ from __future__ import annotations
 
 from rich import box
 from rich.console import Group, RenderableType
+from rich.measure import Measurement
 from rich.panel import Panel
 from rich.table import Table
 from rich.text import Text
 
-from netsushisen.asm.listing import slot_assignment
-from netsushisen.debugger.expressions import hex_word
+from netsushisen.asm.listing import slot_assignment, target_names
+from netsushisen.debugger.expressions import hex_word, looks_float
 from netsushisen.isa.words import wrap32
 
 ISSUED = "bold black on green"
@@ -29,8 +30,10 @@ PENDING = "cyan"
 DIM = "dim"
 
 
-def _panel(body: RenderableType, title: str) -> Panel:
-    return Panel(body, title=title, title_align="left", box=box.ROUNDED, padding=(0, 1))
+def _panel(body: RenderableType, title: str, height: int | None = None) -> Panel:
+    """A titled panel; with `height`, exactly that many lines (the fixed-layout screen)."""
+    return Panel(body, title=title, title_align="left", box=box.ROUNDED, padding=(0, 1),
+                 height=height)
 
 
 def _float_text(core, word: int) -> str:
@@ -63,19 +66,27 @@ def describe_core(core) -> str:
 
 
 def header(session) -> RenderableType:
+    """The cycle and status, then one line per processor of the PE that has a program (and the
+    viewed one, `*`): what it did in the last cycle."""
     m = session.machine
     status = m.status or "running"
     last = f"last cycle {m.cycle - 1}" if m.cycle else "before cycle 0"
     title = Text.assemble(("netsushisen debug", "bold"), f"  pe{session.pe}.{session.stage}  ",
                           (f"{last} ({m.cycle} cycles run)", "bold"), f"  status {status}")
-    t = Table(box=None, show_header=False, pad_edge=False, padding=(0, 1))
-    t.add_column(no_wrap=True)
-    t.add_column()
+    title.no_wrap, title.overflow = True, "ellipsis"
+    lines: list[RenderableType] = [title]
     for stage, core in m.pes[session.pe].cores.items():
+        if not core.present and stage != session.stage:
+            continue
         mark = "*" if stage == session.stage else " "
-        style = "bold" if stage == session.stage else ""
-        t.add_row(Text(f"{mark}{stage.upper()}", style=style), describe_core(core))
-    return Group(title, t)
+        lines.append(Text.assemble((f"{mark}{stage.upper()}", "bold" if mark == "*" else ""),
+                                   "  " + describe_core(core), no_wrap=True, overflow="ellipsis"))
+    return Group(*lines)
+
+
+def header_height(session) -> int:
+    cores = session.machine.pes[session.pe].cores
+    return 1 + sum(1 for s, c in cores.items() if c.present or s == session.stage)
 
 
 def where_line(session) -> Text:
@@ -90,8 +101,20 @@ def where_line(session) -> Text:
 
 
 def bundle_text(program, pc: int) -> str:
-    labels = program.code_labels()
+    labels = targets(program)
     return " ; ".join(op.format(labels) for op in program.bundles[pc]) or "nop"
+
+
+_TARGETS: dict[int, tuple[object, dict[int, str]]] = {}
+
+
+def targets(program) -> dict[int, str]:
+    """`asm.listing.target_names` of a program, computed once per program: branch targets
+    print as `loop` or `loop+4`, never as bare addresses when a label precedes them."""
+    hit = _TARGETS.get(id(program))
+    if hit is None or hit[0] is not program:
+        hit = _TARGETS[id(program)] = (program, target_names(program))
+    return hit[1]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -99,7 +122,7 @@ def bundle_text(program, pc: int) -> str:
 
 
 def bundle_cells(program, pc: int) -> list[str]:
-    labels = program.code_labels()
+    labels = targets(program)
     bundle = program.bundles[pc]
     if program.processor.vliw:
         return [op.format(labels) if op else "-" for _, op in slot_assignment(program, bundle)]
@@ -107,45 +130,112 @@ def bundle_cells(program, pc: int) -> list[str]:
 
 
 def slot_names(program) -> list[str]:
-    if not program.bundles:
-        return []
-    return [name for name, _ in slot_assignment(program, ())] if program.processor.vliw \
-        else ["gen0"]
+    """Every issue slot of the processor (IC: int0 fp0 fp1 fp2), the listing's columns."""
+    if not program.processor.vliw:
+        return ["gen0"]
+    return [name for name, _ in slot_assignment(program, ())]
 
 
-def listing_table(session, core, start: int, end: int, focus: bool = True) -> Table:
-    program = core.program
-    t = Table(box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 1), show_edge=False)
-    t.add_column("", no_wrap=True)
-    t.add_column("addr", justify="right", no_wrap=True)
-    t.add_column("label", no_wrap=True, max_width=14)
-    for name in slot_names(program):
-        t.add_column(name, no_wrap=True, overflow="ellipsis")
-    bps: dict[int, list[int]] = {}
-    pe = session.pe
+def breakpoint_marks(session, core) -> dict[int, str]:
+    """Address -> `B1`, `B1,T3` (T: a temporary breakpoint), lower case when disabled."""
+    marks: dict[int, list[str]] = {}
     for bp in session.breakpoints.values():
-        if bp.stage == core.proc.name and bp.pe in (None, pe):
-            bps.setdefault(bp.address, []).append(bp.number)
-    by_addr: dict[int, str] = {}
-    for name, (section, addr) in sorted(program.labels.items()):
-        if section == "text":
-            by_addr.setdefault(addr, name)
-    issued = core.last_pc if (focus and core.last_issued) else None
-    stalled = core.last_pc if (focus and not core.last_issued and core.cause
-                               and not core.halted) else None
-    for pc in range(start, end):
-        mark = "  "
-        style = ""
-        if pc == issued:
-            mark, style = "=>", ISSUED
-        elif pc == stalled:
-            mark, style = "!>", STALLED
-        elif focus and pc == core.pc and not core.halted:
-            mark = "->"
-        bp = ",".join(f"B{n}" for n in bps.get(pc, []))
-        t.add_row(Text(f"{mark}{bp}", style=style), str(pc), by_addr.get(pc, ""),
-                  *bundle_cells(program, pc), style=style or None)
-    return t
+        if bp.stage == core.proc.name and bp.pe in (None, session.pe):
+            letter = "T" if bp.temporary else "B"
+            marks.setdefault(bp.address, []).append(
+                (letter if bp.enabled else letter.lower()) + str(bp.number))
+    return {a: ",".join(m) for a, m in marks.items()}
+
+
+def fit(text: str, width: int) -> str:
+    """`text` in at most `width` characters, cut with an ellipsis (operands are abbreviated,
+    never the columns that orient the reader)."""
+    if len(text) <= width:
+        return text
+    return text[:max(width - 1, 0)] + "…" if width > 0 else ""
+
+
+def share_widths(natural: list[int], room: int, least: int = 3) -> list[int]:
+    """Column widths that fit `room`: every column its natural width when they all fit, else
+    the narrow ones keep theirs and the wide ones share what is left equally (never below
+    `least`: a slot's name, `fp2`, stays readable)."""
+    if sum(natural) <= room:
+        return list(natural)
+    widths = [0] * len(natural)
+    left = room
+    order = sorted(range(len(natural)), key=lambda i: natural[i])
+    for k, i in enumerate(order):
+        share = left // (len(natural) - k)
+        widths[i] = max(least, min(natural[i], share))
+        left -= widths[i]
+    return widths
+
+
+class Listing:
+    """Bundles `start..end-1` of a processor as fixed columns: marker (`=>`, `!>`, `->`, then
+    breakpoint marks), address, label, and one column per issue slot. It lays itself out for
+    the width it is given: the marker, address and label columns keep their full width, every
+    slot column stays, and only the operands are cut (`…`)."""
+
+    LABEL_MAX = 16
+
+    def __init__(self, session, core, start: int, end: int, focus: bool = True):
+        self.session, self.core, self.start, self.end, self.focus = session, core, start, end, focus
+
+    def rows(self) -> list[tuple[str, str, str, list[str], str]]:
+        core, program = self.core, self.core.program
+        bps = breakpoint_marks(self.session, core)
+        by_addr = program.code_labels()
+        focus = self.focus
+        issued = core.last_pc if (focus and core.last_issued) else None
+        stalled = core.last_pc if (focus and not core.last_issued and core.cause
+                                   and not core.halted) else None
+        out = []
+        for pc in range(self.start, self.end):
+            mark, style = "", ""
+            if pc == issued:
+                mark, style = "=>", ISSUED
+            elif pc == stalled:
+                mark, style = "!>", STALLED
+            elif focus and pc == core.pc and not core.halted:
+                mark = "->"
+            mark = (mark or "  ") + bps.get(pc, "")
+            out.append((mark.rstrip(), str(pc), by_addr.get(pc, ""), bundle_cells(program, pc),
+                        style))
+        return out
+
+    def lines(self, width: int) -> list[Text]:
+        rows = self.rows()
+        names = slot_names(self.core.program)
+        mark_w = max([2] + [len(r[0]) for r in rows])
+        addr_w = max([4] + [len(r[1]) for r in rows])
+        label_w = min(self.LABEL_MAX, max([5] + [len(r[2]) for r in rows]))
+        fixed = mark_w + 1 + addr_w + 1 + label_w + 1
+        natural = [max([len(n)] + [len(r[3][i]) for r in rows]) for i, n in enumerate(names)]
+        gap = 2 if sum(natural) + 2 * (len(names) - 1) <= width - fixed else 1
+        room = width - fixed - gap * (len(names) - 1)
+        widths = share_widths(natural, room)
+        if sum(widths) > room:  # very narrow: the label gives way before the slots do
+            label_w = max(5, label_w - (sum(widths) - room))
+
+        def line(mark, addr, label, cells):
+            text = (f"{mark:<{mark_w}} {addr:>{addr_w}} {fit(label, label_w):<{label_w}} "
+                    + (" " * gap).join(f"{fit(c, w):<{w}}" for c, w in zip(cells, widths)))
+            return text.rstrip()
+
+        out = [Text(line("", "addr", "label", names), style="bold", no_wrap=True,
+                    overflow="crop")]
+        for mark, addr, label, cells, style in rows:
+            out.append(Text(line(mark, addr, label, cells), style=style, no_wrap=True,
+                            overflow="crop"))
+        return out
+
+    def __rich_console__(self, console, options):
+        yield from self.lines(options.max_width)
+
+    def __rich_measure__(self, console, options):
+        widest = max((len(t.plain) for t in self.lines(10_000)), default=1)
+        return Measurement(min(widest, 30), widest)
 
 
 def focus_pc(core) -> int:
@@ -154,24 +244,29 @@ def focus_pc(core) -> int:
     return core.pc
 
 
-def listing_panel(session, rows: int = 11) -> Panel:
-    core = session.core
-    title = f"listing pe{session.pe}.{session.stage}"
-    if not core.present:
-        return _panel(Text("(no program on this processor)"), title)
+def listing_window(core, rows: int) -> tuple[int, int]:
+    """The bundles a listing of `rows` rows shows: the focus a third of the way down."""
     n = len(core.bundles)
     focus = min(focus_pc(core), n - 1)
     start = max(0, min(focus - rows // 3, n - rows))
-    end = min(n, start + rows)
-    t = listing_table(session, core, start, end)
-    parts: list[RenderableType] = [t]
+    return start, min(n, start + rows)
+
+
+def listing_panel(session, rows: int = 11, height: int | None = None) -> Panel:
+    core = session.core
+    title = f"listing pe{session.pe}.{session.stage}"
+    if not core.present:
+        return _panel(Text("(no program on this processor)"), title, height)
+    start, end = listing_window(core, rows)
+    parts: list[RenderableType] = [Listing(session, core, start, end)]
     smap = core.program.source_map
+    focus = min(focus_pc(core), len(core.bundles) - 1)
     if focus < len(smap):
         loc = smap[focus]
         parts.append(Text(f"{loc.file}:{loc.line}: {loc.text.strip()}", style=DIM,
                           overflow="ellipsis", no_wrap=True))
-    legend = "=> issued  !> stalled  -> next"
-    return _panel(Group(*parts), f"{title}  ({legend})")
+    legend = "=> issued  !> stalled  -> next  B1 breakpoint"
+    return _panel(Group(*parts), f"{title}  ({legend})", height)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -214,16 +309,62 @@ def registers_table(session, core, regs: list[int]) -> Table:
     return t
 
 
-def registers_panel(session, rows: int = 11) -> Panel:
+def registers_panel(session, rows: int = 11, height: int | None = None) -> Panel:
     core = session.core
     regs, left = register_rows(session, core, rows)
     title = f"registers pe{session.pe}.{session.stage}  (* changed, ~ in flight)"
     if not regs:
-        return _panel(Text("all registers are 0"), title)
+        return _panel(Text("all registers are 0"), title, height)
     parts: list[RenderableType] = [registers_table(session, core, regs)]
     if left:
         parts.append(Text(f"... {left} more non-zero (info registers)", style=DIM))
-    return _panel(Group(*parts), title)
+    return _panel(Group(*parts), title, height)
+
+
+class RegisterCells:
+    """Registers packed as `*r9 3  ~r2 0.0  r1 1.5` cells, as many per line as the width
+    holds, on at most `lines` lines: the small screen's registers (the same choice and marks
+    as the table: changed, in flight, non-zero)."""
+
+    def __init__(self, session, core, lines: int):
+        self.session, self.core, self.lines = session, core, lines
+
+    def cells(self, regs: list[int]) -> list[tuple[str, str]]:
+        core = self.core
+        prev = self.session.previous_regs.get(core.name, core.regs)
+        flying = in_flight(core)
+        out = []
+        for r in regs:
+            w = core.regs[r]
+            changed = w != prev[r]
+            mark = "*" if changed else "~" if r in flying else " "
+            value = _float_text(core, w) if looks_float(core, w) else str(wrap32(w))
+            out.append((f"{mark}{_reg_name(r)} {value}",
+                        CHANGED if changed else PENDING if r in flying else ""))
+        return out
+
+    def __rich_console__(self, console, options):
+        width = options.max_width
+        regs, _ = register_rows(self.session, self.core, None)
+        if not regs:
+            yield Text("all registers are 0", style=DIM)
+            return
+        cells = self.cells(regs)
+        cell_w = min(max(len(c) for c, _ in cells) + 2, max(width, 1))
+        per_line = max(1, width // cell_w)
+        room = per_line * self.lines
+        if len(cells) > room:  # the last cell says how many more
+            cells = cells[:room - 1] + [(f"+{len(cells) - room + 1} more", DIM)]
+        for i in range(0, len(cells), per_line):
+            line = Text(no_wrap=True, overflow="crop")
+            for text, style in cells[i:i + per_line]:
+                line.append(f"{fit(text, cell_w - 2):<{cell_w}}", style=style or None)
+            yield line
+
+
+def register_cells_panel(session, lines: int, height: int | None = None) -> Panel:
+    title = f"registers pe{session.pe}.{session.stage}  (* changed, ~ in flight)"
+    return _panel(RegisterCells(session, session.core, lines), title, height)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -231,20 +372,23 @@ def registers_panel(session, rows: int = 11) -> Panel:
 
 
 def scoreboard_table(session, core) -> Table | None:
-    """Results in flight: register, producing op and PC, the cycle it is written, the value."""
+    """Results in flight: register, producing op and PC, the cycle it is written, the value
+    (as a float when the word looks like one, else as an integer: one column, so the table
+    fits a third of a screen)."""
     origin = session.aux.get(core.name, {}).get("origin", {})
     rows = []
     for t in sorted(core.pending):
         for r, w in core.pending[t]:
             src = origin.get(r)
             by = f"{core.producer[r]} pc {src[0]}" if src else core.producer[r]
-            rows.append((_reg_name(r), by, str(t), str(wrap32(w)), _float_text(core, w)))
+            value = _float_text(core, w) if looks_float(core, w) else str(wrap32(w))
+            rows.append((_reg_name(r), by, str(t), value))
     if not rows:
         return None
     tab = Table(box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 1), show_edge=False)
-    for col in ("reg", "from", "ready", "int", "float"):
-        tab.add_column(col, no_wrap=True, justify="right" if col in ("ready", "int", "float")
-                       else "left")
+    for col in ("reg", "from", "ready", "value"):
+        tab.add_column(col, no_wrap=True, justify="right" if col in ("ready", "value")
+                       else "left", overflow="ellipsis")
     for row in rows:
         tab.add_row(*row, style=PENDING)
     return tab
@@ -267,10 +411,10 @@ def scoreboard_lines(session, core) -> list[RenderableType]:
     return out
 
 
-def scoreboard_panel(session) -> Panel:
+def scoreboard_panel(session, height: int | None = None) -> Panel:
     lines = scoreboard_lines(session, session.core)
     return _panel(Group(*lines) if lines else Text("nothing pending", style=DIM),
-                  f"scoreboard pe{session.pe}.{session.stage}")
+                  f"scoreboard pe{session.pe}.{session.stage}", height)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -305,8 +449,8 @@ def fifo_table(session, all_fifos: bool = False, head: bool = True) -> Table:
     return t
 
 
-def fifo_panel(session) -> Panel:
-    return _panel(fifo_table(session, head=False), f"fifos pe{session.pe}")
+def fifo_panel(session, height: int | None = None) -> Panel:
+    return _panel(fifo_table(session, head=False), f"fifos pe{session.pe}", height)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -340,10 +484,10 @@ def memory_lines(session, core) -> list[str]:
     return lines
 
 
-def memory_panel(session) -> Panel:
+def memory_panel(session, height: int | None = None) -> Panel:
     core = session.core
-    return _panel(Text("\n".join(memory_lines(session, core))),
-                  f"memory pe{session.pe}.{session.stage}")
+    return _panel(Text("\n".join(memory_lines(session, core)), no_wrap=True, overflow="ellipsis"),
+                  f"memory pe{session.pe}.{session.stage}", height)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -362,44 +506,6 @@ def counter_lines(session, core) -> list[str]:
     return lines
 
 
-def counters_panel(session) -> Panel:
-    return _panel(Text("\n".join(counter_lines(session, session.core))),
-                  f"counters pe{session.pe}.{session.stage}")
-
-
-# ---------------------------------------------------------------------------------------------
-# The whole screen
-
-
-def screen(session, width: int, height: int | None = None) -> RenderableType:
-    rows = 11
-    if height:  # fit the terminal: the listing and registers take what the rest leaves
-        rows = max(5, min(24, height - 30))
-    top = [header(session)]
-    listing = listing_panel(session, rows)
-    regs = registers_panel(session, rows + 1)
-    lower = [scoreboard_panel(session), fifo_panel(session), memory_panel(session),
-             counters_panel(session)]
-    if width >= 150:
-        g1 = Table.grid(expand=True)
-        g1.add_column(ratio=3)
-        g1.add_column(ratio=2)
-        g1.add_row(listing, regs)
-        g2 = Table.grid(expand=True)
-        g2.add_column(ratio=4)
-        g2.add_column(ratio=3)
-        g2.add_column(ratio=3)
-        g2.add_row(lower[0], lower[1], Group(lower[2], lower[3]))
-        return Group(*top, g1, g2)
-    g2 = Table.grid(expand=True)
-    g2.add_column(ratio=1)
-    g2.add_column(ratio=1)
-    g2.add_row(lower[0], lower[1])
-    g2.add_row(lower[2], lower[3])
-    if width >= 110:
-        g1 = Table.grid(expand=True)
-        g1.add_column(ratio=3)
-        g1.add_column(ratio=2)
-        g1.add_row(listing, regs)
-        return Group(*top, g1, g2)
-    return Group(*top, listing, regs, g2)
+def counters_panel(session, height: int | None = None) -> Panel:
+    return _panel(Text("\n".join(counter_lines(session, session.core)), no_wrap=True,
+                       overflow="ellipsis"), f"counters pe{session.pe}.{session.stage}", height)

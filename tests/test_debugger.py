@@ -730,7 +730,8 @@ def test_fast_forward_errors_and_a_run_that_ends_first(debug, cli, files, compil
                     "(apt-get install tmux); the batch tests cover the commands")
 def test_interactive_session_in_tmux(tmp_path):
     out = tmp_path / "screen.txt"
-    env = dict(os.environ, NETSUSHISEN_DEBUG_HISTORY="", DRIVE_QUICK="1")
+    # the interpreter running the tests, not whatever `python3`/`netsushisen` PATH finds first
+    env = dict(os.environ, NETSUSHISEN_DEBUG_HISTORY="", DRIVE_QUICK="1", PYTHON=sys.executable)
     r = subprocess.run(["bash", str(PROJECT / "tools" / "drive_debugger.sh"), str(out)],
                        capture_output=True, text=True, timeout=60, env=env)
     assert r.returncode == 0, r.stdout + r.stderr

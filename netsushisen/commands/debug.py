@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 
 from netsushisen.errors import NetsushisenError
 from netsushisen.isa.processors import STAGES
@@ -81,10 +82,29 @@ def programs_factory(args: argparse.Namespace):
     if not (args.program or args.os or args.ic or args.sc):
         raise NetsushisenError("nothing to debug: give programs (--program FILE, --os/--ic/--sc) "
                                "or a SCENE")
-    config, programs, image = machine_inputs(args, args.program)
+    try:
+        config, programs, image = machine_inputs(args, args.program)
+    except NetsushisenError as err:
+        raise _program_advice(err) from None
     names = ", ".join(f"{s} {p.source_map[0].file if p.source_map else '?'}"
                       for s, p in programs.items() if p is not None)
     return ProgramsFactory(config, programs, image, description=names)
+
+
+_WHICH = "which processor? give --proc os|ic|sc"
+
+
+def _program_advice(err: NetsushisenError) -> NetsushisenError:
+    """The assembler asks a source without `.proc` for `--proc`, which is `asm`'s option; in
+    `debug`, `--proc` only picks the view, and a `--program` file's processor comes from the
+    file. Say what works here: a `.proc` line, or the file given as --os/--ic/--sc."""
+    if not any(d.message.startswith(_WHICH) for d in err.diagnostics):
+        return err
+    fixed = [replace(d, message="which processor? a --program source names its own: write "
+                     "`.proc os|ic|sc` before the first instruction, or give the file as "
+                     "--os/--ic/--sc FILE (--proc only chooses the processor viewed)")
+             if d.message.startswith(_WHICH) else d for d in err.diagnostics]
+    return type(err)(fixed)
 
 
 def scene_factory(args: argparse.Namespace):

@@ -7,18 +7,19 @@ debug` (netsushisen/commands/debug.py) picks one.
 from __future__ import annotations
 
 import os
+import re
 import signal
 import sys
 
 from rich.console import Console
 from rich.text import Text
 
-from netsushisen.debugger.commands import Commands
-from netsushisen.debugger.expressions import REGIONS
-from netsushisen.debugger.help import ALIASES, HELP, INFO_TOPICS
-from netsushisen.debugger.layout import screen
+from netsushisen.debugger.commands import Commands, resolve_command
+from netsushisen.debugger.expressions import REGIONS, VIEWS, DebugError
+from netsushisen.debugger.help import ALIASES, HELP, INFO_TOPICS, LAYOUTS
+from netsushisen.debugger.layout import PANELS, screen
 from netsushisen.debugger.view import where_line
-from netsushisen.isa.processors import STAGES
+from netsushisen.isa.processors import N_REGISTERS, STAGES
 
 PROMPT = "(nss) "
 
@@ -135,30 +136,11 @@ def _setup_readline(session) -> None:
             pass
     readline.set_history_length(1000)
 
-    def candidates(text: str) -> list[str]:
-        line = readline.get_line_buffer()
-        words = line[:readline.get_begidx()].split()
-        if not words:
-            return sorted(set(HELP) | set(ALIASES))
-        first = words[0]
-        if first in ("info", "i"):
-            return list(INFO_TOPICS)
-        if first == "proc":
-            return list(STAGES)
-        if first in ("help", "h"):
-            return list(HELP)
-        if first in ("trace", "screen"):
-            return ["on", "off"]
-        program = session.machine.programs.get(session.stage)
-        names = [f"r{i}" for i in range(64)] + ["pc", "cycle", "lr", "zero", "if"]
-        names += [f"{r}[" for r in REGIONS] + list(STAGES)
-        if program is not None:
-            names += list(program.labels)
-        return names
-
     def complete(text: str, state: int):
         try:
-            options = [c for c in candidates(text) if c.startswith(text)]
+            line = readline.get_line_buffer()
+            options = completions(session, line[:readline.get_endidx()],
+                                  readline.get_begidx(), text)
         except Exception:
             return None
         return options[state] if state < len(options) else None
@@ -169,6 +151,88 @@ def _setup_readline(session) -> None:
         readline.parse_and_bind("bind ^I rl_complete")
     else:
         readline.parse_and_bind("tab: complete")
+
+
+# what each command's arguments are, for completion
+_CODE = ("break", "tbreak", "until", "list", "disassemble")
+_MEMORY = ("x", "rwatch", "awatch")
+_VALUES = ("print", "display", "set", "watch")
+_NUMBERED = ("delete", "disable", "enable", "condition", "ignore")
+
+
+def completions(session, line: str, begidx: int, text: str) -> list[str]:
+    """Tab completion by context (the line up to the cursor; `text` is the word being
+    completed, starting at `begidx`). The first word: commands and aliases — the whole word,
+    so `reverse-` offers only the three reverse commands. Then by the argument's kind: code
+    locations (labels, `ic.`, FILE:) for break/until/list, memory names and data labels for
+    x/rwatch/awatch, registers, memory, labels and names for print/display/set/watch,
+    breakpoint numbers for delete/enable/condition..., and the command's own words for info,
+    help, proc, layout, trace, screen."""
+    words = line[:begidx].split()
+    if not line.lstrip() or " " not in line.lstrip():  # still in the first word
+        head = line.lstrip()
+        names = sorted(set(HELP) | set(ALIASES))
+        cut = len(head) - len(text)  # readline replaces only `text` (after a '-' delimiter)
+        return [n[cut:] for n in names if n.startswith(head)]
+    m = re.match(r"[\w-]+", words[0]) if words else None
+    try:
+        name = resolve_command(m.group(0)) if m else ""
+    except DebugError:
+        return []
+    args_before = len(words) - 1
+    if name == "info":
+        options = list(INFO_TOPICS) if args_before == 0 else []
+    elif name == "help":
+        options = sorted(HELP)
+    elif name == "proc":
+        options = list(STAGES)
+    elif name == "layout":
+        options = list(LAYOUTS) + list(PANELS)
+    elif name in ("trace", "screen"):
+        options = ["on", "off"]
+    elif name in _NUMBERED and (args_before == 0 or name in ("delete", "disable", "enable")):
+        options = [str(n) for n in sorted([*session.breakpoints, *session.watchpoints])]
+    elif name == "undisplay":
+        options = []
+    elif name in _CODE:
+        options = _code_names(session)
+    elif name in _MEMORY:
+        options = [f"{r}[" for r in REGIONS] + list(REGIONS) + _data_labels(session)
+    elif name in _VALUES or name in ("condition",):
+        options = _value_names(session)
+    else:
+        options = []
+    return sorted({o for o in options if o.startswith(text)})
+
+
+def _program(session):
+    return session.machine.programs.get(session.stage)
+
+
+def _code_names(session) -> list[str]:
+    program = _program(session)
+    names = [f"{s}." for s in STAGES if session.machine.programs.get(s) is not None]
+    if program is not None:
+        names += [n for n, (sec, _) in program.labels.items() if sec == "text"]
+        names += sorted({loc.file.rsplit("/", 1)[-1] + ":" for loc in program.source_map
+                         if not loc.file.startswith("<")})
+    return names
+
+
+def _data_labels(session) -> list[str]:
+    program = _program(session)
+    if program is None:
+        return []
+    return [n for n, (sec, _) in program.labels.items() if sec == "data"]
+
+
+def _value_names(session) -> list[str]:
+    names = [f"r{i}" for i in range(N_REGISTERS)] + ["pc", "cycle", "lr", "zero"]
+    names += [f"{r}[" for r in REGIONS] + [f"{v}:" for v in VIEWS] + [f"{s}." for s in STAGES]
+    program = _program(session)
+    if program is not None:
+        names += list(program.labels) + list(program.defines)
+    return names
 
 
 def _history_path() -> str | None:

@@ -207,7 +207,7 @@ class Listing:
     def lines(self, width: int) -> list[Text]:
         rows = self.rows()
         names = slot_names(self.core.program)
-        mark_w = max([2] + [len(r[0]) for r in rows])
+        mark_w = max([4] + [len(r[0]) for r in rows])  # room for =>B1: columns stay put
         addr_w = max([4] + [len(r[1]) for r in rows])
         label_w = min(self.LABEL_MAX, max([5] + [len(r[2]) for r in rows]))
         fixed = mark_w + 1 + addr_w + 1 + label_w + 1

@@ -49,12 +49,12 @@ def choose_panels(layout, width: int, height: int | None) -> tuple[str, ...]:
     return ("listing", "registers")
 
 
-def _row(panels: list[RenderableType], ratios: list[int | None]) -> Table:
-    """Panels side by side; a ratio of None is a fixed-width column (the FIFOs' table)."""
+def _row(panels: list[RenderableType], ratios: list[int | str]) -> Table:
+    """Panels side by side; a ratio that is a name is a fixed-width column (FIXED)."""
     grid = Table.grid(expand=True)
     for r in ratios:
-        if r is None:
-            grid.add_column(width=FIFOS_WIDTH)
+        if isinstance(r, str):  # a fixed-width column
+            grid.add_column(width=FIXED[r])
         else:
             grid.add_column(ratio=r)
     grid.add_row(*panels)
@@ -63,8 +63,9 @@ def _row(panels: list[RenderableType], ratios: list[int | None]) -> Table:
 
 _LOWER_MAKERS = {"scoreboard": view.scoreboard_panel, "fifos": view.fifo_panel,
                  "memory": view.memory_panel, "counters": view.counters_panel}
-_LOWER_RATIO = {"scoreboard": 4, "fifos": None, "memory": 4, "counters": 3}
-FIFOS_WIDTH = 42  # name (link.os-ic.0), words/capacity, bar, peak: never cut
+_LOWER_RATIO = {"scoreboard": 4, "fifos": "fifos", "memory": 4, "counters": 3}
+FIXED = {"fifos": 42,  # name (link.os-ic.0), words/capacity, bar, peak: never cut
+         "registers": 48}  # reg, int, hex, float: the listing takes the rest of the width
 
 
 def screen(session, width: int, height: int | None = None, layout="auto") -> RenderableType:
@@ -92,7 +93,7 @@ def screen(session, width: int, height: int | None = None, layout="auto") -> Ren
         if "listing" in chosen else None
     if "registers" in chosen and wide:
         regs = view.registers_panel(session, rows=listing_h - 4, height=listing_h)
-        parts.append(_row([listing, regs], [3, 2]) if listing is not None else regs)
+        parts.append(_row([listing, regs], [1, "registers"]) if listing is not None else regs)
     elif listing is not None:
         parts.append(listing)
     if regs_below:
@@ -109,15 +110,14 @@ def _natural(session, chosen, lower, wide: bool) -> RenderableType:
     listing = view.listing_panel(session, 11) if "listing" in chosen else None
     regs = view.registers_panel(session, 12) if "registers" in chosen else None
     if listing is not None and regs is not None and wide:
-        parts.append(_row([listing, regs], [3, 2]))
+        parts.append(_row([listing, regs], [1, "registers"]))
     else:
         parts += [p for p in (listing, regs) if p is not None]
     panels = [_LOWER_MAKERS[p](session) for p in lower]
     if wide and len(panels) == 4:  # scoreboard, fifos, memory over counters
-        parts.append(_row([panels[0], panels[1], Group(panels[2], panels[3])], [4, None, 3]))
+        parts.append(_row([panels[0], panels[1], Group(panels[2], panels[3])], [4, "fifos", 3]))
     else:
         for i in range(0, len(panels), 2):
             pair = lower[i:i + 2]
-            parts.append(_row(panels[i:i + 2], [_LOWER_RATIO[p] or None if p == "fifos" else 1
-                                                for p in pair]))
+            parts.append(_row(panels[i:i + 2], ["fifos" if p == "fifos" else 1 for p in pair]))
     return Group(*parts)

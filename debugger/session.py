@@ -140,6 +140,14 @@ class Watchpoint:
         return f"{WATCH_TYPES[self.kind]} {self.number} on {self.place.name(qualify=True)}"
 
 
+def _reader(core, cache_hit: bool | None) -> str:
+    """Who read a watched word: 'ldg at pe1.ic pc 3 (loop+3), cache miss'."""
+    pc = core.last_pc
+    ops = [op.mnemonic for op in core.program.bundles[pc] if op.opcode.kind == "load"]
+    cache = "" if cache_hit is None else f", cache {'hit' if cache_hit else 'miss'}"
+    return f"{ops[0] if ops else 'load'} at {core.name} pc {pc} ({core.label(pc)}){cache}"
+
+
 def read_key(place: Place, core_name: str) -> tuple:
     """What identifies a memory word's reads: a global word is read by any PE, a local or
     resident word by its own processor."""
@@ -395,7 +403,7 @@ class Session(ReverseExecution):
         m.step()
         hits: list[Hit] = []
         written: dict[tuple, int] = {}
-        read: dict[tuple, tuple] = {}  # read_key -> (core, hit: True/False/None for a cache)
+        read: dict[tuple, list] = {}  # read_key -> [(core, cache hit: True/False/None), ...]
         for pe in m.pes:
             for core in pe.active:
                 aux = self.aux[core.name]
@@ -413,11 +421,11 @@ class Session(ReverseExecution):
                             aux["ldg"] = (e[3], e[4], hit, c)
                             aux["misses"] = misses
                             region = "icgm" if core.proc.name == "ic" else "scgm"
-                            read[(region, e[3])] = (core, hit)
+                            read.setdefault((region, e[3]), []).append((core, hit))
                         else:
                             if e[2] == "resident":
                                 aux["ldr"] = (e[3], c)
-                            read[(e[2], core.name, e[3])] = (core, None)
+                            read.setdefault((e[2], core.name, e[3]), []).append((core, None))
                     ev.clear()
                 if core.last_issued:
                     pc = core.last_pc
@@ -490,14 +498,8 @@ class Session(ReverseExecution):
                 text = (f"{self._show(core, p, old[w.number])} -> {self._show(core, p, new)} in "
                         f"cycle {c} (a result in flight, written when the run ended)")
             elif w.reads and rkey in read:
-                reader, cache_hit = read[rkey]
                 value = self._show(core, p, old[w.number])
-                pc = reader.last_pc
-                ops = [op.mnemonic for op in reader.program.bundles[pc]
-                       if op.opcode.kind == "load"]
-                by = f"{ops[0] if ops else 'load'} at {reader.name} pc {pc} ({reader.label(pc)})"
-                cache = "" if cache_hit is None else f", cache {'hit' if cache_hit else 'miss'}"
-                text = f"read {value} in cycle {c} ({by}{cache})"
+                text = f"read {value} in cycle {c} ({'; '.join(_reader(*r) for r in read[rkey])})"
             else:
                 continue
             ok = self._passes(w, Context(m, p.pe, p.stage), replay)

@@ -739,3 +739,392 @@ def test_interactive_session_in_tmux(tmp_path):
     assert "netsushisen debug" in screen and "listing pe0.ic" in screen
     assert "breakpoint 1: pe0.ic issued pc" in screen
     assert "=>" in screen and "registers pe0.ic" in screen and "fifos pe0" in screen
+
+
+# ---------------------------------------------------------------------------------------------
+# The screen at ordinary terminal sizes (rich's recording console stands in for the terminal)
+
+SLOTS = {"os": ["int0", "int1", "fp0", "fp1"], "ic": ["int0", "fp0", "fp1", "fp2"],
+         "sc": ["gen0"]}
+
+
+def capture(session, width: int, height: int, commands: list[str] = ()) -> tuple[str, object]:
+    """Run commands in an interactive front end on a `width` x `height` terminal; the last
+    screen as the terminal shows it (text), and the front end."""
+    from rich.console import Console
+
+    from netsushisen.debugger.frontend import FrontEnd
+
+    console = Console(record=True, width=width, height=height, file=io.StringIO(),
+                      force_terminal=True)
+    front = FrontEnd(session, console, interactive=True)
+    for c in commands:
+        front.execute(c)
+    console.export_text(clear=True)
+    front.draw()
+    return console.export_text(), front
+
+
+def cells_of(screen: str) -> list[list[str]]:
+    return [line.replace("│", " ").split() for line in screen.splitlines()]
+
+
+@pytest.mark.parametrize("width,height", [(80, 24), (120, 40), (150, 50)])
+@pytest.mark.parametrize("stage", ["os", "ic", "sc"])
+def test_the_screen_fits_the_terminal_with_markers_and_every_slot(width, height, stage):
+    from netsushisen.debugger.layout import RESERVED
+
+    s = pipe_session(pes=1, stage=stage)
+    first, second = s.machine.programs[stage].labels["loop"][1] + 3, None
+    second = first + 1
+    screen, _ = capture(s, width, height, ["break loop+3", "break loop+4", "continue"])
+    lines = screen.rstrip("\n").split("\n")
+    # one stop fits one screen: the room below is left for the stop's messages and the prompt
+    assert len(lines) <= height - RESERVED, len(lines)
+    assert max(len(line) for line in lines) <= width
+    rows = cells_of(screen)
+    head = [r for r in rows if r[:2] == ["addr", "label"]]
+    n = len(SLOTS[stage])  # every slot column of the viewed processor
+    assert head and head[0][2:2 + n] == SLOTS[stage] and "…" not in head[0][2 + n:3 + n]
+    # the PC marker with the breakpoint it stopped at, the other breakpoint's marker, and the
+    # address and label columns whole
+    assert ["=>B1", str(first)] in [r[:2] for r in rows]
+    assert ["->B2", str(second)] in [r[:2] for r in rows]  # the next bundle, with B2
+    labels = s.machine.programs[stage].code_labels()
+    shown = 0
+    for r in rows:  # listing rows: [marker] address [label] slots...
+        k = 0 if r and r[0].isdigit() else 1
+        if len(r) > k + 1 and r[k].isdigit() and int(r[k]) in labels:
+            assert r[k + 1] == labels[int(r[k])]  # the label whole
+            shown += 1
+    assert shown or height == 24
+    assert f"listing pe0.{stage}" in screen and f"registers pe0.{stage}" in screen
+    # the panels the size holds: 80x24 listing and registers; larger sizes more
+    assert ("fifos pe0" in screen) == (height >= 30)
+
+
+def test_operands_are_cut_never_the_orienting_columns(tmp_path):
+    src = """
+.proc ic
+a_very_long_label_name_here:
+        { st r40, [r33 + 1024] ; fmul r41, r42, r43 ; fadd r44, r42, r43 ; fsub r47, r42, r43 }
+        halt
+"""
+    factory = ProgramsFactory(load_config(None, []), {"ic": assemble_text(src)})
+    s = Session(factory)
+    s.add_breakpoint("0")
+    screen, _ = capture(s, 80, 24, ["step"])
+    assert max(len(line) for line in screen.splitlines()) <= 80
+    rows = cells_of(screen)
+    assert [r for r in rows if r[:2] == ["addr", "label"]][0][2:6] == SLOTS["ic"]
+    row = [r for r in rows if r[:3] == ["=>B1", "0", "a_very_long_lab…"]][0]
+    text = " ".join(row[3:])
+    assert "st r40," in text and "fmul" in text and "fadd" in text and "fsub" in text
+    assert "…" in text  # the operands give way
+    # the same bundle with the listing alone at 150 columns: nothing cut
+    screen, _ = capture(s, 150, 50, ["layout asm"])
+    assert "fsub r47, r42, r43" in screen and "st r40, [r33 + 1024]" in screen
+
+
+def test_layout_chooses_the_panels():
+    s = pipe_session(pes=1, stage="ic")
+    screen, front = capture(s, 150, 50, ["step 5", "layout asm"])
+    assert "listing pe0.ic" in screen and "registers" not in screen and "fifos" not in screen
+    screen, front = capture(s, 80, 24, ["layout listing fifos"])
+    assert "listing pe0.ic" in screen and "fifos pe0" in screen and "registers" not in screen
+    screen, front = capture(s, 80, 50, ["layout full"])
+    for panel in ("listing", "registers", "scoreboard", "fifos", "memory", "counters"):
+        assert panel in screen
+    out = front.commands.execute("layout bogus")
+    assert out.failed and "no panel 'bogus'" in out.output[0].plain
+    out = front.commands.execute("layout")
+    assert "layout full" in out.output[0].plain
+
+
+# ---------------------------------------------------------------------------------------------
+# gdb's staples (batch mode). LOOP's source lines: 7 start (pc 0), 8 lf (1), 9 loop (2),
+# 10 st (3), 11 bnez (4), 12 done (5), 13 halt (6); st issues in c3, c7, c11 with r9 = 2, 1, 0.
+
+
+def test_tbreak_stops_once_and_is_deleted(debug, files):
+    code, out = debug(["tbreak loop", "info breakpoints", "continue", "info breakpoints",
+                       "continue"], "--program", files / "loop.s")
+    assert code == 0
+    assert "temporary breakpoint 1 at ic pc 2 (loop)" in out
+    assert ["1", "breakpoint", "del", "y", "2", "ic", "loop"] in [
+        line.split()[:7] for line in out.splitlines()]
+    assert "temporary breakpoint 1: pe0.ic issued pc 2 (loop) in cycle 2" in out
+    assert "no breakpoints or watchpoints" in out
+    assert "run ended at cycle 15: halted" in out  # loop issues again in c6 and c10
+
+
+def test_disable_and_enable(debug, files):
+    code, out = debug(["break loop", "break loop.s:10", "disable 1", "continue", "info break",
+                       "enable", "continue", "disable 1-2", "continue"],
+                      "--program", files / "loop.s")
+    assert code == 0
+    stops = lines_with(out, "issued pc")
+    assert "breakpoint 2: pe0.ic issued pc 3 (loop+1) in cycle 3" in stops[1]  # 1 disabled
+    assert ["1", "breakpoint", "keep", "n", "2"] in [line.split()[:5] for line in out.splitlines()]
+    assert "breakpoint 1: pe0.ic issued pc 2 (loop) in cycle 6" in out  # enabled again
+    assert "run ended at cycle 15: halted" in out  # both disabled
+    code, out = debug(["disable 7"], "--program", files / "loop.s")
+    assert code == 1 and "error: no breakpoint or watchpoint 7" in out
+
+
+def test_condition_and_removing_it(debug, files):
+    code, out = debug(["break loop.s:10", "condition 1 r9 == 1", "continue", "condition 1",
+                       "continue", "condition 1 nosuch", "condition 4 r1"],
+                      "--program", files / "loop.s")
+    assert "breakpoint 1: stop only if r9 == 1" in out
+    assert "breakpoint 1: pe0.ic issued pc 3 (loop+1) in cycle 7 [r9 == 1]" in out
+    assert "in cycle 3" not in out
+    assert "breakpoint 1 now unconditional" in out
+    assert "breakpoint 1: pe0.ic issued pc 3 (loop+1) in cycle 11" in out
+    assert "error: unknown name 'nosuch'" in out and "error: no breakpoint or watchpoint 4" in out
+    assert code == 1
+
+
+def test_ignore_and_continue_n(debug, files):
+    code, out = debug(["break loop", "ignore 1 2", "continue", "info breakpoints"],
+                      "--program", files / "loop.s")
+    assert "will ignore next 2 crossings of breakpoint 1" in out
+    assert "breakpoint 1: pe0.ic issued pc 2 (loop) in cycle 10" in out  # c2, c6 let pass
+    assert "breakpoint already hit 3 times" in out  # ignored crossings count as hits
+    assert "in cycle 2" not in out and "in cycle 6" not in out
+    code, out = debug(["break loop", "continue", "continue 2", "ignore 1 0"],
+                      "--program", files / "loop.s")
+    assert "in cycle 2" in out and "in cycle 6" not in out
+    assert "will ignore next 1 crossings of breakpoint 1" in out
+    assert "breakpoint 1: pe0.ic issued pc 2 (loop) in cycle 10" in out
+    assert "will stop next time breakpoint 1 is reached" in out
+
+
+def test_display_at_every_stop(debug, files):
+    code, out = debug(["display r9", "display/x local[counter]", "break loop.s:10", "continue",
+                       "continue", "undisplay 1", "continue", "info display", "undisplay",
+                       "info display", "display nosuch"],
+                      "--program", files / "loop.s")
+    assert "1: r9 = 0  (0x00000000" in out  # shown when made
+    after = out[out.index("(nss) continue"):]
+    assert "1: r9 = 2  (" in after and "2: local[0] = 0x00000002" in after  # c3
+    assert "1: r9 = 1  (" in after and "2: local[0] = 0x00000001" in after  # c7
+    last = out[out.index("(nss) undisplay 1"):]
+    assert "2: local[0] = 0x00000000" in last and "1: r9 =" not in last  # c11
+    assert "Auto-display expressions now in effect:" in out
+    assert ["2:", "y", "/x", "local[counter]"] in [line.split() for line in out.splitlines()]
+    assert "there are no auto-display expressions now" in out
+    assert "error: unknown name 'nosuch'" in out
+
+
+def test_list_around_the_pc_a_label_and_a_line(debug, files):
+    code, out = debug(["list", "list", "list loop.s:12", "list nowhere.s:3", "break done",
+                       "step 3", "list", "list done"], "--program", files / "loop.s")
+    blocks = out.split("(nss) ")
+
+    def shown(block):  # (line number, mark or '') per listed line
+        rows = []
+        for line in block.splitlines()[1:]:
+            m = __import__("re").match(r"^\s*(\d+) (\S*)\s", line + " ")
+            if m:
+                rows.append((int(m.group(1)), line[6:12].strip()))
+        return rows
+
+    first = shown(blocks[1])
+    assert [n for n, _ in first] == list(range(2, 12))  # around the PC (line 7), 10 lines
+    assert dict(first)[7] == "=>"
+    assert [n for n, _ in shown(blocks[2])] == [12, 13]  # Enter/list again: the next lines
+    assert [n for n, _ in shown(blocks[3])] == list(range(7, 14))  # centred on line 12
+    assert "error: no source file 'nowhere.s'" in blocks[4]
+    around = dict(shown(blocks[7]))  # after c2: loop (line 9) issued; done has B1
+    assert around[9] == "=>" and around[12] == "B1"
+    assert [n for n, _ in shown(blocks[8])] == list(range(7, 14))
+
+
+def test_break_file_line(debug, files):
+    code, out = debug(["break loop.s:10", "break loop.s:6", "break loop.s:99", "break other.s:3",
+                       "continue", "continue"], "--program", files / "loop.s")
+    first = lines_with(out, "breakpoint 1 at")[0]
+    assert "at ic pc 3 (loop+1): file " in first and first.endswith("loop.s:10")
+    assert "breakpoint 2 at ic pc 0 (start)" in out  # line 6 has no code: the next one's
+    assert "no code at or after line 99 (the last line with code is 13)" in out
+    assert "error: no source file 'other.s'" in out
+    assert "breakpoint 2: pe0.ic issued pc 0 (start) in cycle 0" in out
+    assert "breakpoint 1: pe0.ic issued pc 3 (loop+1) in cycle 3" in out
+    # ic.s:4 names the file ic.s, not `ic.` + `s:4`; the file picks the processor
+    code, out = debug(["break ic.s:4", "break os.s:5", "break sc.s:10"], *pipe_args(files))
+    assert code == 0
+    assert "breakpoint 1 at ic pc 1 (loop+1)" in out
+    assert "breakpoint 2 at os pc 2 (loop+2)" in out
+    assert "breakpoint 3 at sc pc 7 (loop+5)" in out
+
+
+def test_info_breakpoints_is_gdbs_table(debug, files):
+    code, out = debug(["break loop if r9 < 3", "tbreak done", "watch r9", "rwatch local[2]",
+                       "awatch local[counter]", "disable 3", "continue", "continue",
+                       "info breakpoints"], "--program", files / "loop.s")
+    table = out[out.rindex("(nss) info breakpoints"):].splitlines()[1:]
+    assert table[0].split() == ["Num", "Type", "Disp", "Enb", "Address", "What"]
+    rows = [line.split() for line in table]
+    assert rows[1][:7] == ["1", "breakpoint", "keep", "y", "2", "ic", "loop"]
+    assert rows[1][-1].endswith("loop.s:9")
+    assert table[2].strip() == "stop only if r9 < 3"
+    assert table[3].strip() == "breakpoint already hit 1 time"  # c2 (r9 = 3) did not hold
+    assert rows[4][:5] == ["2", "breakpoint", "del", "y", "5"]
+    assert rows[5] == ["3", "watchpoint", "keep", "n", "pe0.ic.r9"]
+    assert rows[6] == ["4", "read", "watchpoint", "keep", "y", "pe0.ic.local[2]"]
+    assert rows[7] == ["5", "acc", "watchpoint", "keep", "y", "pe0.ic.local[0]"]
+    assert table[8].strip() == "breakpoint already hit 1 time"  # st in c3
+
+
+def test_read_and_access_watchpoints(debug, files):
+    code, out = debug(["rwatch local[table + 1]", "awatch local[counter]", "continue",
+                       "continue", "continue", "continue", "continue"],
+                      "--program", files / "loop.s")
+    assert code == 0
+    assert "read watchpoint 1 on pe0.ic.local[2] (now 1075838976 (2.5))" in out
+    for c, old, new in ((3, 0, 2), (7, 2, 1), (11, 1, 0)):  # the stores (awatch: writes)
+        assert (f"acc watchpoint 2: pe0.ic.local[0]: {old} -> {new} in cycle {c} "
+                "(st at pc 3 (loop+1))") in out
+    assert ("read watchpoint 1: pe0.ic.local[2]: read 1075838976 (2.5) in cycle 13 "
+            "(ld at pe0.ic pc 5 (done))") in out
+    assert "run ended at cycle 15: halted" in out
+    assert "local[0]: read" not in out  # nothing reads counter
+    # global memory: a read by any PE, with the cache's verdict
+    (files / "ldg.s").write_text(".proc ic\n ldg r1, [5]\n ldg r2, [5]\n ldg r3, [70]\n halt\n")
+    (files / "g.json").write_text(json.dumps({"icgm": [float(i) for i in range(128)]}))
+    code, out = debug(["rwatch icgm[5]", "continue", "continue", "continue", "rwatch r5",
+                       "watch icgm[5]", "awatch pc"],
+                      "--program", files / "ldg.s", "--image", files / "g.json", "--pes", "2")
+    hits = lines_with(out, "read watchpoint 1: icgm[5]: read 1084227584 (5.0)")
+    assert len(hits) == 2
+    assert ("ldg at pe0.ic pc 0 (0), cache miss; ldg at pe1.ic pc 0 (0), cache miss"
+            in hits[0])
+    assert "ldg at pe0.ic pc 1 (1), cache hit; ldg at pe1.ic pc 1 (1), cache hit" in hits[1]
+    assert "run ended" in out  # icgm[70] is not watched
+    assert "error: rwatch takes a memory word" in out
+    assert "read-only during a run: nothing writes it (rwatch icgm[5]" in out
+    assert "error: awatch takes a memory word" in out
+
+
+FINISH = """
+.proc sc
+        li r1, 1
+        call sub          # pc 1
+        li r3, 3          # pc 2: sub returns here
+        halt
+sub:    addi r10, lr, 0   # pc 4: keep the return address
+        call leaf         # pc 5
+        addi lr, r10, 0   # pc 6: leaf returns here
+        ret               # pc 7
+leaf:   addi r4, r1, 1    # pc 8
+        ret               # pc 9
+"""
+
+
+def test_finish_runs_to_the_return_of_the_current_routine(debug, files):
+    (files / "finish.s").write_text(FINISH)
+    code, out = debug(["finish", "break leaf", "continue", "finish", "finish", "print r3",
+                       "stepi", "print r3"], "--program", files / "finish.s")
+    assert "error: \"finish\" not meaningful in the outermost frame" in out
+    assert "run till exit from pc leaf" in out
+    assert "returned: ret at pc 9 (leaf+1)" in out and "back to pc 6 (sub+2)" in out
+    assert "returned: ret at pc 7 (sub+3)" in out and "back to pc 2 (sub-2)" not in out
+    assert "back to pc 2 (1)" in out or "back to pc 2 (2)" in out
+    # inside sub, before its call: finish runs over leaf's return to sub's own
+    code, out = debug(["break sub", "continue", "finish"], "--program", files / "finish.s")
+    assert "run till exit from pc sub" in out
+    assert "returned: ret at pc 7 (sub+3)" in out and "ret at pc 9" not in out
+
+
+def test_finish_continue_n_tbreak_display_after_the_fast_forward_hand_off(debug, files, compiled):
+    """The staples after `--fast-forward` (the compiled engine's hand-off) answer as after
+    stepping the reference engine there."""
+    (files / "finish.s").write_text(FINISH)
+    script = ["tbreak leaf", "display r4", "rwatch local[0]", "continue", "finish",
+              "info breakpoints", "continue"]
+    code, ff = debug(script, "--program", files / "finish.s", "--fast-forward", "3")
+    code2, ref = debug(["step 3", *script], "--program", files / "finish.s")
+    assert code == code2 == 0
+
+    def answers(out):
+        return out[out.index("(nss) tbreak"):]
+
+    assert answers(ff) == answers(ref)
+    assert "temporary breakpoint 1: pe0.sc issued pc 8 (leaf)" in ff
+
+
+def test_branch_targets_print_as_labels(debug, files):
+    from netsushisen.asm.disasm import disassemble
+    from netsushisen.asm.listing import listing
+
+    src = """
+.proc os
+        li r1, 3
+        j 2
+top:    addi r1, r1, -1
+        addi r2, r2, 1
+        bnez r1, top + 1
+        beqz r1, 1
+        halt
+"""
+    program = assemble_text(src)
+    text = disassemble(program)
+    assert "bnez r1, top+1" in text  # no label at 3: the nearest one before it, plus 1
+    assert "beqz r1, 1" in text and "j top" in text  # before the first label: a number
+    assert assemble_text(text).same_program(program)
+    assert "bnez r1, top+1" in listing(program)
+    (files / "targets.s").write_text(src)
+    code, out = debug(["disassemble 0", "step 4"], "--program", files / "targets.s")
+    assert "bnez r1, top+1" in out and "j top" in out
+    assert "[cycle 3] pe0.os issued pc 2 (top): addi r1, r1, -1" in out  # j c1, stall c2
+
+
+def test_small_fixes_info_stats_help_and_x0(debug, files):
+    code, out = debug(["info stats", "step 3", "info stats", "help reverse-continue",
+                       "x/0 local 0", "x/0 local 99999"], "--program", files / "loop.s")
+    assert "status None" not in out
+    assert "running, 0 cycles run, 1 PE" in out and "running, 3 cycles run, 1 PE" in out
+    assert "pe0.ic memory:" in out
+    help_text = out[out.index("(nss) help reverse-continue"):out.index("(nss) x/0")]
+    assert help_text.count("rc") == 1 and "aliases: rc" in help_text
+    assert "x/0: a count of 0 words shows nothing" in out
+    assert "error: local[99999]: address outside local" in out
+    code, out = debug(["continue", "info stats"], "--program", files / "loop.s")
+    assert "ended: halted, 15 cycles run" in out
+
+
+def test_tab_completion_by_context():
+    from netsushisen.debugger.frontend import completions
+
+    s = loop_session()
+    s.add_breakpoint("loop")
+
+    def complete(line: str) -> list[str]:  # readline's words: split at spaces, '-' and '['
+        begidx = max(line.rfind(c) for c in " -[") + 1
+        return completions(s, line, begidx, line[begidx:])
+
+    assert "break" in complete("") and "reverse-step" in complete("")
+    assert complete("reverse-") == ["continue", "step", "stepi"]  # only the three
+    assert complete("rev") == ["reverse-continue", "reverse-step", "reverse-stepi"]
+    mem = complete("x/4 ")
+    assert {"local", "icgm", "resident", "scgm", "table", "counter"} <= set(mem)
+    assert "r1" not in mem and "loop" not in mem
+    assert complete("break ") == ["done", "ic.", "loop", "start"]
+    assert complete("info b") == ["breakpoints"]
+    assert complete("disable ") == ["1"]
+    assert "r9" in complete("print r") and "lr" not in complete("print r")
+    assert complete("layout f") == ["fifos", "full"]
+
+
+def test_program_without_proc_gets_advice_that_works(cli, files):
+    (files / "noproc.s").write_text("        li r1, 1\n        halt\n")
+    code, out, err = cli("debug", "--program", files / "noproc.s", "--proc", "os", "--batch", "-")
+    assert code == 1 and "Traceback" not in err
+    assert "give --proc" not in err
+    assert "write `.proc os|ic|sc` before the first instruction" in err
+    assert "give the file as --os/--ic/--sc FILE" in err
+    (files / "c.txt").write_text("continue\n")
+    code, out, err = cli("debug", "--os", files / "noproc.s", "--batch", files / "c.txt",
+                         "--no-screen")
+    assert code == 0 and "run ended at cycle 2: halted" in out

@@ -3,13 +3,18 @@ stepping by cycles or bundles, breakpoints, watchpoints, `set`, exact reverse ex
 its command language, expressions, screen and terminal front end.
 
     session.py      `Session`; the machine factories (`ProgramsFactory`, `SceneFactory`)
+    breakpoints.py  breakpoints and watchpoints (break, tbreak, watch, rwatch, awatch, enable,
+                    disable, condition, ignore): how a cycle makes them fire
     commands.py     the command language (`Commands.execute(line) -> Outcome`)
+    breakcommands.py  its breakpoint, watchpoint and display commands (a mixin)
+    source.py       its `list` command: source lines around the PC, a label, FILE:LINE
     help.py         usage, help texts, aliases
     expressions.py  expressions, places (registers, memory words, PCs), locations
     reverse.py      checkpoints, replay, reverse-step / -stepi / -continue
     fastforward.py  `--fast-forward`: the compiled engine runs to a cycle or a location first
     state.py        `freeze` / `thaw` (checkpoints) and `state_dump` (the canonical state dump)
     view.py         the rich panels of the screen
+    layout.py       the screen: which panels show, sized to the terminal (`layout`)
     frontend.py     the batch and interactive front ends (prompt, history, tab completion)
 
 Unlike every other reader of the machine (the render pipeline, reports, benchmarks), the

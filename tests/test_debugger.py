@@ -728,17 +728,27 @@ def test_fast_forward_errors_and_a_run_that_ends_first(debug, cli, files, compil
 
 @pytest.mark.skipif(shutil.which("tmux") is None, reason="tmux is not installed "
                     "(apt-get install tmux); the batch tests cover the commands")
-def test_interactive_session_in_tmux(tmp_path):
+@pytest.mark.parametrize("size", ["150x50", "80x24"])
+def test_interactive_session_in_tmux(tmp_path, size):
     out = tmp_path / "screen.txt"
     # the interpreter running the tests, not whatever `python3`/`netsushisen` PATH finds first
-    env = dict(os.environ, NETSUSHISEN_DEBUG_HISTORY="", DRIVE_QUICK="1", PYTHON=sys.executable)
+    env = dict(os.environ, NETSUSHISEN_DEBUG_HISTORY="", DRIVE_QUICK="1", PYTHON=sys.executable,
+               DRIVE_SIZE=size)
     r = subprocess.run(["bash", str(PROJECT / "tools" / "drive_debugger.sh"), str(out)],
                        capture_output=True, text=True, timeout=60, env=env)
     assert r.returncode == 0, r.stdout + r.stderr
-    screen = out.read_text()
-    assert "netsushisen debug" in screen and "listing pe0.ic" in screen
-    assert "breakpoint 1: pe0.ic issued pc" in screen
-    assert "=>" in screen and "registers pe0.ic" in screen and "fifos pe0" in screen
+    screens = out.read_text().split("===== ")
+    stop = [s for s in screens if s.startswith("(nss) continue")][0]
+    width, height = (int(n) for n in size.split("x"))
+    lines = stop.rstrip("\n").splitlines()[1:]
+    assert len(lines) <= height and max(len(line) for line in lines) <= width
+    assert "netsushisen debug" in stop and "listing pe0.ic" in stop
+    assert "breakpoint 1: pe0.ic issued pc" in stop
+    rows = cells_of(stop)
+    assert ["=>B1", "5"] in [r[:2] for r in rows]  # the PC marker with the breakpoint's
+    assert [r for r in rows if r[:2] == ["addr", "label"]][0][2:6] == SLOTS["ic"]
+    assert "registers pe0.ic" in stop
+    assert ("fifos pe0" in stop) == (height >= 30)  # 80x24: listing and registers only
 
 
 # ---------------------------------------------------------------------------------------------

@@ -4,14 +4,20 @@
 #   tools/drive_debugger.sh [OUT.txt]      (default: debugger-screens.txt in the current folder)
 #
 # Writes the demo pipeline of docs/debugger.md (OS -> IC -> SC -> COL, one PE) into a temporary
-# folder, starts the debugger in a detached 150x50 tmux session, types commands with
+# folder, starts the debugger in a detached tmux session of DRIVE_SIZE (default 150x50; the
+# screen is laid out for the size, docs/debugger.md), types commands with
 # `tmux send-keys` (breakpoint, continue, Enter to repeat, stepi, print, x, watch, reverse-step,
 # Tab completion, a bad command) and appends each screen, captured with `tmux capture-pane`, to
 # OUT. Exit 0 when every step showed what it should, 1 otherwise. Needs tmux (apt-get install
-# tmux); PYTHON picks the interpreter (default: python3). DRIVE_QUICK=1 captures fewer screens.
+# tmux). PYTHON picks the interpreter that runs `python -m netsushisen.cli` (tests pass their
+# own, sys.executable); without it, `netsushisen` from PATH, else python3. DRIVE_QUICK=1
+# captures fewer screens.
 set -euo pipefail
 
 OUT=${1:-debugger-screens.txt}
+SIZE=${DRIVE_SIZE:-150x50}
+COLS=${SIZE%x*}
+ROWS=${SIZE#*x}
 PY=${PYTHON:-python3}
 HERE=$(cd "$(dirname "$0")/.." && pwd)
 WORK=$(mktemp -d)
@@ -76,7 +82,7 @@ else
 fi
 
 : > "$OUT"
-tmux new-session -d -s "$SESSION" -x 150 -y 50 \
+tmux new-session -d -s "$SESSION" -x "$COLS" -y "$ROWS" \
     "cd '$WORK' && PYTHONPATH='${PYTHONPATH:-}' NETSUSHISEN_DEBUG_HISTORY='' $NSS debug --os os.s --ic ic.s --sc sc.s --image image.json --proc ic; echo '[debugger exited]'; sleep 30"
 
 screen() { tmux capture-pane -p -t "$SESSION"; }
@@ -137,7 +143,9 @@ step "bogus"             "error: unknown command 'bogus'"      0
 tmux send-keys -t "$SESSION" -l "info reg"
 tmux send-keys -t "$SESSION" Tab
 sleep 0.3
-step "" "registers pe0.ic (* changed since the previous stop)" "$((1 - QUICK))" "info reg<Tab> (completes to: info registers)"
+# (on a short terminal the table's title has scrolled away: its last row, lr, is there)
+if [ "$ROWS" -ge 45 ]; then SHOWN="registers pe0.ic (* changed since the previous stop)"; else SHOWN="lr "; fi
+step "" "$SHOWN" "$((1 - QUICK))" "info reg<Tab> (completes to: info registers)"
 tmux send-keys -t "$SESSION" -l "quit"
 tmux send-keys -t "$SESSION" Enter
 for _ in $(seq 1 50); do

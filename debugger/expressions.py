@@ -251,6 +251,9 @@ class Context:
             rest = rest[1:].strip()
         if not rest:
             raise DebugError("expected a label or an address")
+        pm = re.match(r"^(os|ic|sc):(.+)$", rest, re.S)
+        if pm and not m["proc"]:  # ic:loop, ic:12: --fast-forward's spelling of ic.loop
+            stage, rest = pm[1], pm[2].strip().lstrip("*")
         fl = _FILE_LINE.match(rest)
         whole = _FILE_LINE.match(text.strip())
         if whole and (pe is not None or m["proc"]):  # ic.s:9 is a file before it is ic. + s:9

@@ -34,7 +34,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable, Protocol
 
-from netsushisen.debugger.breakpoints import Breakpoint, Breakpoints, Watchpoint
+from netsushisen.debugger.breakpoints import WATCH_TYPES, Breakpoint, Breakpoints, Watchpoint
 from netsushisen.debugger.expressions import Context, DebugError, Place
 from netsushisen.debugger.fastforward import fast_forward
 from netsushisen.debugger.reverse import Checkpoint, Hit, ReverseExecution, Stop
@@ -383,8 +383,8 @@ class Session(Breakpoints, ReverseExecution):
             b = self.item(self.last_hits[0])
             b.ignore = times - 1
             stop = self.advance()
-            stop.messages.insert(0, f"will ignore next {times - 1} crossings of "
-                                    f"{'breakpoint' if isinstance(b, Breakpoint) else b.kind} "
+            kind = "breakpoint" if isinstance(b, Breakpoint) else WATCH_TYPES[b.kind]
+            stop.messages.insert(0, f"will ignore next {times - 1} crossings of {kind} "
                                     f"{b.number}")
             return stop
         return self.advance()

@@ -962,11 +962,14 @@ def test_break_file_line(debug, files):
     assert "breakpoint 2: pe0.ic issued pc 0 (start) in cycle 0" in out
     assert "breakpoint 1: pe0.ic issued pc 3 (loop+1) in cycle 3" in out
     # ic.s:4 names the file ic.s, not `ic.` + `s:4`; the file picks the processor
-    code, out = debug(["break ic.s:4", "break os.s:5", "break sc.s:10"], *pipe_args(files))
+    code, out = debug(["break ic.s:4", "break os.s:5", "break sc.s:10", "break ic:loop+2",
+                       "break *4"], *pipe_args(files))
     assert code == 0
     assert "breakpoint 1 at ic pc 1 (loop+1)" in out
     assert "breakpoint 2 at os pc 2 (loop+2)" in out
     assert "breakpoint 3 at sc pc 7 (loop+5)" in out
+    assert "breakpoint 4 at ic pc 2 (loop+2)" in out  # --fast-forward's PROC:LOCATION too
+    assert "breakpoint 5 at os pc 4 (loop+4)" in out  # gdb's *ADDRESS
 
 
 def test_info_breakpoints_is_gdbs_table(debug, files):

@@ -1,7 +1,9 @@
 """The debugger's front ends: batch (commands from a file or a pipe, panels printed as plain
-text) and interactive (a screen of panels after every stop, a `(nss)` prompt with history and
-tab completion; Enter repeats the last command). Both run `Commands` on a `Session`; `netsushisen
-debug` (netsushisen/commands/debug.py) picks one.
+text at their natural height, a scrolling log) and interactive (full screen: the terminal's
+alternate screen, a fixed layout sized to the terminal redrawn in place after every stop —
+layout.py —, a `(nss)` prompt below it with history and tab completion by context; Enter
+repeats the last command). Both run `Commands` on a `Session`; `netsushisen debug`
+(netsushisen/commands/debug.py) picks one.
 """
 
 from __future__ import annotations

@@ -8,6 +8,10 @@ panels come out as plain text, with markers standing in for colour:
     B1  breakpoint 1 is on this bundle (T2: temporary breakpoint 2; b1, t2: disabled)
     *   a register changed since the previous stop
     ~   a register with a result in flight (the scoreboard panel says when it lands)
+
+Panels take an optional height (the fixed-layout screen gives each its share, layout.py); the
+listing (`Listing`) and the packed registers (`RegisterCells`) lay themselves out for the
+width they get.
 """
 
 from __future__ import annotations

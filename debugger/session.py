@@ -377,9 +377,11 @@ class Session(Breakpoints, ReverseExecution):
     def cont(self, times: int = 1) -> Stop:
         """`continue`; `continue N` first sets the ignore count of the breakpoint the run
         stopped at to N-1, as gdb does."""
+        if times > 1 and not self.last_hits:  # gdb: the argument is ignored, with a note
+            stop = self.advance()
+            stop.messages.insert(0, "not stopped at any breakpoint; argument ignored")
+            return stop
         if times > 1:
-            if not self.last_hits:
-                raise DebugError("continue N: the run did not stop at a breakpoint")
             b = self.item(self.last_hits[0])
             b.ignore = times - 1
             stop = self.advance()

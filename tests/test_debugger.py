@@ -908,6 +908,8 @@ def test_ignore_and_continue_n(debug, files):
     assert "will ignore next 1 crossings of breakpoint 1" in out
     assert "breakpoint 1: pe0.ic issued pc 2 (loop) in cycle 10" in out
     assert "will stop next time breakpoint 1 is reached" in out
+    code, out = debug(["continue 3"], "--program", files / "loop.s")  # gdb: a note, and on
+    assert "not stopped at any breakpoint; argument ignored" in out and "halted" in out
 
 
 def test_display_at_every_stop(debug, files):

@@ -58,13 +58,18 @@ def hot_locations(p: dict) -> list[tuple[int, str, int, int, int]]:
 
 def ilp_sections(stats: dict, top: int = 5) -> list[Section]:
     procs = present_processors(stats)
-    main = Section("processors", "ILP per processor (dynamic = ops/cycle, static = ops/bundle as scheduled)",
-                   ["processor", "cycles", "bundles", "ops", "ops/cycle", "ops/bundle", "static", "stalled"],
-                   formats={"cycles": "int", "bundles": "int", "ops": "int", "ops/cycle": "f2",
-                            "ops/bundle": "f2", "static": "f2", "stalled": "pct"})
+    main = Section("processors", "ILP per processor",
+                   ["processor", "cycles", "bundles", "ops", "dynamic ILP", "ops/issue", "static ILP",
+                    "stalled"],
+                   formats={"cycles": "int", "bundles": "int", "ops": "int", "dynamic ILP": "f2",
+                            "ops/issue": "f2", "static ILP": "f2", "stalled": "pct"},
+                   caption="dynamic ILP = ops per cycle, stalls included; ops/issue = ops per "
+                           "bundle issued; static ILP = ops per bundle of the program as scheduled")
     slots = Section("slot_fill", "Slot fill per unit class (share of slots holding an operation)",
-                    ["processor", "unit", "units", "ops", "dynamic", "static"],
-                    formats={"units": "int", "ops": "int", "dynamic": "pct", "static": "pct"})
+                    ["processor", "unit", "units", "ops", "dynamic fill", "static fill"],
+                    formats={"units": "int", "ops": "int", "dynamic fill": "pct", "static fill": "pct"},
+                    caption="dynamic fill = ops of the class / (cycles × units); static fill = "
+                            "over the program's bundles")
     ports = Section("register_ports", "Register-file ports per bundle, as scheduled (static)",
                     ["processor", "reads", "read use", "max R", "writes", "write use", "max W"],
                     formats={"reads": "f2", "read use": "pct", "max R": "int", "writes": "f2",

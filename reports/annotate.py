@@ -7,9 +7,9 @@ processor's cycles (issued + stalled there / the processor's cycles) and its slo
 operations / the processor's unit slots). Hottest first (`order="hot"`) or in program order.
 
 A loop is a backward branch or jump and its target: the bundles target..branch (back edges to
-one target make one loop, up to the last of them; loops nest). Per loop: the cycles spent in its
-bundles, their static count, the static ILP of its body, the dynamic ILP (operations issued
-there / its cycles) and the dominant stall cause.
+one target make one loop, up to the last of them; loops nest). Per loop: the bundles issued
+in it, the cycles spent in its bundles, the static ILP of its body, the dynamic ILP (operations
+issued there / its cycles) and the dominant stall cause with its share of the loop's cycles.
 
 The program's text comes from the statistics (`programs.<stage>.listing`, emulator/stats.py);
 statistics written before it existed give the per-PC counts with labels only, and no loops.
@@ -141,12 +141,14 @@ def annotate_sections(stats: dict, proc: str | None = None, top: int | None = No
                               "docs/stalls.md", group_by="processor")
     loops = Section("loops", "Loops (a backward branch's target .. the branch)",
                     ["processor", "loop", "pcs", "bundles", "cycles", "share", "static ILP",
-                     "dynamic ILP", "dominant stall", "of cycles"],
+                     "dynamic ILP", "dominant stall"],
                     formats={"bundles": "int", "cycles": "int", "share": "pct", "static ILP": "f2",
-                             "dynamic ILP": "f2", "of cycles": "pct"},
-                    caption="static ILP = ops per bundle of the loop body; dynamic ILP = ops issued "
-                            "there per cycle spent there; of cycles = the dominant stall's share "
-                            "of the loop's cycles", group_by="processor")
+                             "dynamic ILP": "f2"},
+                    caption="bundles = bundles issued in the loop; cycles = cycles spent in its "
+                            "bundles (issued + stalled); static ILP = ops per bundle of the loop "
+                            "body; dynamic ILP = ops issued there / its cycles; dominant stall: "
+                            "the cause of most of its stall cycles, as a share of its cycles",
+                    group_by="processor")
     without_text = False
     for name, p in choose_processors(stats, proc):
         cycles = max(int(p["cycles"]), 1)
@@ -166,10 +168,10 @@ def annotate_sections(stats: dict, proc: str | None = None, top: int | None = No
                                  b.ops / slots if slots and b.ops is not None else None])
         for lp in find_loops(counts):
             dom = lp.dominant
-            loops.rows.append([name, lp.label, f"{lp.start}-{lp.end}", lp.bundles, lp.cycles,
+            loops.rows.append([name, lp.label, f"{lp.start}-{lp.end}", lp.issued, lp.cycles,
                                lp.cycles / cycles, lp.static_ops / max(lp.bundles, 1),
                                lp.ops / lp.cycles if lp.cycles else None,
-                               dom[0] if dom else None, dom[1] / lp.cycles if dom else None])
+                               f"{dom[0]} {100 * dom[1] / lp.cycles:.1f}%" if dom else None])
     if without_text:
         listing.caption += (" — these statistics carry no program listing (written by an older "
                             "version): rerun to see the bundles' text and the loops")

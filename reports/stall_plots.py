@@ -1,8 +1,9 @@
 """Pictures of where the cycles went: `report stalls --plot` and `report annotate --plot`.
 
 Stalls: one horizontal bar per processor, as long as its cycles, cut into the cycles that issued
-a bundle and the stall cycles by cause (the causes above 1 % of some processor's cycles each
-have a colour, the rest are `other`), with percentages on the wide pieces. Annotate: per
+a bundle and the stall cycles by cause (the nine causes with the largest share of some
+processor's stall cycles each have a colour, the rest are `other`), with percentages on the
+wide pieces. Annotate: per
 processor, the cycles charged to each bundle address along the listing, stacked by cause over
 the issued cycles, loops shaded and labels marked on the axis. matplotlib's Agg backend (no
 display needed); the same statistics give the same picture.
@@ -30,22 +31,24 @@ def _pyplot():
 
 def _palette(causes: list[str]) -> dict[str, object]:
     plt = _pyplot()
-    cmap = plt.get_cmap("tab20")
-    colours = {c: cmap(i % 20) for i, c in enumerate(causes)}
+    cmap = plt.get_cmap("tab10")
+    tab = [cmap(i) for i in range(10) if i != 7]  # tab10 less its grey: grey is `issued`
+    colours = {c: tab[i % len(tab)] for i, c in enumerate(causes)}
     colours[OTHER] = "#404040"
     return colours
 
 
-def _main_causes(per_proc: list[dict[str, int]], cycles: list[int], floor: float = 0.01) -> list[str]:
-    """Causes that reach `floor` of some processor's cycles, by total cycles."""
-    total: dict[str, int] = {}
-    keep = set()
-    for stalls, c in zip(per_proc, cycles):
+def _main_causes(per_proc: list[dict[str, int]], cycles: list[int], most: int = 9) -> list[str]:
+    """The `most` causes with the largest share of some processor's stall cycles (so that a
+    processor idle most of the time still shows what stalls it when it works); the rest are
+    drawn as `other`."""
+    share: dict[str, float] = {}
+    for stalls in per_proc:
+        total = max(sum(stalls.values()), 1)
         for cause, n in stalls.items():
-            total[cause] = total.get(cause, 0) + n
-            if n >= floor * max(c, 1):
-                keep.add(cause)
-    return sorted(keep, key=lambda k: (-total[k], k))
+            if n:
+                share[cause] = max(share.get(cause, 0.0), n / total)
+    return sorted(share, key=lambda k: (-share[k], k))[:most]
 
 
 def plot_stalls(stats: dict, path: str | Path, title: str = "") -> Path:
@@ -88,18 +91,46 @@ def plot_stalls(stats: dict, path: str | Path, title: str = "") -> Path:
     return out
 
 
+def _tick_labels(cs, spacing: float) -> list[tuple[int, str]]:
+    """Label starts to mark on the axis: the hottest first, each at least `spacing` bundle
+    addresses from those kept, so that none overlap."""
+    heat: dict[int, int] = {}
+    start = None
+    for b in cs:
+        if "+" not in b.label and not b.label.isdigit():
+            start = b.pc
+        if start is not None:
+            heat[start] = heat.get(start, 0) + b.cycles
+    label = {b.pc: b.label for b in cs}
+    kept: list[int] = []
+    for pc in sorted(heat, key=lambda pc: (-heat[pc], pc)):
+        if all(abs(pc - k) >= spacing for k in kept):
+            kept.append(pc)
+    return [(pc, label[pc]) for pc in sorted(kept)]
+
+
+def _innermost(loops):
+    """Loops that hold no other loop: the ones worth shading."""
+    return [lp for lp in loops if not any(o is not lp and lp.start <= o.start and o.end <= lp.end
+                                          and (o.start, o.end) != (lp.start, lp.end) for o in loops)]
+
+
 def plot_annotate(stats: dict, path: str | Path, proc: str | None = None) -> Path:
-    """Cycles charged to each bundle address along the listing, stacked by cause, per processor."""
+    """Cycles charged to each bundle address along the listing, stacked by cause, per processor.
+    A bar far above the rest (an idle `wait` or `recv`) is cut at 1.5× the next highest and
+    labelled with its cycles, so the others stay readable."""
+    from matplotlib.patches import Patch
+
     plt = _pyplot()
     chosen = choose_processors(stats, proc)
     counts = [bundle_counts(stats, n, p) for n, p in chosen]
-    all_stalls = [{c: n for b in cs for c, n in b.stalls.items()} for cs in counts]
-    totals = [{c: sum(b.stalls.get(c, 0) for b in cs) for c in s} for cs, s in zip(counts, all_stalls)]
+    totals = [{c: sum(b.stalls.get(c, 0) for b in cs) for c in {c for b in cs for c in b.stalls}}
+              for cs in counts]
     causes = _main_causes(totals, [int(p["cycles"]) for _, p in chosen])
     colours = _palette(causes)
-    fig, axes = plt.subplots(len(chosen), 1, figsize=(12, 0.6 + 2.6 * len(chosen)),
+    fig, axes = plt.subplots(len(chosen), 1, figsize=(12, 0.8 + 2.8 * len(chosen)),
                              layout="constrained", squeeze=False)
-    seen: set[str] = set()
+    used: set[str] = set()
     for ax, (name, p), cs in zip(axes[:, 0], chosen, counts):
         pcs = [b.pc for b in cs]
         bottom = [0] * len(cs)
@@ -107,9 +138,8 @@ def plot_annotate(stats: dict, path: str | Path, proc: str | None = None) -> Pat
         def layer(label: str, values: list[int], colour) -> None:
             if not any(values):
                 return
-            ax.bar(pcs, values, bottom=bottom, width=1.0, color=colour,
-                   label=None if label in seen else label, linewidth=0)
-            seen.add(label)
+            ax.bar(pcs, values, bottom=bottom, width=1.0, color=colour, linewidth=0)
+            used.add(label)
             for i, v in enumerate(values):
                 bottom[i] += v
 
@@ -117,22 +147,29 @@ def plot_annotate(stats: dict, path: str | Path, proc: str | None = None) -> Pat
         for cause in causes:
             layer(cause, [b.stalls.get(cause, 0) for b in cs], colours[cause])
         layer(OTHER, [sum(n for c, n in b.stalls.items() if c not in causes) for b in cs], colours[OTHER])
-        for lp in find_loops(cs):
-            ax.axvspan(lp.start - 0.5, lp.end + 0.5, color="#1f77b4", alpha=0.06, linewidth=0)
-        starts = [(b.pc, b.label) for b in cs if "+" not in b.label and not b.label.isdigit()]
-        if len(starts) > 40:  # too many to read: the hottest labels only
-            heat = {b.pc: b.cycles for b in cs}
-            keep = {pc for pc, _ in sorted(starts, key=lambda s: -heat.get(s[0], 0))[:40]}
-            starts = [s for s in starts if s[0] in keep]
-        if starts:
-            ax.set_xticks([pc for pc, _ in starts], [lb for _, lb in starts], rotation=90, fontsize=7)
+        for lp in _innermost(find_loops(cs)):
+            ax.axvspan(lp.start - 0.5, lp.end + 0.5, color="#1f77b4", alpha=0.08, linewidth=0)
+        heights = sorted(bottom, reverse=True)
+        if len(heights) > 1 and heights[1] > 0 and heights[0] > 3 * heights[1]:
+            top = 1.5 * heights[1]
+            ax.set_ylim(0, top)
+            for pc, h in zip(pcs, bottom):
+                if h > top:
+                    ax.annotate(f"{h:,} ↑", (pc, top), xytext=(3, -10), textcoords="offset points",
+                                fontsize=8, ha="left")
+        span = max(pcs, default=0) - min(pcs, default=0) + 1
+        ticks = _tick_labels(cs, span / 70)
+        if ticks:
+            ax.set_xticks([pc for pc, _ in ticks], [lb for _, lb in ticks], rotation=90, fontsize=7)
         ax.set_xlim(min(pcs, default=0) - 0.5, max(pcs, default=0) + 0.5)
         ax.set_ylabel("cycles")
         ax.yaxis.set_major_formatter(plt.FuncFormatter(lambda v, _: f"{v:,.0f}"))
-        ax.set_title(f"{name}: {int(p['cycles']):,} cycles, charged per bundle address "
-                     "(shaded: loops)", loc="left", fontsize=10)
+        ax.set_title(f"{name}: {int(p['cycles']):,} cycles charged per bundle address "
+                     "(shaded: innermost loops)", loc="left", fontsize=10)
         ax.spines[["top", "right"]].set_visible(False)
-    fig.legend(loc="outside right upper", fontsize=8, frameon=False)
+    order = [lb for lb in ["issued"] + causes + [OTHER] if lb in used]
+    fig.legend([Patch(color=ISSUED_COLOUR if lb == "issued" else colours[lb]) for lb in order], order,
+               loc="outside right upper", fontsize=8, frameon=False)
     out = Path(path)
     fig.savefig(out, dpi=120)
     plt.close(fig)

@@ -102,17 +102,20 @@ def report_width() -> int:
     return max(MIN_WIDTH, shutil.get_terminal_size((80, 24)).columns)
 
 
-def column_widths(natural: list[int], minimum: list[int], room: int) -> list[int]:
-    """Content widths within `room`: every column at its natural width if they fit, else the
-    widest columns shrunk one character at a time, never below their longest word (`minimum`);
-    when the minimums alone exceed the room, the minimums."""
+def column_widths(natural: list[int], minimum: list[int], room: int,
+                  body: list[int] | None = None) -> list[int]:
+    """Content widths within `room`: every column at its natural width if they fit; else first
+    the headers wider than their column's cells wrap (down to `body`, the cells' width), then
+    the widest columns shrink one character at a time, never below their longest word
+    (`minimum`); when the minimums alone exceed the room, the minimums."""
     widths = list(natural)
-    while sum(widths) > room:
-        shrinkable = [i for i, w in enumerate(widths) if w > minimum[i]]
-        if not shrinkable:
-            break
-        widest = max(shrinkable, key=lambda i: (widths[i], -i))
-        widths[widest] -= 1
+    for floor in ([max(b, m) for b, m in zip(body, minimum)] if body else [], minimum):
+        while floor and sum(widths) > room:
+            shrinkable = [i for i, w in enumerate(widths) if w > floor[i]]
+            if not shrinkable:
+                break
+            widest = max(shrinkable, key=lambda i: (widths[i], -i))
+            widths[widest] -= 1
     return widths
 
 
@@ -128,11 +131,12 @@ def rich_table(s: Section, width: int):
 
     cells = [[s.cell(c, v) for c, v in zip(s.columns, r)] for r in s.rows] or \
         [["(none)"] + [""] * (len(s.columns) - 1)]
-    natural = [max(len(x) for x in [c] + [r[i] for r in cells]) for i, c in enumerate(s.columns)]
+    body = [max(len(r[i]) for r in cells) for i in range(len(s.columns))]
+    natural = [max(len(c), b) for c, b in zip(s.columns, body)]
     minimum = [max(len(w) for x in [c] + [r[i] for r in cells] for w in x.split() or [""])
                for i, c in enumerate(s.columns)]
     gaps = 2 * (len(s.columns) - 1)
-    widths = column_widths(natural, minimum, width - gaps)
+    widths = column_widths(natural, minimum, width - gaps, body)
     t = Table(title=Text(s.title), title_justify="left", caption=Text(s.caption) if s.caption else None,
               caption_justify="left", box=box.SIMPLE_HEAD, show_edge=False, pad_edge=False,
               padding=(0, 1, 0, 0))

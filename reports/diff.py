@@ -11,6 +11,7 @@ format, CSV included, is one table a spreadsheet or pandas can pivot.
 
 from __future__ import annotations
 
+from netsushisen.isa.opcodes import OPCODES
 from netsushisen.reports.ilp import static_ilp_of
 from netsushisen.reports.summary import memory_figures
 from netsushisen.reports.tables import Section
@@ -46,6 +47,15 @@ def inputs(stats: dict) -> dict[str, object]:
     if "image_sha256" in stats:
         out["image_sha256"] = stats["image_sha256"]
     return out
+
+
+def _default(key: str) -> str | None:
+    """What a configuration field left unset means, where the statistics can say: a latency
+    override absent is the opcode table's latency."""
+    parts = key.split(".")
+    if len(parts) == 4 and parts[0] == "config" and parts[2] == "latency" and parts[3] in OPCODES:
+        return f"{OPCODES[parts[3]].latency} (default)"
+    return None
 
 
 def change(a, b) -> list:
@@ -89,14 +99,17 @@ def _ordered(a: dict, b: dict) -> list[str]:
     return fixed + sorted(k for k in keys if k.startswith("stall ") and k != "stall cycles")
 
 
-def diff_sections(a: dict, b: dict) -> list[Section]:
+def diff_sections(a: dict, b: dict, changed_only: bool = False) -> list[Section]:
+    """The inputs that differ, then every figure of A and B with its change (`changed_only`:
+    the figures that changed)."""
     ia, ib = inputs(a), inputs(b)
-    cfg = Section("inputs", "Inputs that differ (configuration, render settings, programs, image)",
-                  ["field", "A", "B"])
+    cfg = Section("inputs", "Inputs that differ", ["field", "A", "B"],
+                  caption="configuration, render settings, programs, memory image")
     for k in sorted(set(ia) | set(ib)):
         if ia.get(k) != ib.get(k):
-            cfg.rows.append([k, ia.get(k), ib.get(k)])
-    cfg.caption = "" if cfg.rows else "the two runs had the same inputs"
+            cfg.rows.append([k, ia[k] if k in ia else _default(k), ib[k] if k in ib else _default(k)])
+    if not cfg.rows:
+        cfg.caption = "the two runs had the same inputs"
 
     procs = Section("processors", "Per processor (change = B − A, relative = change / A)",
                     ["processor", "metric"] + CHANGE_COLUMNS, formats=dict(CHANGE_FORMATS),
@@ -120,4 +133,9 @@ def diff_sections(a: dict, b: dict) -> list[Section]:
             ma, mb = region_metrics(a, name, r), region_metrics(b, name, r)
             for k in list(ma) + [k for k in mb if k not in ma]:
                 mem.rows.append([name, region, k] + change(ma.get(k), mb.get(k)))
+    if changed_only:
+        for sec in (procs, mem):
+            at = sec.columns.index("A")
+            sec.rows = [r for r in sec.rows if r[at] != r[at + 1]]
+            sec.caption = (sec.caption + "; " if sec.caption else "") + "changed figures only"
     return [cfg, procs, mem]

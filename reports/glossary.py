@@ -38,20 +38,22 @@ CAUSES: tuple[Cause, ...] = (
           "fewer loads per primitive; resident data is already the cheapest global data"),
     Cause("cache_hit", "memory", "T6", "the load",
           "an `ldg` that hit the direct-mapped cache is in progress (t_c, less the issue cycle)",
-          "make the data resident (a larger `ic_memory.resident_bytes` or `resident_share`)"),
+          "make the data resident (more resident memory: `ic_memory` `resident_bytes` or "
+          "`resident_share`)"),
     Cause("cache_miss", "memory", "T6", "the load",
           "an `ldg` that missed is in progress (t_g, less the issue cycle; the block is filled "
           "at once)",
-          "more resident memory or a larger cache (`ic_memory.resident_bytes`, `cache_bytes`); see `report memory` for ρ, μ"),
+          "more resident memory or a larger cache (`ic_memory` `resident_bytes`, `cache_bytes`); "
+          "`report memory` gives ρ and μ"),
     Cause("branch", "control", "T7", "the branch",
           "the penalty cycles after a taken branch, `j`, `jr`, `call` or `ret` "
-          "(`<proc>.taken_branch_penalty`)",
+          "(`taken_branch_penalty` in the processor's configuration section)",
           "lay the common path out as the fall-through; merge short branches into `fsel`"),
     Cause("operand:<m>", "dependence", "T3", "the waiting bundle",
           "a source register is not ready (read after write); `<m>` is the operation whose "
           "result arrives last",
           "schedule independent operations between producer and consumer; "
-          "`<proc>.latency.<m>` sets the producer's latency"),
+          "`--set ic.latency.<m>=N` (or os, sc) sets its latency"),
     Cause("waw:<m>", "dependence", "T3", "the waiting bundle",
           "a destination register still awaits the result of an earlier `<m>` (write after "
           "write)",
@@ -107,8 +109,8 @@ def glossary_section(causes: list[str] | None = None) -> Section:
     """The glossary as a report section: every cause (None), or the concrete ones given."""
     s = Section("glossary", "Stall causes (docs/stalls.md)", ["cause", "rule", "charged to", "meaning"])
     if causes is None:
-        s.columns = ["cause", "group", "rule", "charged to", "meaning", "what to try"]
-        s.rows = [[c.name, c.group, c.rule, c.charged_to, c.meaning, c.remedy] for c in CAUSES]
+        s.columns = ["cause", "rule", "charged to", "meaning", "what to try"]
+        s.rows = [[c.name, c.rule, c.charged_to, c.meaning, c.remedy] for c in CAUSES]
         return s
     for cause in causes:
         c = lookup(cause)

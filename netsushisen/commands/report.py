@@ -6,7 +6,7 @@
     netsushisen report memory   STATS.json
     netsushisen report annotate STATS.json [--proc pe0.ic] [--top N] [--order hot|program]
                                 [--plot FILE.png]
-    netsushisen report diff     A.json B.json
+    netsushisen report diff     A.json B.json [--changed]
     each also: [--format table|json|csv|md] [--table NAME] [-o FILE|DIR] [--width N]
 
 ilp: per processor cycles, bundles, operations, dynamic ILP (ops per cycle) against static ILP
@@ -18,7 +18,7 @@ t = t_r·{ρ + (1 − ρ)(8 − 6μ)}. annotate: the program listing with, per b
 stall cycles by cause, share of the processor's cycles and slot fill, hottest first or in
 program order, and a summary per loop; `--plot` draws the cycles per bundle along the listing.
 diff: the inputs that differ, then every processor's and memory region's figures in A and B
-with the change and relative change.
+with the change and relative change (`--changed`: only the figures that changed).
 
 Tables fit the terminal's width (80 columns when not a terminal; `--width` or `COLUMNS` to
 choose) and wrap between words only. CSV is one table per file, readable by pandas as it is:
@@ -69,6 +69,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         if kind == "diff":
             p.add_argument("stats", metavar="A.json", help="the first statistics file")
             p.add_argument("other", metavar="B.json", help="the second, compared with the first")
+            p.add_argument("--changed", action="store_true", help="only the figures that changed")
         else:
             p.add_argument("stats", metavar="STATS.json", nargs="?" if kind == "stalls" else None,
                            help="statistics file (run --json / render --json)")
@@ -101,7 +102,7 @@ def sections_for(args: argparse.Namespace, stats: dict, other: dict | None = Non
         return annotate_sections(stats, args.proc, top, args.order)
     if kind == "diff":
         from netsushisen.reports.diff import diff_sections
-        return diff_sections(stats, other)
+        return diff_sections(stats, other, args.changed)
     from netsushisen.reports.memory import memory_sections
     return memory_sections(stats)
 

@@ -132,36 +132,45 @@ def plot_annotate(stats: dict, path: str | Path, proc: str | None = None) -> Pat
                              layout="constrained", squeeze=False)
     used: set[str] = set()
     for ax, (name, p), cs in zip(axes[:, 0], chosen, counts):
-        pcs = [b.pc for b in cs]
-        bottom = [0] * len(cs)
+        import numpy as np
+
+        lo, hi = min((b.pc for b in cs), default=0), max((b.pc for b in cs), default=0)
+        pcs = list(range(lo, hi + 1))
+        at = {b.pc: b for b in cs}
+        edges = np.arange(lo, hi + 2) - 0.5
+        bottom = np.zeros(len(pcs), np.int64)
 
         def layer(label: str, values: list[int], colour) -> None:
-            if not any(values):
+            v = np.asarray(values, np.int64)
+            if not v.any():
                 return
-            ax.bar(pcs, values, bottom=bottom, width=1.0, color=colour, linewidth=0)
+            ax.stairs(bottom + v, edges, baseline=bottom.copy(), fill=True, color=colour, linewidth=0)
             used.add(label)
-            for i, v in enumerate(values):
-                bottom[i] += v
+            bottom[:] += v
 
-        layer("issued", [b.issued for b in cs], ISSUED_COLOUR)
+        def per_pc(f) -> list[int]:
+            return [f(at[pc]) if pc in at else 0 for pc in pcs]
+
+        layer("issued", per_pc(lambda b: b.issued), ISSUED_COLOUR)
         for cause in causes:
-            layer(cause, [b.stalls.get(cause, 0) for b in cs], colours[cause])
-        layer(OTHER, [sum(n for c, n in b.stalls.items() if c not in causes) for b in cs], colours[OTHER])
+            layer(cause, per_pc(lambda b, c=cause: b.stalls.get(c, 0)), colours[cause])
+        layer(OTHER, per_pc(lambda b: sum(n for c, n in b.stalls.items() if c not in causes)),
+              colours[OTHER])
         for lp in _innermost(find_loops(cs)):
             ax.axvspan(lp.start - 0.5, lp.end + 0.5, color="#1f77b4", alpha=0.08, linewidth=0)
-        heights = sorted(bottom, reverse=True)
+        heights = sorted(bottom.tolist(), reverse=True)
         if len(heights) > 1 and heights[1] > 0 and heights[0] > 3 * heights[1]:
             top = 1.5 * heights[1]
             ax.set_ylim(0, top)
-            for pc, h in zip(pcs, bottom):
+            for pc, h in zip(pcs, bottom.tolist()):
                 if h > top:
                     ax.annotate(f"{h:,} ↑", (pc, top), xytext=(3, -10), textcoords="offset points",
                                 fontsize=8, ha="left")
-        span = max(pcs, default=0) - min(pcs, default=0) + 1
+        span = hi - lo + 1
         ticks = _tick_labels(cs, span / 70)
         if ticks:
             ax.set_xticks([pc for pc, _ in ticks], [lb for _, lb in ticks], rotation=90, fontsize=7)
-        ax.set_xlim(min(pcs, default=0) - 0.5, max(pcs, default=0) + 0.5)
+        ax.set_xlim(lo - 0.5, hi + 0.5)
         ax.set_ylabel("cycles")
         ax.yaxis.set_major_formatter(plt.FuncFormatter(lambda v, _: f"{v:,.0f}"))
         ax.set_title(f"{name}: {int(p['cycles']):,} cycles charged per bundle address "

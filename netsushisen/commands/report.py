@@ -128,10 +128,13 @@ def _check(args: argparse.Namespace) -> None:
 def _write_plot(args: argparse.Namespace, stats: dict) -> None:
     from netsushisen.reports import stall_plots
 
-    if args.kind == "stalls":
-        stall_plots.plot_stalls(stats, args.plot)
-    else:
-        stall_plots.plot_annotate(stats, args.plot, args.proc)
+    try:
+        if args.kind == "stalls":
+            stall_plots.plot_stalls(stats, args.plot)
+        else:
+            stall_plots.plot_annotate(stats, args.plot, args.proc)
+    except OSError as err:
+        raise StatsError(Diagnostic(f"cannot write the plot: {err.strerror}", file=args.plot)) from None
     print(f"report {args.kind}: plot -> {args.plot}", file=sys.stderr)
 
 
@@ -163,7 +166,10 @@ def run(args: argparse.Namespace) -> int:
 
 def _emit(args: argparse.Namespace, text: str) -> int:
     if args.output:
-        Path(args.output).write_text(text, encoding="utf-8")
+        try:
+            Path(args.output).write_text(text, encoding="utf-8")
+        except OSError as err:
+            raise StatsError(Diagnostic(f"cannot write the report: {err.strerror}", file=args.output)) from None
     else:
         sys.stdout.write(text)
     return 0

@@ -20,8 +20,8 @@ program order, and a summary per loop; `--plot` draws the cycles per bundle alon
 diff: the inputs that differ, then every processor's and memory region's figures in A and B
 with the change and relative change (`--changed`: only the figures that changed).
 
-Tables fit the terminal's width (80 columns when not a terminal; `--width` or `COLUMNS` to
-choose) and wrap between words only. CSV is one table per file, readable by pandas as it is:
+Tables fit the terminal's width (80 columns when not a terminal or with `-o`; `--width` or
+`COLUMNS` to choose) and wrap between words only. CSV is one table per file, readable by pandas as it is:
 `--table NAME` picks one table of a report (to standard output or `-o FILE`), and `-o DIR`
 writes a report's tables to `DIR/<report>_<table>.csv`.
 """
@@ -49,8 +49,8 @@ def _common(p: argparse.ArgumentParser) -> None:
                    "in the JSON output: e.g. causes, locations); CSV holds one table")
     p.add_argument("-o", dest="output", metavar="FILE|DIR", help="write to this file instead of "
                    "standard output (CSV of several tables: a folder, one file per table)")
-    p.add_argument("--width", type=int, metavar="N", help="table width (default: the terminal's, "
-                   "80 when the output is not a terminal)")
+    p.add_argument("--width", type=int, metavar="N", help="table width (default: the terminal's; "
+                   "80 when the output is not a terminal, or with -o)")
 
 
 def _top(p: argparse.ArgumentParser, default: str) -> None:
@@ -161,7 +161,8 @@ def run(args: argparse.Namespace) -> int:
         paths = write_csv_dir(sections, args.kind, args.output)
         print(f"report {args.kind}: {len(paths)} tables -> {', '.join(map(str, paths))}", file=sys.stderr)
         return 0
-    return _emit(args, render(sections, args.format, args.kind, source, args.width))
+    width = args.width or (80 if args.output else None)  # a file is not the terminal
+    return _emit(args, render(sections, args.format, args.kind, source, width))
 
 
 def _emit(args: argparse.Namespace, text: str) -> int:

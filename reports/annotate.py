@@ -53,8 +53,8 @@ def bundle_counts(stats: dict, name: str, p: dict) -> list[BundleCounts]:
     issued = {int(k): int(v) for k, v in (p.get("bundles_by_pc") or {}).items()}
     by_pc = {int(k): v for k, v in (p.get("stalls_by_pc") or {}).items()}
     if listing:
-        out = [BundleCounts(pc, b["label"], b["text"], b["ops"], b.get("target"))
-               for pc, b in enumerate(listing)]
+        out = [BundleCounts(pc, *row) for pc, row in enumerate(
+            zip(listing["label"], listing["text"], listing["ops"], listing["target"]))]
     else:
         out = [BundleCounts(pc, (by_pc.get(pc) or {}).get("label", str(pc)), None, None, None)
                for pc in sorted(set(issued) | set(by_pc))]

@@ -137,9 +137,7 @@ def rich_table(s: Section, width: int):
                for i, c in enumerate(s.columns)]
     gaps = 2 * (len(s.columns) - 1)
     widths = column_widths(natural, minimum, width - gaps, body)
-    t = Table(title=Text(s.title), title_justify="left", caption=Text(s.caption) if s.caption else None,
-              caption_justify="left", box=box.SIMPLE_HEAD, show_edge=False, pad_edge=False,
-              padding=(0, 1, 0, 0))
+    t = Table(box=box.SIMPLE_HEAD, show_edge=False, pad_edge=False, padding=(0, 1, 0, 0))
     for c, w in zip(s.columns, widths):
         t.add_column(Text(c), justify="right" if c in s.formats else "left", width=w)
     for r in cells:
@@ -168,13 +166,17 @@ def render_table(sections: list[Section], width: int | None = None) -> str:
     """Tables `width` wide at most (default: `report_width()`), wider only where a table's
     longest words need it, so that no word is ever split."""
     from rich.console import Console
+    from rich.text import Text
 
     width = width or report_width()
     out = []
     for s in split_groups(sections):
         t, need = rich_table(s, width)
         console = Console(width=max(width, need), record=True, file=io.StringIO(), color_system=None)
+        console.print(Text(s.title))  # title and caption wrap at the terminal, not the table
         console.print(t)
+        if s.caption:
+            console.print(Text(s.caption))
         console.print()
         out.append(console.export_text())
     return "".join(out)

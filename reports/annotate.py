@@ -132,11 +132,11 @@ def annotate_sections(stats: dict, proc: str | None = None, top: int | None = No
     if order not in ORDERS:
         raise StatsError(f"--order {order}: one of {', '.join(ORDERS)}")
     listing = Section("bundles", "Annotated listing" + (" (hottest first)" if order == "hot" else ""),
-                      ["processor", "pc", "location", "bundle", "issued", "stalled", "stalls by cause",
+                      ["processor", "pc", "location", "bundle", "issued", "stall cycles", "stalls by cause",
                        "share", "fill"],
-                      formats={"pc": "int", "issued": "int", "stalled": "int", "share": "pct",
+                      formats={"pc": "int", "issued": "int", "stall cycles": "int", "share": "pct",
                                "fill": "pct"},
-                      caption="share = (issued + stalled) / the processor's cycles; fill = the "
+                      caption="share = (issued + stall cycles) / the processor's cycles; fill = the "
                               "bundle's operations / the processor's unit slots; causes: "
                               "docs/stalls.md", group_by="processor")
     loops = Section("loops", "Loops (a backward branch's target .. the branch)",

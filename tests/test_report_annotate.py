@@ -64,12 +64,12 @@ def test_annotate_counts_each_bundle(cli, loop_run):
     by_pc = {r["pc"]: r for r in rows}
     assert [r["pc"] for r in rows] == [0, 1, 2, 3, 4]  # program order, every bundle
     cycles = 19  # 9 bundles in the loop + 2 others, 3 × 2 operand stalls, 2 branch stalls
-    assert by_pc[2]["issued"] == 3 and by_pc[2]["stalled"] == 6
+    assert by_pc[2]["issued"] == 3 and by_pc[2]["stall cycles"] == 6
     assert by_pc[2]["stalls by cause"] == "operand:fmul 6"
     assert by_pc[3]["stalls by cause"] == "branch 2"
     assert by_pc[2]["share"] == pytest.approx(9 / cycles)
     assert by_pc[1]["fill"] == pytest.approx(2 / 4) and by_pc[2]["fill"] == pytest.approx(1 / 4)
-    assert sum(r["issued"] + r["stalled"] for r in rows) == cycles
+    assert sum(r["issued"] + r["stall cycles"] for r in rows) == cycles
     hot = section(cli, "annotate", loop_run("a"), "--top", "2")["bundles"]
     assert [r["pc"] for r in hot] == [2, 3]  # hottest first: 9 cycles, then 5
 
@@ -141,7 +141,7 @@ def test_diff_of_render_outputs(cli, render_pair):
 def test_annotate_on_render_output(cli, render_pair):
     d = section(cli, "annotate", render_pair[0], "--proc", "ic", "--top", "5")
     assert {r["processor"] for r in d["bundles"]} == {"pe0.ic"} and len(d["bundles"]) == 5
-    cycles = [r["issued"] + r["stalled"] for r in d["bundles"]]
+    cycles = [r["issued"] + r["stall cycles"] for r in d["bundles"]]
     assert cycles == sorted(cycles, reverse=True) and all(r["bundle"] for r in d["bundles"])
     assert any(r["loop"] for r in d["loops"])
     code, out, err = cli("report", "annotate", render_pair[0], "--proc", "pe7.ic")

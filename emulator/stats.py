@@ -6,7 +6,11 @@ Schema `netsushisen-stats` version 1:
     config       the full MachineConfig (a run is reproducible from its statistics)
     programs     per stage: bundles, data words, source file, defines (or null when absent);
                  static_ilp (ops per bundle, slot fill per unit class, register-port use of
-                 the program as scheduled: `asm.listing.static_ilp`)
+                 the program as scheduled: `asm.listing.static_ilp`); listing: columns
+                 indexed by bundle address — label (label+offset), text (its ops, `; `-joined,
+                 or `nop`), ops, target (the code address a branch or jump names, else null),
+                 source ("file:line") — what `report annotate` prints the per-PC counters
+                 against, without the source files
     run          status (halted/finished/deadlock/fault/max_cycles, or interrupted: stopped by
                  Ctrl-C, the counters so far), cycles, message,
                  left_in_flight (words still in FIFOs at the end)
@@ -28,14 +32,36 @@ Schema `netsushisen-stats` version 1:
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
 
 from netsushisen.asm.listing import static_ilp
+from netsushisen.asm.objects import Program
 from netsushisen.emulator.machine import Machine
 
 SCHEMA = {"name": "netsushisen-stats", "version": 1}
+
+
+def program_listing(program: Program) -> dict[str, list]:
+    """Per bundle address, as columns (a list each, compact in the indented JSON): its
+    label+offset, text, operation count, the code address a branch or jump names (`report
+    annotate` finds loops from the backward ones) and the source line. The statistics carry it
+    so a report reads the program beside its counters even when the kernel source has changed
+    or is gone; the file name alone keeps the statistics the same wherever the kernels are."""
+    labels = program.code_labels()
+    out: dict[str, list] = {"label": [], "text": [], "ops": [], "target": [], "source": []}
+    for addr, bundle in enumerate(program.bundles):
+        real = [op for op in bundle if op.opcode.kind != "nop"]
+        loc = program.source_map[addr] if addr < len(program.source_map) else None
+        out["label"].append(program.label_at(addr))
+        out["text"].append(" ; ".join(op.format(labels) for op in real) or "nop")
+        out["ops"].append(len(real))
+        out["target"].append(next((op.args[-1] for op in real if op.opcode.kind in ("branch", "jump")
+                                   and isinstance(op.args[-1], int)), None))
+        out["source"].append(f"{os.path.basename(loc.file)}:{loc.line}" if loc else None)
+    return out
 
 
 def collect(machine: Machine) -> dict:
@@ -45,7 +71,8 @@ def collect(machine: Machine) -> dict:
             "bundles": len(p.bundles), "data_words": len(p.data),
             "source": p.source_map[0].file if p.source_map else None,
             "defines": {k: v for k, v in sorted(p.defines.items())},
-            "static_ilp": static_ilp(p).as_dict()}
+            "static_ilp": static_ilp(p).as_dict(),
+            "listing": program_listing(p)}
     processors, memory, fifos = {}, {}, {}
     left = 0
     for pe in machine.pes:

@@ -15,6 +15,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from netsushisen.isa.processors import PROCESSORS
+from netsushisen.reports.annotate import bundle_counts
 from netsushisen.reports.tables import Section, present_processors
 
 
@@ -38,33 +39,28 @@ def static_ilp_of(stats: dict, stage: str) -> dict | None:
     return static_ilp(p).as_dict()
 
 
-def hot_locations(p: dict) -> list[tuple[int, str, int, int, int]]:
-    """(pc, label, cycles, issued, stalled) per code location, most cycles first. Issued bundles
-    per PC are counted when the statistics give `bundles_by_pc`; otherwise cycles = stalls."""
-    issued = {int(k): int(v) for k, v in (p.get("bundles_by_pc") or {}).items()}
-    labels: dict[int, str] = {}
-    stalled: dict[int, int] = {}
-    for k, v in (p.get("stalls_by_pc") or {}).items():
-        pc = int(k)
-        labels[pc] = v.get("label", str(pc))
-        stalled[pc] = sum(v.get("stalls", {}).values())
-    out = []
-    for pc in set(issued) | set(stalled):
-        i, s = issued.get(pc, 0), stalled.get(pc, 0)
-        out.append((pc, labels.get(pc, str(pc)), i + s, i, s))
-    out.sort(key=lambda r: (-r[2], r[0]))
-    return out
+def hot_locations(stats: dict, name: str, p: dict) -> list[tuple[int, str, int, int, int]]:
+    """(pc, label, cycles, issued, stalled) per code location that took cycles, most cycles
+    first (the per-bundle counts of `report annotate`). Issued bundles per PC are counted when
+    the statistics give `bundles_by_pc`; otherwise cycles = stalls."""
+    hot = [(b.pc, b.label, b.cycles, b.issued, b.stalled) for b in bundle_counts(stats, name, p) if b.cycles]
+    return sorted(hot, key=lambda r: (-r[2], r[0]))
 
 
 def ilp_sections(stats: dict, top: int = 5) -> list[Section]:
     procs = present_processors(stats)
-    main = Section("processors", "ILP per processor (dynamic = ops/cycle, static = ops/bundle as scheduled)",
-                   ["processor", "cycles", "bundles", "ops", "ops/cycle", "ops/bundle", "static", "stalled"],
-                   formats={"cycles": "int", "bundles": "int", "ops": "int", "ops/cycle": "f2",
-                            "ops/bundle": "f2", "static": "f2", "stalled": "pct"})
+    main = Section("processors", "ILP per processor",
+                   ["processor", "cycles", "bundles", "ops", "dynamic ILP", "ops/issue", "static ILP",
+                    "stalled"],
+                   formats={"cycles": "int", "bundles": "int", "ops": "int", "dynamic ILP": "f2",
+                            "ops/issue": "f2", "static ILP": "f2", "stalled": "pct"},
+                   caption="dynamic ILP = ops per cycle, stalls included; ops/issue = ops per "
+                           "bundle issued; static ILP = ops per bundle of the program as scheduled")
     slots = Section("slot_fill", "Slot fill per unit class (share of slots holding an operation)",
-                    ["processor", "unit", "units", "ops", "dynamic", "static"],
-                    formats={"units": "int", "ops": "int", "dynamic": "pct", "static": "pct"})
+                    ["processor", "unit", "units", "ops", "dynamic fill", "static fill"],
+                    formats={"units": "int", "ops": "int", "dynamic fill": "pct", "static fill": "pct"},
+                    caption="dynamic fill = ops of the class / (cycles × units); static fill = "
+                            "over the program's bundles")
     ports = Section("register_ports", "Register-file ports per bundle, as scheduled (static)",
                     ["processor", "reads", "read use", "max R", "writes", "write use", "max W"],
                     formats={"reads": "f2", "read use": "pct", "max R": "int", "writes": "f2",
@@ -90,7 +86,7 @@ def ilp_sections(stats: dict, top: int = 5) -> list[Section]:
             ports.rows.append([name, st["reads_per_bundle"], st["read_port_use"], st["max_reads"],
                                st["writes_per_bundle"], st["write_port_use"], st["max_writes"]])
         any_issue_counts |= "bundles_by_pc" in p
-        for pc, label, c, _, _ in hot_locations(p)[:top]:
+        for pc, label, c, _, _ in hot_locations(stats, name, p)[:top]:
             hot.rows.append([name, label, pc, c, c / max(cycles, 1)])
     hot.caption = ("cycles = bundles issued there + stall cycles charged there" if any_issue_counts else
                    "cycles = stall cycles charged to the location (these statistics count no issued "

@@ -3,7 +3,8 @@ rendered and how the run ended, the rays by kind, where the cycles went per proc
 IC's memory did.
 
 Dynamic ILP is operations per cycle (stalls included); static ILP is operations per bundle of the
-kernel as scheduled. The memory line gives the paper's quantities for IC's shape-data references
+kernel as scheduled: the same names and meanings as in `report ilp`, `report annotate` and
+`report diff`. The memory line gives the paper's quantities for IC's shape-data references
 (its two-level memory of resident memory and cache; docs/databases.md): ρ = the share served by
 resident memory, μ = the cache hit rate, and the mean access time measured next to the paper's
 model t = t_r·{ρ + (1 − ρ)(8 − 6μ)} (which assumes t_c = 2·t_r and t_g = 8·t_r).
@@ -48,7 +49,7 @@ def _top_stalls(p: dict, n: int = 3) -> str:
 
 def processor_table(stats: dict) -> Table:
     t = Table(title="ILP and stalls", title_justify="left")
-    for col in ("processor", "cycles", "ops", "ops/cycle", "ops/bundle", "stalled", "top stalls"):
+    for col in ("processor", "cycles", "ops", "dynamic ILP", "static ILP", "stalled", "top stalls"):
         t.add_column(col, justify="left" if col in ("processor", "top stalls") else "right",
                      overflow="fold")
     for name, p in stats["processors"].items():

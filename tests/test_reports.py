@@ -78,10 +78,10 @@ def test_ilp_report(cli, ic_stats):
     procs = {x["processor"]: x for x in rows(cli, "ilp", ic_stats, "processors")}
     ic = procs["pe0.ic"]
     assert ic["bundles"] == 7 and ic["ops"] == 9
-    assert ic["ops/cycle"] == pytest.approx(9 / ic["cycles"]) and ic["static"] == pytest.approx(9 / 7)
+    assert ic["dynamic ILP"] == pytest.approx(9 / ic["cycles"]) and ic["static ILP"] == pytest.approx(9 / 7)
     fill = {(x["processor"], x["unit"]): x for x in rows(cli, "ilp", ic_stats, "slot_fill")}
-    assert fill[("pe0.ic", "fp")]["static"] == pytest.approx(3 / (7 * 3))
-    assert fill[("pe0.ic", "fp")]["dynamic"] == pytest.approx(3 / (ic["cycles"] * 3))
+    assert fill[("pe0.ic", "fp")]["static fill"] == pytest.approx(3 / (7 * 3))
+    assert fill[("pe0.ic", "fp")]["dynamic fill"] == pytest.approx(3 / (ic["cycles"] * 3))
     ports = {x["processor"]: x for x in rows(cli, "ilp", ic_stats, "register_ports")}
     assert ports["pe0.ic"]["max W"] == 3
     hot = rows(cli, "ilp", ic_stats, "hot_locations")
@@ -99,9 +99,10 @@ def test_stall_report_shares_add_up(cli, ic_stats):
     assert {(x["location"], x["cause"]) for x in locs} >= {("start", "cache_miss"), ("start+2", "cache_miss")}
 
 
-@pytest.mark.parametrize("kind", ["ilp", "stalls", "memory"])
-@pytest.mark.parametrize("fmt", ["table", "json", "csv", "md"])
-def test_every_format(cli, render_stats, kind, fmt):
+@pytest.mark.parametrize("kind", ["ilp", "stalls", "memory", "annotate"])
+@pytest.mark.parametrize("fmt", ["table", "json", "md"])
+def test_every_format(cli, render_stats, kind, fmt, monkeypatch):
+    monkeypatch.setenv("COLUMNS", "80")
     code, out, err = cli("report", kind, render_stats, "--format", fmt)
     assert code == 0, err
     if fmt == "table":
@@ -109,15 +110,84 @@ def test_every_format(cli, render_stats, kind, fmt):
         assert "pe0.sc" in out
     elif fmt == "json":
         assert json.loads(out)["report"] == kind
-    elif fmt == "csv":
-        blocks = out.split("\n\n")
-        for b in blocks:
-            lines = b.strip().splitlines()
-            assert lines[0].startswith("# ")
-            table = list(csv.reader(io.StringIO("\n".join(lines[1:]))))
-            assert all(len(r) == len(table[0]) for r in table)
     else:
         assert out.startswith("### ") and "|---" in out
+
+
+def read_csv_strictly(text: str) -> list[dict]:
+    """What pandas.read_csv needs to read a file as it is: one header row first, no comment or
+    blank lines, every row as long as the header."""
+    lines = text.splitlines()
+    assert lines and all(line.strip() and not line.startswith("#") for line in lines)
+    table = list(csv.reader(io.StringIO(text)))
+    assert all(len(r) == len(table[0]) for r in table)
+    return [dict(zip(table[0], r)) for r in table[1:]]
+
+
+@pytest.mark.parametrize("kind", ["ilp", "stalls", "memory", "annotate"])
+def test_csv_is_one_table_per_file(cli, render_stats, kind, tmp_path):
+    code, out, err = cli("report", kind, render_stats, "--format", "json")
+    keys = [s["key"] for s in json.loads(out)["sections"]]
+    # several tables: CSV to standard output must choose one
+    code, out, err = cli("report", kind, render_stats, "--format", "csv")
+    assert code == 1 and out == "" and "--table NAME" in err and len(err.strip().splitlines()) == 1
+    # -o DIR: one file per table, each readable as it is
+    code, out, err = cli("report", kind, render_stats, "--format", "csv", "-o", tmp_path / kind)
+    assert code == 0, err
+    assert sorted(p.name for p in (tmp_path / kind).iterdir()) == sorted(f"{kind}_{k}.csv" for k in keys)
+    for k in keys:
+        read_csv_strictly((tmp_path / kind / f"{kind}_{k}.csv").read_text())
+    # --table NAME: that table alone, to standard output
+    code, out, err = cli("report", kind, render_stats, "--format", "csv", "--table", keys[0])
+    assert code == 0 and out == (tmp_path / kind / f"{kind}_{keys[0]}.csv").read_text()
+    read_csv_strictly(out)
+
+
+def test_csv_reads_with_pandas(cli, render_stats):
+    pd = pytest.importorskip("pandas")
+    code, out, _ = cli("report", "stalls", render_stats, "--format", "csv", "--table", "causes")
+    frame = pd.read_csv(io.StringIO(out))
+    assert list(frame.columns) == ["processor", "cause", "cycles", "of cycles", "of stalls"]
+    assert frame["cycles"].dtype.kind == "i"
+
+
+def test_unknown_table_lists_the_tables(cli, render_stats):
+    code, out, err = cli("report", "stalls", render_stats, "--table", "nope")
+    assert code == 1 and "causes, locations" in err
+
+
+def test_tables_fit_the_terminal_and_never_split_words(cli, render_stats, monkeypatch):
+    words = set()
+    code, out, _ = cli("report", "annotate", render_stats, "--format", "json", "--top", "8")
+    for s in json.loads(out)["sections"]:
+        for row in s["rows"]:
+            for v in row.values():
+                if isinstance(v, str):
+                    words |= set(v.split())
+    for width in (80, 140):
+        monkeypatch.setenv("COLUMNS", str(width))
+        code, out, _ = cli("report", "annotate", render_stats, "--top", "8")
+        lines = out.splitlines()
+        assert max(len(line) for line in lines) <= width
+        tokens = {t for line in lines for t in line.split()}
+        assert words <= tokens, sorted(words - tokens)[:5]  # every word whole on one line
+    wide = max(len(line) for line in cli("report", "annotate", render_stats, "--top", "8")[1].splitlines())
+    monkeypatch.setenv("COLUMNS", "80")
+    narrow = max(len(line) for line in cli("report", "annotate", render_stats, "--top", "8")[1].splitlines())
+    assert wide > narrow  # a wider terminal gets wider tables
+    # a width below the longest words: the table grows to hold them instead of cutting one
+    code, out, _ = cli("report", "annotate", render_stats, "--top", "8", "--width", "30")
+    assert code == 0 and words <= {t for line in out.splitlines() for t in line.split()}
+
+
+def test_column_widths_shrink_widest_first_and_stop_at_words():
+    from netsushisen.reports.tables import column_widths
+
+    assert column_widths([10, 30, 5], [3, 6, 5], 45) == [10, 30, 5]          # fits
+    assert column_widths([10, 30, 5], [3, 6, 5], 30) == [10, 15, 5]          # widest gives
+    assert column_widths([10, 30, 5], [8, 20, 5], 20) == [8, 20, 5]          # never below words
+    # a header wider than its cells wraps first
+    assert column_widths([12, 20], [6, 4], 28, body=[4, 20]) == [8, 20]
 
 
 def test_output_file(cli, render_stats, tmp_path):
@@ -134,7 +204,7 @@ def test_old_statistics_without_static_ilp(cli, render_stats, tmp_path):
     old = tmp_path / "old.json"
     old.write_text(json.dumps(data))
     procs = rows(cli, "ilp", old, "processors")
-    assert all(x["static"] is None for x in procs)
+    assert all(x["static ILP"] is None for x in procs)
 
 
 @pytest.mark.parametrize("content, message", [

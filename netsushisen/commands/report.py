@@ -1,14 +1,29 @@
-"""ILP, stall and memory reports from a statistics file (`run --json` or `render --json`).
+"""Reports from statistics files (`run --json` or `render --json`).
 
-    netsushisen report ilp    STATS.json [--format table|json|csv|md] [--top N] [-o FILE]
-    netsushisen report stalls STATS.json [...]
-    netsushisen report memory STATS.json [...]
+    netsushisen report ilp      STATS.json [--top N]
+    netsushisen report stalls   STATS.json [--top N] [--explain] [--plot FILE.png]
+    netsushisen report stalls   --explain                     (the glossary of stall causes)
+    netsushisen report memory   STATS.json
+    netsushisen report annotate STATS.json [--proc pe0.ic] [--top N] [--order hot|program]
+                                [--plot FILE.png]
+    netsushisen report diff     A.json B.json [--changed]
+    each also: [--format table|json|csv|md] [--table NAME] [-o FILE|DIR] [--width N]
 
-ilp: per processor cycles, bundles, operations, operations per cycle (dynamic ILP) against
-operations per bundle as scheduled (static ILP), slot fill per unit class, register-port use,
-the hottest code locations. stalls: cycles by cause and stall cycles by code location, counts
-and shares. memory: per database region ρ (resident share), μ (cache hit rate), the measured
-mean access time and the paper's t = t_r·{ρ + (1 − ρ)(8 − 6μ)}. Tables fit 80 columns.
+ilp: per processor cycles, bundles, operations, dynamic ILP (ops per cycle) against static ILP
+(ops per bundle as scheduled), slot fill per unit class, register-port use, the hottest code.
+stalls: cycles by cause and stall cycles by code location; `--explain` adds what each cause
+means (docs/stalls.md); `--plot` draws cycles by cause per processor. memory: per database
+region ρ (resident share), μ (cache hit rate), the measured mean access time and the paper's
+t = t_r·{ρ + (1 − ρ)(8 − 6μ)}. annotate: the program listing with, per bundle, times issued,
+stall cycles by cause, share of the processor's cycles and slot fill, hottest first or in
+program order, and a summary per loop; `--plot` draws the cycles per bundle along the listing.
+diff: the inputs that differ, then every processor's and memory region's figures in A and B
+with the change and relative change (`--changed`: only the figures that changed).
+
+Tables fit the terminal's width (80 columns when not a terminal or with `-o`; `--width` or
+`COLUMNS` to choose) and wrap between words only. CSV is one table per file, readable by pandas as it is:
+`--table NAME` picks one table of a report (to standard output or `-o FILE`), and `-o DIR`
+writes a report's tables to `DIR/<report>_<table>.csv`.
 """
 
 from __future__ import annotations
@@ -18,45 +33,144 @@ import sys
 from pathlib import Path
 
 from netsushisen.errors import Diagnostic
-from netsushisen.reports.ilp import ilp_sections
-from netsushisen.reports.memory import memory_sections
-from netsushisen.reports.stalls import stall_sections
-from netsushisen.reports.tables import FORMATS, StatsError, load_stats, render
+from netsushisen.reports.tables import FORMATS, StatsError, load_stats, render, select, write_csv_dir
 
 REPORTS = {"ilp": "ILP per processor, slot fill, register ports, hottest code",
-           "stalls": "cycles by stall cause and by code location",
-           "memory": "resident share ρ, cache hit rate μ, access time t per database region"}
+           "stalls": "cycles by stall cause and by code location; --explain: what the causes mean",
+           "memory": "resident share ρ, cache hit rate μ, access time t per database region",
+           "annotate": "the program listing with cycles, stalls and slot fill per bundle; loops",
+           "diff": "compare two statistics files: inputs that differ, then every figure's change"}
+PLOT_SUFFIXES = (".png", ".svg", ".pdf")
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--format", choices=FORMATS, default="table", help="output format (default table)")
+    p.add_argument("--table", metavar="NAME", help="only this table of the report (its key, as "
+                   "in the JSON output: e.g. causes, locations); CSV holds one table")
+    p.add_argument("-o", dest="output", metavar="FILE|DIR", help="write to this file instead of "
+                   "standard output (CSV of several tables: a folder, one file per table)")
+    p.add_argument("--width", type=int, metavar="N", help="table width (default: the terminal's; "
+                   "80 when the output is not a terminal, or with -o)")
+
+
+def _top(p: argparse.ArgumentParser, default: str) -> None:
+    p.add_argument("--top", type=int, default=None, metavar="N", help=f"code locations per processor "
+                   f"(default {default})")
+
+
+def _plot(p: argparse.ArgumentParser, what: str) -> None:
+    p.add_argument("--plot", metavar="FILE.png", help=f"also draw {what} (.png, .svg or .pdf)")
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("kind", choices=list(REPORTS), help="; ".join(f"{k}: {v}" for k, v in REPORTS.items()))
-    parser.add_argument("stats", metavar="STATS.json", help="statistics file (run --json / render --json)")
-    parser.add_argument("--format", choices=FORMATS, default="table", help="output format (default table)")
-    parser.add_argument("--top", type=int, default=None,
-                        help="code locations per processor (default 5 for ilp, 10 for stalls)")
-    parser.add_argument("-o", dest="output", help="write to this file instead of standard output")
+    sub = parser.add_subparsers(dest="kind", metavar="REPORT", required=True)
+    for kind, help_text in REPORTS.items():
+        p = sub.add_parser(kind, help=help_text, description=help_text)
+        if kind == "diff":
+            p.add_argument("stats", metavar="A.json", help="the first statistics file")
+            p.add_argument("other", metavar="B.json", help="the second, compared with the first")
+            p.add_argument("--changed", action="store_true", help="only the figures that changed")
+        else:
+            p.add_argument("stats", metavar="STATS.json", nargs="?" if kind == "stalls" else None,
+                           help="statistics file (run --json / render --json)")
+        _common(p)
+        if kind in ("ilp", "stalls", "annotate"):
+            _top(p, {"ilp": "5", "stalls": "10", "annotate": "20 hottest; every bundle with "
+                     "--order program"}[kind])
+        if kind == "stalls":
+            p.add_argument("--explain", action="store_true", help="add what each cause means; "
+                           "without STATS.json: print the glossary of every cause")
+            _plot(p, "the cycles by cause per processor as stacked bars")
+        if kind == "annotate":
+            p.add_argument("--proc", metavar="NAME", help="one processor (pe0.ic), or a stage (ic: "
+                           "every PE's); default every processor")
+            p.add_argument("--order", choices=("hot", "program"), default="hot",
+                           help="hottest bundles first (default) or in program order")
+            _plot(p, "the cycles charged to each bundle along the listing")
 
 
-def sections_for(kind: str, stats: dict, top: int | None = None):
+def sections_for(args: argparse.Namespace, stats: dict, other: dict | None = None):
+    kind, top = args.kind, args.top if "top" in args else None
     if kind == "ilp":
+        from netsushisen.reports.ilp import ilp_sections
         return ilp_sections(stats, top if top is not None else 5)
     if kind == "stalls":
-        return stall_sections(stats, top if top is not None else 10)
+        from netsushisen.reports.stalls import stall_sections
+        return stall_sections(stats, top if top is not None else 10, explain=args.explain)
+    if kind == "annotate":
+        from netsushisen.reports.annotate import annotate_sections
+        return annotate_sections(stats, args.proc, top, args.order)
+    if kind == "diff":
+        from netsushisen.reports.diff import diff_sections
+        return diff_sections(stats, other, args.changed)
+    from netsushisen.reports.memory import memory_sections
     return memory_sections(stats)
 
 
-def run(args: argparse.Namespace) -> int:
-    stats = load_stats(args.stats)
-    if args.top is not None and args.top < 0:
+def _check(args: argparse.Namespace) -> None:
+    """Option errors, before any file is read."""
+    if getattr(args, "top", None) is not None and args.top < 0:
         raise StatsError("--top must not be negative")
+    if args.width is not None and args.width < 20:
+        raise StatsError(f"--width {args.width}: a table needs at least 20 columns")
+    plot = getattr(args, "plot", None)
+    if plot:
+        p = Path(plot)
+        if p.suffix.lower() not in PLOT_SUFFIXES:
+            raise StatsError(Diagnostic(f"a plot is written as {', '.join(PLOT_SUFFIXES)}; "
+                                        f"'{p.suffix or '(no suffix)'}' is none of them", file=plot))
+        if not p.parent.is_dir():
+            raise StatsError(Diagnostic("the plot's folder does not exist", file=plot))
+    if args.kind == "stalls" and args.stats is None and not args.explain:
+        raise StatsError("report stalls: give a STATS.json (or --explain alone for the glossary)")
+
+
+def _write_plot(args: argparse.Namespace, stats: dict) -> None:
+    from netsushisen.reports import stall_plots
+
     try:
-        sections = sections_for(args.kind, stats, args.top)
-    except (KeyError, TypeError, ValueError, AttributeError, ZeroDivisionError) as err:
-        what = f"missing field {err}" if isinstance(err, KeyError) else str(err)
-        raise StatsError(Diagnostic(f"malformed statistics: {what}", file=str(args.stats))) from None
-    text = render(sections, args.format, args.kind, str(args.stats))
+        if args.kind == "stalls":
+            stall_plots.plot_stalls(stats, args.plot)
+        else:
+            stall_plots.plot_annotate(stats, args.plot, args.proc)
+    except OSError as err:
+        raise StatsError(Diagnostic(f"cannot write the plot: {err.strerror}", file=args.plot)) from None
+    print(f"report {args.kind}: plot -> {args.plot}", file=sys.stderr)
+
+
+def run(args: argparse.Namespace) -> int:
+    _check(args)
+    if args.kind == "stalls" and args.stats is None:
+        from netsushisen.reports.glossary import glossary_markdown, glossary_section
+        sections, source, stats = [glossary_section()], "reports/glossary.py", None
+        if args.format == "md":
+            return _emit(args, glossary_markdown())
+    else:
+        stats = load_stats(args.stats)
+        other = load_stats(args.other) if args.kind == "diff" else None
+        source = str(args.stats) + (f" {args.other}" if other is not None else "")
+        try:
+            sections = sections_for(args, stats, other)
+            if getattr(args, "plot", None):
+                _write_plot(args, stats)
+        except (KeyError, TypeError, ValueError, AttributeError, ZeroDivisionError) as err:
+            what = f"missing field {err}" if isinstance(err, KeyError) else str(err)
+            raise StatsError(Diagnostic(f"malformed statistics: {what}", file=str(args.stats))) from None
+    sections = select(sections, args.table)
+    if args.format == "csv" and len(sections) > 1 and args.output:
+        paths = write_csv_dir(sections, args.kind, args.output)
+        print(f"report {args.kind}: {len(paths)} tables -> {', '.join(map(str, paths))}", file=sys.stderr)
+        return 0
+    width = args.width or (80 if args.output else None)  # a file is not the terminal
+    return _emit(args, render(sections, args.format, args.kind, source, width))
+
+
+def _emit(args: argparse.Namespace, text: str) -> int:
     if args.output:
-        Path(args.output).write_text(text, encoding="utf-8")
+        try:
+            Path(args.output).write_text(text, encoding="utf-8")
+        except OSError as err:
+            raise StatsError(Diagnostic(f"cannot write the report: {err.strerror}", file=args.output)) from None
     else:
         sys.stdout.write(text)
     return 0

@@ -326,6 +326,10 @@ def test_window_matches_the_reference_trace(tmp_path, engine_name, capsys):
         assert tandem_refused(code, capsys)
         return
     assert code == 0 and stats["run"]["cycles"] > end
+    # the run is the run without a timeline, byte for byte
+    plain = render(tmp_path, engine_name, name="plain")[1]
+    assert stats == plain
+    assert (tmp_path / "t.png").read_bytes() == (tmp_path / "plain.png").read_bytes()
     trace = text_trace(first, end)
     threads = {t: p for p, t in THREADS.items()}
     want = sorted((c, q, pc) for c, q, pc, what in trace
@@ -488,3 +492,35 @@ def test_render_refuses_an_unknown_extension_before_work(tmp_path, monkeypatch, 
     assert main(TETRA + ["--timeline", "t.perfetto"]) == 1
     assert "--timeline t.perfetto: the extension says the format" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+LOOP_SRC = """
+start:
+    addi r1, r1, 1
+    j start
+"""
+
+
+def test_ctrl_c_in_the_window_closes_a_valid_timeline(tmp_path, monkeypatch, capsys):
+    """Ctrl-C while the window is stepped: the run ends "interrupted" (exit 130) with its
+    statistics, and the timeline is whole up to the cycle reached."""
+    from netsushisen.progress import RunMonitor
+
+    plain = RunMonitor.progress
+
+    def progress(self, cycle: int) -> None:
+        if cycle >= 4_000:
+            self.requested = True  # as the SIGINT handler does
+        plain(self, cycle)
+
+    monkeypatch.setattr(RunMonitor, "progress", progress)
+    (tmp_path / "loop.s").write_text(LOOP_SRC)
+    path, stats = tmp_path / "i.kanata", tmp_path / "s.json"
+    code = main(["run", "--ic", str(tmp_path / "loop.s"), "-q", "--timeline", str(path),
+                 "--cycles", "1000:9000", "--json", str(stats)])
+    assert code == 130
+    assert json.loads(stats.read_text())["run"]["status"] == "interrupted"
+    rows = read_kanata(path.read_text())
+    issued = [issue_cycle(r) for r in rows if not r.flushed]
+    assert issued and issued[0] >= 1_000 and max(issued) == 3_999
+    assert "cycles 1,000 to 4,000" in capsys.readouterr().err

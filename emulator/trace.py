@@ -16,9 +16,10 @@ Timeline events (`TimelineTap`, the same hook: `machine.tracer`): per cycle and 
 bundle issued (`Issued`: its operations with the unit instance each occupies, the cycle each
 completes and the registers it writes) or the stall (`Stalled`: cause, the PC it is charged to,
 whether it is a hold after an earlier bundle); per PE, FIFO occupancy when it changes
-(`FifoLevel`; a FIFO empty until then has none); per cache miss, the address (`CacheMiss`). The events are plain records handed to
-a sink as they happen (reports/timeline.py writes them to Kanata or trace-event files), so the
-writers never see the machine and memory stays bounded however long the window.
+(`FifoLevel`; a FIFO empty until then has none); per cache miss, the address (`CacheMiss`).
+The events are plain records handed to a sink as they happen (reports/timeline.py writes them
+to Kanata or trace-event files), so the writers never see the machine and memory stays bounded
+however long the window.
 `run_with_timeline` runs an engine to the window's first cycle (the compiled engine there, as
 the debugger's fast-forward does), steps the reference engine through the window with the tap,
 then lets the engine finish the run.
@@ -27,9 +28,15 @@ then lets the engine finish the run.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple, Protocol, TextIO
+from typing import TYPE_CHECKING, NamedTuple, Protocol, TextIO
 
 from netsushisen.errors import NetsushisenError
+
+if TYPE_CHECKING:
+    from netsushisen.emulator.engine import Engine
+    from netsushisen.emulator.machine import RunResult
+    from netsushisen.options import TimelineRequest
+    from netsushisen.progress import RunMonitor
 
 
 def parse_cycles(text: str | None) -> tuple[int, int | None]:
@@ -102,7 +109,8 @@ bundle's PC, while every other cause is charged to the bundle waiting to issue."
 
 class ProcessorInfo(NamedTuple):
     """A processor the timeline shows: `thread` is its index among the machine's processors
-    (pe0.os 0, pe0.ic 1, ...), `units` its unit instances in a fixed order (int0, int1, fp0, ...)."""
+    (pe0.os 0, pe0.ic 1, ...), `units` its unit instances in a fixed order (int0, int1, fp0,
+    ...)."""
 
     name: str
     pe: int
@@ -373,7 +381,8 @@ def timeline_note(path: str, tap: TimelineTap, window: Window, run_end: int) -> 
     return note
 
 
-def run_with_timeline(engine, monitor, tap: TimelineTap, window: Window):
+def run_with_timeline(engine: Engine, monitor: RunMonitor, tap: TimelineTap,
+                      window: Window) -> RunResult:
     """Run `engine` to the end with `tap` watching cycles window.first..window.end.
 
     The engine (the compiled one, by default) runs to the window's first cycle; the reference
@@ -414,10 +423,11 @@ def run_with_timeline(engine, monitor, tap: TimelineTap, window: Window):
 
 
 class TimelineRun:
-    """A --timeline of one command's run (`start_timeline`): `run(monitor)` runs the engine to
-    its end with the window written, `note()` is the line to print afterwards."""
+    """A command's --timeline: built after the engine (checks the request against the machine
+    and opens the file: one-line errors before the run starts), `run(monitor)` runs the engine
+    to its end with the window written, `note()` is the line to print afterwards."""
 
-    def __init__(self, request, engine):
+    def __init__(self, request: TimelineRequest, engine: Engine):
         from netsushisen.reports.timeline import open_timeline
 
         check_processors(engine.machine, request.processors)
@@ -429,7 +439,7 @@ class TimelineRun:
         writer, self.out = open_timeline(request.path)
         self.tap = TimelineTap(writer, request.processors)
 
-    def run(self, monitor):
+    def run(self, monitor: RunMonitor) -> RunResult:
         try:
             return run_with_timeline(self.engine, monitor, self.tap, self.request.window)
         finally:
@@ -437,9 +447,3 @@ class TimelineRun:
 
     def note(self) -> str:
         return timeline_note(self.request.path, self.tap, self.request.window, self.engine.cycle)
-
-
-def start_timeline(request, engine) -> TimelineRun:
-    """Check a --timeline request (options.timeline_from_args) against the built engine and
-    open its file: one-line errors before the run starts."""
-    return TimelineRun(request, engine)

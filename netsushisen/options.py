@@ -33,10 +33,14 @@ from __future__ import annotations
 import argparse
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.config import MachineConfig, load_config
 from netsushisen.isa.processors import STAGES
+
+if TYPE_CHECKING:
+    from netsushisen.emulator.trace import Window
 
 MAX_RES = 8192
 """The largest --res: an 8192×8192 image (67 M eye rays) is beyond any run this toolchain
@@ -233,7 +237,7 @@ class TimelineRequest:
     cycles and the processors shown (name prefixes; None: every one)."""
 
     path: str
-    window: object  # emulator.trace.Window
+    window: Window
     processors: list[str] | None
 
 
@@ -249,16 +253,20 @@ def add_timeline(parser: argparse.ArgumentParser, cycles: bool = True) -> None:
                         "(name prefixes, comma separated: pe0.ic,pe1; default all)")
 
 
-def timeline_from_args(args: argparse.Namespace) -> TimelineRequest | None:
+def timeline_from_args(args: argparse.Namespace,
+                       owns_cycles: bool = True) -> TimelineRequest | None:
     """The checked request (None without --timeline): a one-line error for an unknown
-    extension, a malformed or too long --cycles, or --procs without --timeline."""
+    extension, a malformed or too long --cycles, or --procs (or --cycles, when `owns_cycles`:
+    the command's --cycles is only the timeline's) without --timeline."""
     from netsushisen.emulator.trace import parse_processors, timeline_window
     from netsushisen.reports.timeline import timeline_format
 
     if not args.timeline:
-        if getattr(args, "procs", None):
-            raise NetsushisenError("--procs chooses the processors of a --timeline; give "
-                                   "--timeline FILE")
+        for option, value in (("--procs", args.procs),
+                              ("--cycles", args.cycles if owns_cycles else None)):
+            if value:
+                raise NetsushisenError(f"{option} {value}: it chooses what a --timeline shows; "
+                                       "give --timeline FILE")
         return None
     timeline_format(args.timeline)
     return TimelineRequest(args.timeline, timeline_window(args.cycles),

@@ -472,7 +472,7 @@ def test_window_after_the_run_is_an_empty_valid_file(tmp_path, tiny, capsys):
     (["--timeline", "t.json", "--cycles", "5:5"], "the window is empty"),
     (["--timeline", "t.json", "--cycles", "x:9"], "expected A:B"),
     (["--timeline", "t.json", "--procs", "pe3.ic"], "--procs pe3.ic: no such processor"),
-    (["--procs", "pe0.ic"], "give --timeline FILE"),
+    (["--procs", "pe0.ic"], "--procs pe0.ic: it chooses what a --timeline shows"),
     (["--timeline", "no/such/dir/t.json"], "--timeline no/such/dir/t.json:"),
     (["--timeline", "t.json", "--trace"], "choose one"),
 ])
@@ -487,10 +487,15 @@ def test_bad_timeline_requests_are_one_line_errors(tmp_path, tiny, monkeypatch, 
     assert not (tmp_path / "t.txt").exists()
 
 
-def test_render_refuses_an_unknown_extension_before_work(tmp_path, monkeypatch, capsys):
+@pytest.mark.parametrize("extra, message", [
+    (["--timeline", "t.perfetto"], "--timeline t.perfetto: the extension says the format"),
+    (["--cycles", "0:100"], "--cycles 0:100: it chooses what a --timeline shows"),
+])
+def test_render_refuses_bad_timeline_options_before_work(tmp_path, monkeypatch, capsys, extra,
+                                                         message):
     monkeypatch.chdir(tmp_path)
-    assert main(TETRA + ["--timeline", "t.perfetto"]) == 1
-    assert "--timeline t.perfetto: the extension says the format" in capsys.readouterr().err
+    assert main(TETRA + extra) == 1
+    assert message in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
 
 

@@ -53,11 +53,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from netsushisen.emulator.trace import start_timeline
+    from netsushisen.emulator.trace import TimelineRun
 
     check_resolution(args.res)
     engine_name = engine_from_args(args)
-    timeline = timeline_from_args(args)
+    request = timeline_from_args(args)
     config = config_from_args(args)
     overrides = {s: getattr(args, s) for s in ("os", "ic", "sc") if getattr(args, s)}
     start = time.perf_counter()
@@ -67,8 +67,7 @@ def run(args: argparse.Namespace) -> int:
     side = setup.side
     monitor = RunMonitor(engine, total=side * side, unit="eye rays",
                          label=f"{setup.scene.name} {side}x{side}", show=not args.quiet)
-    if timeline is not None:
-        timeline = start_timeline(timeline, engine)
+    timeline = TimelineRun(request, engine) if request is not None else None
     with monitor:  # Ctrl-C stops the run between cycles / chunks: what was computed is kept
         run_result = timeline.run(monitor) if timeline is not None else monitor.run()
     result = pipeline.finish(setup, engine, run_result)

@@ -51,13 +51,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from netsushisen.emulator import stats
     from netsushisen.emulator.engine import make_engine
-    from netsushisen.emulator.trace import Tracer, parse_cycles, start_timeline
+    from netsushisen.emulator.trace import TimelineRun, Tracer, parse_cycles
 
-    timeline = timeline_from_args(args)
-    if timeline is not None and (args.trace or args.trace_filter or args.trace_out):
+    request = timeline_from_args(args, owns_cycles=False)  # --cycles alone: the text trace's
+    if request is not None and (args.trace or args.trace_filter or args.trace_out):
         raise NetsushisenError("--timeline and --trace: choose one (--cycles sets the window of "
                                "either)")
-    tracing = bool(args.trace or args.trace_filter or (args.cycles and timeline is None))
+    tracing = bool(args.trace or args.trace_filter or (args.cycles and request is None))
     engine_name = engine_from_args(args, default="reference" if tracing else None)
     if tracing and engine_name != "reference":
         raise NetsushisenError(f"--trace needs --engine reference (the trace follows the reference "
@@ -74,8 +74,7 @@ def run(args: argparse.Namespace) -> int:
         if args.trace_out:
             trace_file = out = open(args.trace_out, "w", encoding="utf-8")
         engine.machine.tracer = Tracer(out, args.trace_filter, args.cycles)
-    if timeline is not None:
-        timeline = start_timeline(timeline, engine)
+    timeline = TimelineRun(request, engine) if request is not None else None
     # no progress bar beside a trace (it would tear the trace's lines on the terminal)
     monitor = RunMonitor(engine, total=engine.host_messages, unit="host messages",
                          show=not (args.quiet or tracing))

@@ -147,6 +147,7 @@ class Issued(NamedTuple):
     text: str  # the bundle as the assembler prints it
     ops: tuple[OpRecord, ...]
     serial: int  # the processor's bundles issued before this one, since the run began
+    reads: tuple[int, ...]  # the registers it reads
 
 
 class Stalled(NamedTuple):
@@ -253,7 +254,8 @@ class TimelineTap:
                 used[d.unit] = k + 1
                 ops.append((d.op.format(), d.m, first[d.unit] + k,
                             tuple(r for r in d.op.writes() if r), d.kind, d.lat))
-            info = self._bundles[key] = (core.label(pc), b.text, tuple(ops))
+            info = self._bundles[key] = (core.label(pc), b.text, tuple(ops),
+                                         tuple(r for r in b.reads if r))
         return info
 
     def cycle(self, machine, c: int) -> None:
@@ -264,7 +266,7 @@ class TimelineTap:
             elif not core.halted:
                 cause = core.cause
                 pc = core.last_pc
-                label, text, _ = self._static(core, pc)
+                label, text, _, _ = self._static(core, pc)
                 sink.event(Stalled(c, core.name, pc, label, text, cause, cause in HOLD_CAUSES))
             misses = core.memory.global_accesses
             if misses != self._misses[k]:
@@ -283,7 +285,7 @@ class TimelineTap:
 
     def _issue(self, core, c: int) -> None:
         pc = core.last_pc
-        label, text, static = self._static(core, pc)
+        label, text, static, reads = self._static(core, pc)
         held = core.hold_pc == pc and core.hold_mem_until > c + 1  # a hold set by this issue
         ready_at = core.ready_at
         ops = []
@@ -296,7 +298,8 @@ class TimelineTap:
                 done = c + lat
             ops.append(OpRecord(op_text, m, unit, done, writes))
         self.issued[core.name] += 1
-        self.sink.event(Issued(c, core.name, pc, label, text, tuple(ops), core.bundles_issued - 1))
+        self.sink.event(Issued(c, core.name, pc, label, text, tuple(ops), core.bundles_issued - 1,
+                               reads))
 
     def _miss(self, core, c: int, n: int) -> None:
         mem = core.memory

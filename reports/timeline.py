@@ -18,6 +18,8 @@ processor, its thread id the processor's index (pe0.os 0, pe0.ic 1, pe0.sc 2, pe
                    from issue until the result is written, then `Wb` (labelled with the
                    registers) in the cycle it is written; an operation without a result ends
                    its `X` stage when it leaves the unit
+    W              wake-up arrows (type 0) to a bundle from the bundles whose results it reads
+                   that were written while it waited to issue, or as it issued
 
 A row is retired (R type 0) once its last stage has ended and its processor has moved on. Rows
 retired as flushed (R type 1) are not bundles issued in the window: the stalls of a bundle
@@ -91,6 +93,8 @@ class _Row:
     stall_end: int = 0  # the cycle after its last stall cycle
     busy_until: int = 0  # the cycle its last stage ends
     issue_cycle: int = -1
+    opened: int = 0  # the cycle of its `I`
+    retire_at: int | None = None  # the cycle of its `R`, once scheduled
     stalls: dict[str, int] = field(default_factory=dict)
 
 
@@ -107,6 +111,7 @@ class KanataWriter:
         self._queue: list[tuple[int, int, str, object]] = []  # (cycle, seq, kind, payload)
         self._current: dict[str, _Row] = {}
         self._threads: dict[str, int] = {}
+        self._writer: dict[tuple[str, int], tuple[_Row, int]] = {}  # register -> (row, written)
 
     # -- the sink interface ----------------------------------------------------------------------
 
@@ -162,7 +167,7 @@ class KanataWriter:
         old = self._current.get(processor)
         if old is not None:
             self._retire(old, cycle)
-        row = _Row(self.rows, processor, pc, carried=carried)
+        row = _Row(self.rows, processor, pc, carried=carried, opened=cycle)
         self.rows += 1
         self._current[processor] = row
         what = f"{processor} {pc:>4} {label}: {text}"
@@ -190,6 +195,7 @@ class KanataWriter:
             info += "; stalls: " + ", ".join(f"{k} {v}" for k, v in row.stalls.items())
         self._line(t, f"L\t{row.id}\t1\t{_clean(info)}\n")
         self._put(t, "R", (row.id, not row.issued))
+        row.retire_at = t
 
     def _stall(self, e: Stalled) -> None:
         row = self._current.get(e.processor)
@@ -215,6 +221,12 @@ class KanataWriter:
         rid = row.id
         self._line(c, f"S\t{rid}\t0\tIs\n")
         self._line(c + 1, f"E\t{rid}\t0\tIs\n")
+        for r in e.reads:  # wake-up arrows from the bundles whose results it waited for
+            producer = self._writer.get((e.processor, r))
+            if producer is not None:
+                prow, written = producer
+                if written >= row.opened and (prow.retire_at is None or prow.retire_at > c):
+                    self._line(c, f"W\t{rid}\t{prow.id}\t0\n")
         end = c + 1
         for op in e.ops:
             lane = 2 + op.unit
@@ -222,6 +234,8 @@ class KanataWriter:
             self._line(c, f"S\t{rid}\t{lane}\t{stage}\nL\t{rid}\t2\t{_clean(op.text)}\n")
             done = max(op.done, c + 1)
             if op.writes:
+                for r in op.writes:
+                    self._writer[e.processor, r] = (row, done)
                 regs = ", ".join(f"r{r}" for r in op.writes)
                 self._line(done, f"E\t{rid}\t{lane}\t{stage}\nS\t{rid}\t{lane}\tWb\n"
                                  f"L\t{rid}\t2\t{regs}\n")

@@ -48,6 +48,7 @@ class Row:
     label: str = ""
     detail: str = ""
     lanes: dict[int, list[list]] = field(default_factory=dict)  # lane -> [[name, start, end]]
+    producers: list[int] = field(default_factory=list)  # W: the rows it woke up from
     retired: int | None = None
     retire_id: int | None = None
     flushed: bool = False
@@ -139,9 +140,12 @@ def read_kanata(text: str) -> list[Row]:
                     raise KanataError(f"line {n}: id {rid} retired with {lane[-1][0]} open")
             row.retired, row.retire_id, row.flushed = cycle, _int(f[2], n, "rid"), kind == 1
             live.discard(rid)
-        else:  # W: consumer, producer, type
-            if _int(f[2], n, "producer") not in rows:
-                raise KanataError(f"line {n}: W names an undeclared producer")
+        else:  # W: consumer, producer, type (Konata v0.39 needs the producer not retired)
+            producer = _int(f[2], n, "producer")
+            if producer not in live or producer >= rid or _int(f[3], n, "type") != 0:
+                raise KanataError(f"line {n}: W from {producer}, not a live earlier row, or "
+                                  "not a wake-up")
+            row.producers.append(producer)
     if live:
         raise KanataError(f"ids never retired: {sorted(live)[:5]}")
     out = list(rows.values())
@@ -427,6 +431,9 @@ def test_run_timeline_of_a_tiny_program(tmp_path, tiny, engine_name, capsys):
     assert ldg.lanes[1] == [["cache_miss", 1, 8]]  # the miss holds issue: t_g = 8
     assert ldg.lanes[2] == [["X.ldg", 0, 8], ["Wb", 8, 9]]
     assert fmul.lanes[1] == [["operand:fadd", 9, 10]]  # waits for fadd's r2 (latency 2)
+    # wake-up arrows: fadd waited for the ldg's r1 (its row opened at 8, r1 written at 8),
+    # fmul for fadd's r2; the halt reads nothing
+    assert (ldg.producers, fadd.producers, fmul.producers, halt.producers) == ([], [0], [1], [])
     assert "issued at cycle 10; stalls: operand:fadd 1" in fmul.detail
     assert ldg.label == "pe0.ic    0 start: ldg r1, [1]"  # the assembler prints it so
     # a window from cycle 9: the fadd's result is written in it, the ldg's hold is behind it

@@ -42,13 +42,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TextIO
 
-from netsushisen.emulator.trace import (CacheMiss, Event, FifoLevel, Issued, ProcessorInfo,
-                                        Stalled, Start)
+from netsushisen.emulator.trace import CacheMiss, Event, FifoLevel, Issued, Stalled, Start
 from netsushisen.errors import NetsushisenError
+from netsushisen.isa.processors import STAGES
 
 KANATA_SUFFIXES = (".kanata", ".log")
 JSON_SUFFIXES = (".json",)
-STAGE_TID = {"os": 0, "ic": 1, "sc": 2}
+STAGE_TID = {stage: i for i, stage in enumerate(STAGES)}  # os 0, ic 1, sc 2
 
 
 def timeline_format(path: str) -> str:
@@ -328,5 +328,4 @@ class TraceEventWriter:
         self.out.write("\n]}\n")
 
 
-__all__ = ["KanataWriter", "TraceEventWriter", "open_timeline", "timeline_format",
-           "ProcessorInfo"]
+__all__ = ["KanataWriter", "TraceEventWriter", "open_timeline", "timeline_format"]

@@ -377,7 +377,7 @@ def timeline_note(path: str, tap: TimelineTap, window: Window, run_end: int) -> 
     note = (f"timeline: wrote {path}: cycles {tap.first:,} to {tap.last:,}"
             + (f", bundles issued: {bundles}" if bundles else ""))
     if tap.last == tap.first and run_end <= window.first:
-        note += f" (empty: the run ended at cycle {run_end:,}, before the window)"
+        note += f" (empty: the run stopped at cycle {run_end:,}, before the window)"
     elif window.default and run_end > window.end:
         note += (f" (the default window of {DEFAULT_WINDOW:,} cycles; the run went on to cycle "
                  f"{run_end:,}: choose the window with --cycles A:B)")

@@ -470,7 +470,7 @@ def test_window_after_the_run_is_an_empty_valid_file(tmp_path, tiny, capsys):
     assert tiny("--timeline", str(path), "--cycles", "100:200") == 0
     assert path.read_text() == "Kanata\t0004\nC=\t12\n"
     assert read_kanata(path.read_text()) == []
-    assert "empty: the run ended at cycle 12, before the window" in capsys.readouterr().err
+    assert "empty: the run stopped at cycle 12, before the window" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("extra, message", [

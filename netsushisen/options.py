@@ -22,6 +22,8 @@ the same and is checked the same way wherever it appears:
     add_program_options(parser) --os/--ic/--sc PROGRAM, --image FILE (with -D and the config
                                 options: what `run` and `debug` build a machine from);
                                 `machine_inputs(args)` -> (config, programs, image)
+    add_timeline(parser)        --timeline FILE, --cycles A:B, --procs PROCS (`render`, `run`);
+                                `timeline_from_args(args)` checks them before any work
 
 Bad values are `NetsushisenError`s: the command line prints one line and exits 1.
 """
@@ -29,11 +31,16 @@ Bad values are `NetsushisenError`s: the command line prints one line and exits 1
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.config import MachineConfig, load_config
 from netsushisen.isa.processors import STAGES
+
+if TYPE_CHECKING:
+    from netsushisen.emulator.trace import Window
 
 MAX_RES = 8192
 """The largest --res: an 8192×8192 image (67 M eye rays) is beyond any run this toolchain
@@ -218,3 +225,49 @@ def machine_inputs(args: argparse.Namespace, extra_programs: list[str] = ()):
         raise NetsushisenError("nothing to run: give at least one of --os, --ic, --sc")
     image = load_image(args.image) if args.image else None
     return config, programs, image
+
+
+# ---------------------------------------------------------------------------------------------
+# --timeline FILE [--cycles A:B] [--procs PROCS]: a pipeline timeline of a window of the run
+
+
+@dataclass(frozen=True)
+class TimelineRequest:
+    """What --timeline asks for: the file (its extension says the format), the window of
+    cycles and the processors shown (name prefixes; None: every one)."""
+
+    path: str
+    window: Window
+    processors: list[str] | None
+
+
+def add_timeline(parser: argparse.ArgumentParser, cycles: bool = True) -> None:
+    """--timeline, --procs and (unless the command has it already) --cycles."""
+    parser.add_argument("--timeline", metavar="FILE",
+                        help="write a pipeline timeline: FILE.kanata / FILE.log (Konata) or "
+                             "FILE.json (Perfetto, chrome://tracing); docs/timeline.md")
+    if cycles:
+        parser.add_argument("--cycles", metavar="A:B", help="the timeline's window: cycles A "
+                            "(included) to B (excluded); default the first 100,000")
+    parser.add_argument("--procs", metavar="PROCS", help="the processors the timeline shows "
+                        "(name prefixes, comma separated: pe0.ic,pe1; default all)")
+
+
+def timeline_from_args(args: argparse.Namespace,
+                       owns_cycles: bool = True) -> TimelineRequest | None:
+    """The checked request (None without --timeline): a one-line error for an unknown
+    extension, a malformed or too long --cycles, or --procs (or --cycles, when `owns_cycles`:
+    the command's --cycles is only the timeline's) without --timeline."""
+    from netsushisen.emulator.trace import parse_processors, timeline_window
+    from netsushisen.reports.timeline import timeline_format
+
+    if not args.timeline:
+        for option, value in (("--procs", args.procs),
+                              ("--cycles", args.cycles if owns_cycles else None)):
+            if value:
+                raise NetsushisenError(f"{option} {value}: it chooses what a --timeline shows; "
+                                       "give --timeline FILE")
+        return None
+    timeline_format(args.timeline)
+    return TimelineRequest(args.timeline, timeline_window(args.cycles),
+                           parse_processors(args.procs))

@@ -3,6 +3,7 @@
     netsushisen render SCENE [--res N] [--corners] [--pes P] [--engine NAME]
         [--precision fp32|fp64] [--generic] [--slots N] [--config FILE] [--set field=value]...
         [-o image.png] [--ids ids.npy] [--json stats.json] [--kernels DIR] [--os F] [--ic F] [--sc F]
+        [--timeline FILE.kanata|FILE.json [--cycles A:B] [--procs pe0.ic,...]]
 
 SCENE is a built-in SPD scene (tetra, balls, mount, rings, ...; `balls:2` for size factor 2) or
 an .nff file. The kernels are assembled for the scene's needs unless --generic; --kernels DIR (or
@@ -11,7 +12,8 @@ are written whatever the run's end (a deadlock or fault keeps what was computed)
 is the run's (0 done, 2 fault, 3 deadlock, 4 cycle limit). The engine is the compiled one unless
 --engine says otherwise (netsushisen/options.py). On a terminal a progress bar shows the eye
 rays handed out, cycles, rate and ETA (netsushisen/progress.py); Ctrl-C stops the run, writes the
-partial image, ids and statistics (run.status "interrupted") and exits 130.
+partial image, ids and statistics (run.status "interrupted") and exits 130. --timeline writes
+a pipeline timeline of a window of the run (docs/timeline.md).
 """
 
 from __future__ import annotations
@@ -25,8 +27,9 @@ import numpy as np
 from netsushisen import render as pipeline
 from netsushisen.emulator import stats as run_stats
 from netsushisen.host.images import write_png
-from netsushisen.options import (add_config_options, add_engine, add_resolution, check_resolution,
-                                 config_from_args, engine_from_args)
+from netsushisen.options import (add_config_options, add_engine, add_resolution, add_timeline,
+                                 check_resolution, config_from_args, engine_from_args,
+                                 timeline_from_args)
 from netsushisen.progress import INTERRUPTED, RunMonitor
 from netsushisen.reports.summary import print_render_summary
 
@@ -46,11 +49,15 @@ def configure(parser: argparse.ArgumentParser) -> None:
     for stage in ("os", "ic", "sc"):
         parser.add_argument(f"--{stage}", help=f"your own {stage.upper()} kernel source")
     parser.add_argument("--quiet", action="store_true", help="no summary, no progress bar")
+    add_timeline(parser)
 
 
 def run(args: argparse.Namespace) -> int:
+    from netsushisen.emulator.trace import TimelineRun
+
     check_resolution(args.res)
     engine_name = engine_from_args(args)
+    request = timeline_from_args(args)
     config = config_from_args(args)
     overrides = {s: getattr(args, s) for s in ("os", "ic", "sc") if getattr(args, s)}
     start = time.perf_counter()
@@ -60,8 +67,9 @@ def run(args: argparse.Namespace) -> int:
     side = setup.side
     monitor = RunMonitor(engine, total=side * side, unit="eye rays",
                          label=f"{setup.scene.name} {side}x{side}", show=not args.quiet)
+    timeline = TimelineRun(request, engine) if request is not None else None
     with monitor:  # Ctrl-C stops the run between cycles / chunks: what was computed is kept
-        run_result = monitor.run()
+        run_result = timeline.run(monitor) if timeline is not None else monitor.run()
     result = pipeline.finish(setup, engine, run_result)
     seconds = time.perf_counter() - start
     output = args.output or f"{setup.scene.name}.png"
@@ -76,6 +84,8 @@ def run(args: argparse.Namespace) -> int:
         written.append(args.json)
     if not args.quiet:
         print_render_summary(result.stats, seconds, output)
+    if timeline is not None:
+        print(timeline.note(), file=sys.stderr)
     if monitor.interrupted:
         _, handed, _ = engine.progress_counts()
         print(f"netsushisen render: interrupted at cycle {engine.cycle:,} ({handed:,} of "

@@ -4,6 +4,7 @@
                     [--set ring.fifo_depth=8 ...] [--pes N] [-D NAME=EXPR ...] [--engine NAME]
                     [--json stats.json] [--frame frame.npy]
                     [--trace [--trace-filter pe0.ic] [--cycles A:B]]
+                    [--timeline FILE.kanata|FILE.json [--cycles A:B] [--procs pe0.ic,...]]
 
 Each program is optional (a processor without one is absent: it never issues); `.s` sources are
 assembled on the fly, anything else is read as an object file. The same programs run on every PE.
@@ -12,7 +13,8 @@ Exit status: 0 the run ended (all halted or quiescent), 1 bad input, 2 run-time 
 Statistics (--json) and the frame buffer (--frame) are written whatever the outcome (after
 Ctrl-C, what was done so far, run.status "interrupted"). The engine is the compiled one unless
 --engine says otherwise; --trace takes the reference engine (the default with --trace). On a
-terminal a progress bar shows the host messages handed out, cycles, rate and ETA.
+terminal a progress bar shows the host messages handed out, cycles, rate and ETA. --timeline
+writes a pipeline timeline of the --cycles window instead of a text trace (docs/timeline.md).
 """
 
 from __future__ import annotations
@@ -24,7 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from netsushisen.errors import NetsushisenError
-from netsushisen.options import add_engine, add_program_options, engine_from_args, machine_inputs
+from netsushisen.options import (add_engine, add_program_options, add_timeline, engine_from_args,
+                                 machine_inputs, timeline_from_args)
 from netsushisen.progress import INTERRUPTED, RunMonitor
 
 
@@ -38,17 +41,23 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         "cycle per processor")
     parser.add_argument("--trace-filter", metavar="PROCS",
                         help="trace only these processors (name prefixes, comma separated: pe0.ic,pe1)")
-    parser.add_argument("--cycles", metavar="A:B", help="trace only cycles A (included) to B (excluded)")
+    parser.add_argument("--cycles", metavar="A:B", help="trace (or --timeline) only cycles A "
+                        "(included) to B (excluded)")
     parser.add_argument("--trace-out", metavar="FILE", help="write the trace to FILE, not stdout")
     parser.add_argument("-q", "--quiet", action="store_true", help="no summary, no progress bar")
+    add_timeline(parser, cycles=False)
 
 
 def run(args: argparse.Namespace) -> int:
     from netsushisen.emulator import stats
     from netsushisen.emulator.engine import make_engine
-    from netsushisen.emulator.trace import Tracer, parse_cycles
+    from netsushisen.emulator.trace import TimelineRun, Tracer, parse_cycles
 
-    tracing = bool(args.trace or args.trace_filter or args.cycles)
+    request = timeline_from_args(args, owns_cycles=False)  # --cycles alone: the text trace's
+    if request is not None and (args.trace or args.trace_filter or args.trace_out):
+        raise NetsushisenError("--timeline and --trace: choose one (--cycles sets the window of "
+                               "either)")
+    tracing = bool(args.trace or args.trace_filter or (args.cycles and request is None))
     engine_name = engine_from_args(args, default="reference" if tracing else None)
     if tracing and engine_name != "reference":
         raise NetsushisenError(f"--trace needs --engine reference (the trace follows the reference "
@@ -65,12 +74,13 @@ def run(args: argparse.Namespace) -> int:
         if args.trace_out:
             trace_file = out = open(args.trace_out, "w", encoding="utf-8")
         engine.machine.tracer = Tracer(out, args.trace_filter, args.cycles)
+    timeline = TimelineRun(request, engine) if request is not None else None
     # no progress bar beside a trace (it would tear the trace's lines on the terminal)
     monitor = RunMonitor(engine, total=engine.host_messages, unit="host messages",
                          show=not (args.quiet or tracing))
     try:
         with monitor:  # Ctrl-C stops the run between cycles / chunks: the outputs are written
-            result = monitor.run()
+            result = timeline.run(monitor) if timeline is not None else monitor.run()
     finally:
         if trace_file is not None:
             trace_file.close()
@@ -83,6 +93,8 @@ def run(args: argparse.Namespace) -> int:
         written.append(args.frame)
     if not args.quiet:
         print(engine.summary())
+    if timeline is not None:
+        print(timeline.note(), file=sys.stderr)
     if monitor.interrupted:
         print(f"netsushisen run: interrupted at cycle {engine.cycle:,}"
               + (f"; wrote {', '.join(written)}" if written else ""), file=sys.stderr)

@@ -186,6 +186,9 @@ class MachineConfig:
             problems.append(f"render.max_depth must be at least 1, got {self.render.max_depth}")
         if not 0.0 < self.prepass.share <= 1.0:
             problems.append(f"prepass.share must lie in (0, 1], got {self.prepass.share}")
+        from netsushisen.limits import machine_problems  # late: limits types against this module
+
+        problems += machine_problems(self)
         if problems:
             raise ConfigError([Diagnostic(p, file=source) for p in problems])
 

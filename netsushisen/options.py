@@ -34,10 +34,13 @@ from pathlib import Path
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.config import MachineConfig, load_config
 from netsushisen.isa.processors import STAGES
+from netsushisen.limits import (MAX_SIDE, Footprint, check_frame, check_host, machine_bytes,
+                                render_footprint)
 
-MAX_RES = 8192
-"""The largest --res: an 8192×8192 image (67 M eye rays) is beyond any run this toolchain
-finishes; a larger N is a typo, refused before the frame buffer is allocated."""
+MAX_RES = MAX_SIDE - 1
+"""The largest --res the machine can number: 46,339, so that even the SPD corners' (N+1)² eye
+rays fit the frame's 32-bit pixel index (netsushisen/limits.py). Whether this host can hold
+the run is `check_footprint`'s question, asked before anything is allocated."""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -127,9 +130,32 @@ def config_overrides(args: argparse.Namespace) -> list[str]:
     return overrides
 
 
-def config_from_args(args: argparse.Namespace, path: str | None = None) -> MachineConfig:
-    """The validated configuration: defaults, the --config file (or `path`), the overrides."""
-    return load_config(path if path is not None else args.config, config_overrides(args))
+def config_from_args(args: argparse.Namespace, path: str | None = None,
+                     host: bool = True) -> MachineConfig:
+    """The validated configuration: defaults, the --config file (or `path`), the overrides.
+    With `host`, also refused (one line) when even the leanest engine could not hold its PEs
+    in this host's memory (`--pes 100000`): the command's own `check_footprint`, which knows
+    the image and the engine, then refines the estimate."""
+    config = load_config(path if path is not None else args.config, config_overrides(args))
+    if host:
+        check_host(Footprint(f"a machine of {config.pes:,} PEs",
+                             machine_bytes(config, "reference")), quiet=True)
+    return config
+
+
+def check_footprint(what: str, config: MachineConfig | None, width: int, engine: str | None,
+                    golden: bool = False, quiet: bool = False, height: int | None = None,
+                    option: str = "--res") -> Footprint:
+    """Before any allocation: a width×height (default square) frame must fit the machine's
+    pixel index, and the run (a machine run of `config` on `engine`, and/or the golden model)
+    this host's memory; a large run prints its size (unless quiet). One-line errors
+    (netsushisen/limits.py)."""
+    height = width if height is None else height
+    check_frame(width, height, f"{option} {width}" if option == "--res" else option)
+    pes = f" on {config.pes:,} PE{'s' if config.pes != 1 else ''}" if config and engine else ""
+    size = f" {width}×{height}" if width * height else ""
+    return check_host(render_footprint(f"{what}{size}{pes}", config, width, engine,
+                                       golden, height), quiet=quiet)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -144,7 +170,8 @@ def add_resolution(parser: argparse.ArgumentParser, default: int | None, help: s
 def check_resolution(res: int | None) -> int | None:
     """`res` if it is a resolution the tools take (None: not given), else a one-line error."""
     if res is not None and not 1 <= res <= MAX_RES:
-        raise NetsushisenError(f"--res {res}: the image must be 1 to {MAX_RES} pixels on a side")
+        raise NetsushisenError(f"--res {res}: the image must be 1 to {MAX_RES:,} pixels on a "
+                               "side (the machine numbers its pixels in one 32-bit word)")
     return res
 
 

@@ -89,7 +89,7 @@ def test_resolution_out_of_range_is_one_line_before_any_work(cli, tmp_path, no_w
             _one_line_error(cli, "debug", "tetra", "--res", "0")]
     assert len(set(big)) == 1 and len(set(zero)) == 1
     assert big[0] == zero[0].replace("--res 0", "--res 99999")
-    assert f"1 to {MAX_RES}" in big[0]
+    assert f"1 to {MAX_RES:,}" in big[0]
     assert not (tmp_path / "p").exists() and not (tmp_path / "t.png").exists()
 
 
@@ -124,3 +124,69 @@ def test_set_is_one_option_everywhere(cli, tmp_path):
                  ["run", "--ic", "x.s"], ["debug", "tetra:1"], ["config"]):
         code, _, err = cli(*argv, "--set", "ring.nosuch=1")
         assert code == 1 and "unknown configuration field 'ring.nosuch'" in err, argv
+
+
+# ---------------------------------------------------------------------------------------------
+# Limits before work (netsushisen/limits.py)
+
+
+def test_too_many_pes_or_too_large_an_image_is_one_line_before_any_work(cli, tmp_path, no_work,
+                                                                        program):
+    """No host holds 100,000 PEs (~1 MiB each even on the reference engine) or an 8192² render
+    (~1 KiB an eye ray): refused at once, naming the limit, with nothing written."""
+    pes = [_one_line_error(cli, "render", "tetra", "--pes", "100000", "-o", tmp_path / "t.png"),
+           _one_line_error(cli, "run", "--ic", program, "--pes", "100000"),
+           _one_line_error(cli, "debug", "tetra", "--set", "pes=100000"),
+           _one_line_error(cli, "paper", "--set", "pes=100000", "--out", tmp_path / "p", "--quiet"),
+           _one_line_error(cli, "accuracy", "tetra", "--set", "pes=100000", "--out", tmp_path / "a")]
+    assert len(set(pes)) == 1 and "100,000 PEs needs about" in pes[0]
+    assert "of host memory, more than the" in pes[0]
+    big = _one_line_error(cli, "render", "tetra", "--res", "8192", "-o", tmp_path / "t.png")
+    assert "render tetra 8192×8192 on 1 PE needs about" in big
+    assert "golden tetra 30000×30000 needs" in _one_line_error(cli, "golden", "tetra", "--res", "30000")
+    assert not any(tmp_path.glob("*.png")) and not (tmp_path / "p").exists()
+
+
+def test_sizes_past_the_machine_s_words_are_refused(cli, tmp_path, no_work):
+    """Addresses and the pixel index are 32-bit signed words: a memory of more than 2^31 words
+    or a frame of 46,341² samples cannot exist on the machine."""
+    err = _one_line_error(cli, "render", "tetra", "--set", "os.local_words=3000000000",
+                          "-o", tmp_path / "t.png")
+    assert "os.local_words 3,000,000,000 is more than a memory can address" in err
+    err = _one_line_error(cli, "golden", "tetra", "--set", "ic_memory.resident_bytes=9000000000")
+    assert "ic_memory.resident_bytes" in err and "2,147,483,648 words" in err
+    err = _one_line_error(cli, "render", "tetra", "--res", str(MAX_RES), "--corners")
+    assert f"{MAX_RES + 1}×{MAX_RES + 1}" in err  # legal for the machine, not for this host
+    err = _one_line_error(cli, "render", "tetra", "--res", str(MAX_RES + 1))
+    assert "32-bit word" in err
+
+
+def test_deep_fifos_count_against_host_memory(cli, tmp_path, no_work):
+    """The compiled engine allocates every FIFO at the deepest's capacity: 10^8 words is
+    ~45 GB for one PE's 56 FIFOs; the reference engine's FIFOs grow only with their words."""
+    err = _one_line_error(cli, "render", "tetra", "--res", "2", "--engine", "compiled",
+                          "--set", "ring.fifo_depth=1000000000", "-o", tmp_path / "t.png")
+    assert "needs about" in err and "GiB of host memory" in err
+
+
+def test_large_runs_announce_their_size(monkeypatch):
+    from netsushisen import limits
+    from netsushisen.isa.config import MachineConfig
+
+    lines: list[str] = []
+    monkeypatch.setattr(limits, "available_bytes", lambda: 64 * limits.GiB)
+    small = limits.render_footprint("render tetra 32×32", MachineConfig(), 32, "compiled")
+    limits.check_host(small, announce=lines.append)
+    assert lines == [] and not small.large
+    big = limits.render_footprint("render tetra 1024×1024", MachineConfig(), 1024, "compiled")
+    limits.check_host(big, quiet=True, announce=lines.append)
+    assert lines == []
+    limits.check_host(big, announce=lines.append)
+    assert lines == ["render tetra 1024×1024: 1,048,576 eye rays, about 1.2 GiB of host memory "
+                     "of 64.0 GiB available"]
+    many = MachineConfig(pes=200)
+    assert limits.machine_bytes(many, "compiled") > limits.machine_bytes(many, "reference")
+    assert limits.render_footprint("x", many, 2, "compiled").large
+    monkeypatch.setattr(limits, "available_bytes", lambda: limits.GiB)
+    with pytest.raises(NetsushisenError, match="more than the 1.0 GiB available"):
+        limits.check_host(big, announce=lines.append)

@@ -17,7 +17,8 @@ from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.golden import render
 from netsushisen.host.images import write_png
-from netsushisen.options import add_config_options, add_resolution, check_resolution, config_from_args
+from netsushisen.options import (add_config_options, add_resolution, check_footprint,
+                                 check_resolution, config_from_args)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -34,6 +35,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     check_resolution(args.res)
     config = config_from_args(args)
+    check_footprint(f"golden {args.scene}", None, args.res + 1 if args.corners else args.res,
+                    None, golden=True)
     scene = load_scene(args.scene)
     result = render(scene, config, res=args.res, corners=args.corners)
     stats = {"scene": scene.name, "source": scene.source, "res": args.res, "corners": args.corners,

@@ -25,8 +25,8 @@ import numpy as np
 from netsushisen import render as pipeline
 from netsushisen.emulator import stats as run_stats
 from netsushisen.host.images import write_png
-from netsushisen.options import (add_config_options, add_engine, add_resolution, check_resolution,
-                                 config_from_args, engine_from_args)
+from netsushisen.options import (add_config_options, add_engine, add_resolution, check_footprint,
+                                 check_resolution, config_from_args, engine_from_args)
 from netsushisen.progress import INTERRUPTED, RunMonitor
 from netsushisen.reports.summary import print_render_summary
 
@@ -52,6 +52,8 @@ def run(args: argparse.Namespace) -> int:
     check_resolution(args.res)
     engine_name = engine_from_args(args)
     config = config_from_args(args)
+    check_footprint(f"render {args.scene}", config, args.res + 1 if args.corners else args.res,
+                    engine_name, quiet=args.quiet)
     overrides = {s: getattr(args, s) for s in ("os", "ic", "sc") if getattr(args, s)}
     start = time.perf_counter()
     setup = pipeline.prepare(args.scene, config, args.res, args.corners, args.generic, args.slots,

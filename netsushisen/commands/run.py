@@ -24,7 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from netsushisen.errors import NetsushisenError
-from netsushisen.options import add_engine, add_program_options, engine_from_args, machine_inputs
+from netsushisen.options import (add_engine, add_program_options, check_footprint, engine_from_args,
+                                 machine_inputs)
 from netsushisen.progress import INTERRUPTED, RunMonitor
 
 
@@ -58,6 +59,9 @@ def run(args: argparse.Namespace) -> int:
         parse_cycles(args.cycles)
     except ValueError:
         raise NetsushisenError(f"--cycles {args.cycles!r}: expected A:B, A: or :B") from None
+    width, height = (image.frame or (0, 0)) if image is not None else (0, 0)
+    check_footprint("run", config, width, engine_name, height=height, quiet=args.quiet,
+                    option=f"{args.image}: frame")
     engine = make_engine(engine_name, config, programs, image)
     trace_file = None
     if tracing:

@@ -173,11 +173,62 @@ def test_config_dump_roundtrip_and_check(tmp_path, capsys):
     (tmp_path / "bad.toml").write_text("[ring]\nfifo_depth = 0\n[ic.latency]\nldg = 3\n")
     assert main(["config", "--check", str(tmp_path / "bad.toml")]) == 1
     err = _err(capsys)
-    assert "bad.toml: error: ring.fifo_depth must be at least 1" in err
-    assert "bad.toml: error: ic.latency.ldg: IC load times come from ic_memory" in err
+    assert "bad.toml:2: error: ring.fifo_depth must be at least 1" in err
+    assert "bad.toml:4: error: ic.latency.ldg: IC load times come from ic_memory" in err
     (tmp_path / "broken.toml").write_text("[ring\n")
     assert main(["config", "--check", str(tmp_path / "broken.toml")]) == 1
-    assert "not valid TOML" in _err(capsys)
+    assert "broken.toml:1:6: error: not valid TOML: Expected ']'" in _err(capsys)
+
+
+BAD_CONFIG = """\
+pes = 2
+precison = "fp64"
+
+[rnig]                  # an unknown section hides nothing after it
+fifo_depth = 8
+
+[ring]
+buffer_pool = "no"
+fifo_depth = 0
+
+[ic_memory]
+t_g = "8"
+cache_share = 2.0
+"""
+
+
+def test_config_check_reports_every_error_at_its_line(tmp_path, capsys):
+    (tmp_path / "bad.toml").write_text(BAD_CONFIG)
+    assert main(["config", "--check", str(tmp_path / "bad.toml")]) == 1
+    err = _err(capsys).splitlines()
+    f = str(tmp_path / "bad.toml")
+    assert err == [
+        f"{f}:2: error: unknown configuration field 'precison'; did you mean 'precision'?",
+        f"{f}:4: error: unknown configuration section 'rnig'; did you mean 'ring'?",
+        f'{f}:8: error: ring.buffer_pool: expected true or false, got "no" (a string)',
+        f"{f}:9: error: ring.fifo_depth must be at least 1, got 0",
+        f'{f}:12: error: ic_memory.t_g: expected a whole number, got "8" (a string)',
+        f"{f}:13: error: ic_memory.cache_share must lie in 0..1, got 2.0"]
+    # the same through --config of a command, before any work; a --set value is not the file's
+    assert main(["render", "tetra", "--config", f, "--set", "pes=0"]) == 1
+    err = _err(capsys).splitlines()
+    assert len(err) == 7 and err[-1] == "error: pes must be at least 1, got 0"
+    # fixed, the file passes; on the command line a bool may be written yes/no
+    fixed = BAD_CONFIG.replace("precison", "precision").replace("[rnig]", "[render]").replace(
+        "fifo_depth = 8", "max_depth = 3").replace('"no"', "false").replace(
+        "fifo_depth = 0", "fifo_depth = 32").replace('"8"', "8").replace("2.0", "0.5")
+    (tmp_path / "good.toml").write_text(fixed)
+    assert main(["config", "--check", str(tmp_path / "good.toml"), "--set",
+                 "ring.buffer_pool=yes"]) == 0
+    out = capsys.readouterr().out
+    assert out.strip().endswith("good.toml: ok")
+
+
+def test_unknown_set_field_suggests_the_closest(capsys):
+    assert main(["config", "--set", "ring.fifo_dept=40"]) == 1
+    assert "did you mean 'ring.fifo_depth'?" in _err(capsys)
+    assert main(["config", "--set", "rnig.fifo_depth=40"]) == 1
+    assert "did you mean 'ring'?" in _err(capsys)
 
 
 def test_object_file_that_breaks_the_checker_is_rejected(files, tmp_path, capsys):

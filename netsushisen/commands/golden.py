@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +18,7 @@ from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.golden import render
 from netsushisen.host.images import write_png
+from netsushisen.host.nff import scene_warnings
 from netsushisen.options import (add_config_options, add_resolution, check_footprint,
                                  check_resolution, config_from_args)
 
@@ -38,6 +40,8 @@ def run(args: argparse.Namespace) -> int:
     check_footprint(f"golden {args.scene}", None, args.res + 1 if args.corners else args.res,
                     None, golden=True)
     scene = load_scene(args.scene)
+    for line in scene_warnings(scene):
+        print(line, file=sys.stderr)
     result = render(scene, config, res=args.res, corners=args.corners)
     stats = {"scene": scene.name, "source": scene.source, "res": args.res, "corners": args.corners,
              "precision": result.precision, "primitives": scene.n_primitives,

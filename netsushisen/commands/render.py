@@ -25,6 +25,7 @@ import numpy as np
 from netsushisen import render as pipeline
 from netsushisen.emulator import stats as run_stats
 from netsushisen.host.images import write_png
+from netsushisen.host.nff import scene_warnings
 from netsushisen.options import (add_config_options, add_engine, add_resolution, check_footprint,
                                  check_resolution, config_from_args, engine_from_args)
 from netsushisen.progress import INTERRUPTED, RunMonitor
@@ -58,6 +59,8 @@ def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     setup = pipeline.prepare(args.scene, config, args.res, args.corners, args.generic, args.slots,
                              args.kernels, overrides)
+    for line in scene_warnings(setup.scene):
+        print(line, file=sys.stderr)
     engine = setup.engine(engine_name)
     side = setup.side
     monitor = RunMonitor(engine, total=side * side, unit="eye rays",

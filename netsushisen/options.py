@@ -194,6 +194,37 @@ def engine_from_args(args: argparse.Namespace, default: str | None = None) -> st
     return check_engine(args.engine)
 
 
+def fresh_output(stem: str, suffix: str = ".png") -> str:
+    """The default output `STEM.png`, or when that exists the first free `STEM-1.png`,
+    `STEM-2.png`, ...: a command writes over a file only where `-o` names it (as `wget` and
+    browsers number a download rather than lose the earlier one)."""
+    path = Path(f"{stem}{suffix}")
+    n = 0
+    while path.exists():
+        n += 1
+        path = Path(f"{stem}-{n}{suffix}")
+    return str(path)
+
+
+def check_output_folders(*paths: str | None) -> None:
+    """Before any work: every output's folder exists (a run must not end unable to write what
+    it computed). A one-line located error otherwise."""
+    for path in paths:
+        if path:
+            folder = Path(path).parent
+            if not folder.is_dir():
+                raise NetsushisenError(Diagnostic(f"cannot write here: no folder {str(folder)!r}",
+                                                  file=str(path)))
+
+
+def write_output(path: str, write) -> None:
+    """`write(path)`, an OSError (no such folder, no permission) as a located one-line error."""
+    try:
+        write(path)
+    except OSError as err:
+        raise NetsushisenError(Diagnostic(f"cannot write: {err.strerror or err}", file=str(path))) from None
+
+
 # ---------------------------------------------------------------------------------------------
 # Programs, image and configuration: what `run` and `debug` build a machine from
 

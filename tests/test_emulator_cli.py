@@ -247,3 +247,34 @@ def test_image_raw_word_too_wide_for_fp32(files, tmp_path, capsys):
     assert "icgm: raw word 0x100000000 is wider than a 32-bit (fp32) machine word" in _err(capsys)
     assert main(["run", "--ic", str(files / "ic.s"), "--image", str(tmp_path / "img.json"),
                  "--set", "precision=fp64", "-q"]) == 0
+
+
+def test_a_processor_blocked_forever_is_a_warning(tmp_path, capsys, engine_name):
+    """docs/timing.md "End of run": `finished` is quiescence, so a processor still waiting on
+    an empty FIFO is legal (exit 0) — but a program run by hand meant to halt: warn, naming the
+    processor, its PC and the FIFO, the same on every engine."""
+    (tmp_path / "ic.s").write_text("start:\n    addi r1, r0, 1\nloop:\n    recv r2, ring\n    halt\n")
+    (tmp_path / "sc.s").write_text("start:\n    wait\n    halt\n")
+    (tmp_path / "os.s").write_text("    halt\n")
+    code = main(["run", "--ic", str(tmp_path / "ic.s"), "--sc", str(tmp_path / "sc.s"), "--os",
+                 str(tmp_path / "os.s"), "--engine", engine_name, "-q", "--json",
+                 str(tmp_path / "s.json")])
+    assert code == 0
+    assert _err(capsys).splitlines() == [
+        "netsushisen run: warning: pe0.ic never halted: it waits forever at pc 1 (loop) on its "
+        "empty receive FIFO 'ring'; nothing is left to send it (the run ended `finished`)",
+        "netsushisen run: warning: pe0.sc never halted: it waits forever at pc 0 (start) in "
+        "`wait`, with every receive FIFO empty; nothing is left to send it (the run ended "
+        "`finished`)"]
+    assert json.loads((tmp_path / "s.json").read_text())["run"]["status"] == "finished"
+    # every processor halts: no warning
+    (tmp_path / "ic.s").write_text("    halt\n")
+    assert main(["run", "--ic", str(tmp_path / "ic.s"), "--engine", engine_name, "-q"]) == 0
+    assert _err(capsys) == ""
+
+
+def test_outputs_in_a_missing_folder_are_refused_before_the_run(tmp_path, capsys):
+    (tmp_path / "ic.s").write_text("    halt\n")
+    assert main(["run", "--ic", str(tmp_path / "ic.s"), "--json", str(tmp_path / "no" / "s.json")]) == 1
+    assert _err(capsys).strip() == (f"{tmp_path / 'no' / 's.json'}: error: cannot write here: "
+                                    f"no folder '{tmp_path / 'no'}'")

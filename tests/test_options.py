@@ -190,3 +190,25 @@ def test_large_runs_announce_their_size(monkeypatch):
     monkeypatch.setattr(limits, "available_bytes", lambda: limits.GiB)
     with pytest.raises(NetsushisenError, match="more than the 1.0 GiB available"):
         limits.check_host(big, announce=lines.append)
+
+
+def test_render_never_overwrites_an_image_it_was_not_told_to(cli, tmp_path, monkeypatch):
+    """The default SCENE.png, then SCENE-1.png, SCENE-2.png: an earlier image is never lost;
+    -o names the file to write (over) exactly; golden writes an image only where -o says."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["render", "tetra:1", "--res", "2", "--kernels", MISS_KERNELS, "--engine",
+            "reference", "--quiet"]
+    (tmp_path / "tetra.png").write_bytes(b"an earlier image")
+    for _ in range(2):
+        code, _, err = cli(*argv)
+        assert code == 0, err
+    assert (tmp_path / "tetra.png").read_bytes() == b"an earlier image"
+    assert (tmp_path / "tetra-1.png").stat().st_size > 0 and (tmp_path / "tetra-2.png").exists()
+    code, _, err = cli(*argv, "-o", "tetra.png")
+    assert code == 0 and (tmp_path / "tetra.png").read_bytes() != b"an earlier image"
+    assert not (tmp_path / "tetra-3.png").exists()
+    code, _, err = cli("golden", "tetra:1", "--res", "2")
+    assert code == 0 and sorted(p.name for p in tmp_path.iterdir()) == [
+        "tetra-1.png", "tetra-2.png", "tetra.png"]
+    err = _one_line_error(cli, *argv, "-o", tmp_path / "no" / "t.png")
+    assert err.endswith(f"cannot write here: no folder '{tmp_path / 'no'}'")

@@ -14,13 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
-from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.golden import render
 from netsushisen.host.images import write_png
 from netsushisen.host.nff import scene_warnings
 from netsushisen.options import (add_config_options, add_resolution, check_footprint,
-                                 check_resolution, config_from_args)
+                                 check_output_folders, check_resolution, config_from_args,
+                                 write_output)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -29,13 +29,15 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--corners", action="store_true",
                         help="SPD eye rays through the pixel corners ((N+1)^2 rays, pixel = mean of 4)")
     add_config_options(parser, precision=True, depth=True)
-    parser.add_argument("-o", "--output", metavar="PNG", help="write the image as PNG")
+    parser.add_argument("-o", "--output", metavar="PNG", help="write the image as PNG (only "
+                        "here: without -o no image is written)")
     parser.add_argument("--ids", metavar="NPY", help="write the eye rays' hit-primitive ids (.npy)")
     parser.add_argument("--json", metavar="FILE", help="write the statistics as JSON")
 
 
 def run(args: argparse.Namespace) -> int:
     check_resolution(args.res)
+    check_output_folders(args.output, args.ids, args.json)
     config = config_from_args(args)
     check_footprint(f"golden {args.scene}", None, args.res + 1 if args.corners else args.res,
                     None, golden=True)
@@ -52,10 +54,7 @@ def run(args: argparse.Namespace) -> int:
                         (args.ids, lambda p: np.save(p, result.hit_ids)),
                         (args.json, lambda p: Path(p).write_text(json.dumps(stats, indent=2) + "\n"))):
         if path:
-            try:
-                write(path)
-            except OSError as err:
-                raise NetsushisenError(Diagnostic(f"cannot write: {err.strerror}", file=str(path))) from None
+            write_output(path, write)
     r = result.rays
     total = r["eye"] + r["reflection"] + r["refraction"] + r["shadow"]
     print(f"{scene.name}: {scene.n_primitives} primitives, {result.visible_primitives} visible; "

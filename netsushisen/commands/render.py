@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -27,7 +28,8 @@ from netsushisen.emulator import stats as run_stats
 from netsushisen.host.images import write_png
 from netsushisen.host.nff import scene_warnings
 from netsushisen.options import (add_config_options, add_engine, add_resolution, check_footprint,
-                                 check_resolution, config_from_args, engine_from_args)
+                                 check_output_folders, check_resolution, config_from_args,
+                                 engine_from_args, fresh_output, write_output)
 from netsushisen.progress import INTERRUPTED, RunMonitor
 from netsushisen.reports.summary import print_render_summary
 
@@ -40,7 +42,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_config_options(parser, pes=True, precision=True)
     parser.add_argument("--generic", action="store_true", help="assemble every feature, not only the scene's")
     parser.add_argument("--slots", type=int, default=pipeline.DEFAULT_SLOTS, help="rays OS keeps in flight")
-    parser.add_argument("-o", dest="output", help="image file (default: SCENE.png)")
+    parser.add_argument("-o", dest="output", help="image file (default: SCENE.png, or SCENE-1.png, "
+                        "SCENE-2.png, ... when that exists: never overwritten unless named here)")
     parser.add_argument("--ids", help="save the eye rays' hit-primitive ids (int32 .npy, -1 background)")
     parser.add_argument("--json", help="write the statistics JSON here")
     parser.add_argument("--kernels", help="folder with your own os.s, ic.s, sc.s")
@@ -51,6 +54,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     check_resolution(args.res)
+    check_output_folders(args.output, args.ids, args.json)
     engine_name = engine_from_args(args)
     config = config_from_args(args)
     check_footprint(f"render {args.scene}", config, args.res + 1 if args.corners else args.res,
@@ -69,15 +73,15 @@ def run(args: argparse.Namespace) -> int:
         run_result = monitor.run()
     result = pipeline.finish(setup, engine, run_result)
     seconds = time.perf_counter() - start
-    output = args.output or f"{setup.scene.name}.png"
-    write_png(output, result.image_u8)
+    output = args.output or fresh_output(setup.scene.name)
+    write_output(output, lambda p: write_png(p, result.image_u8))
     written = [output]
     if args.ids:
-        np.save(args.ids, result.hit_ids)
+        write_output(args.ids, lambda p: np.save(p, result.hit_ids))
         written.append(args.ids)
     if args.json:
-        with open(args.json, "w", encoding="utf-8") as f:
-            f.write(run_stats.dumps(result.stats))
+        write_output(args.json, lambda p: Path(p).write_text(run_stats.dumps(result.stats),
+                                                             encoding="utf-8"))
         written.append(args.json)
     if not args.quiet:
         print_render_summary(result.stats, seconds, output)

@@ -16,6 +16,13 @@ the same and is checked the same way wherever it appears:
     add_resolution(parser, default)
                                 --res N (`args.res`); `check_resolution(args.res)` rejects
                                 N outside 1..MAX_RES with one line before anything is allocated
+    check_footprint(what, config, width, engine, golden=, quiet=)
+                                the run's frame against the machine's pixel index and its
+                                estimated memory against this host's (netsushisen/limits.py):
+                                one line if it cannot fit, its size printed if it is large
+    check_output_folders(*paths), write_output(path, write), fresh_output(stem)
+                                outputs: folders checked before the run, OSErrors as located
+                                lines, and `SCENE.png` or the first free `SCENE-N.png`
     add_engine(parser)          --engine NAME (`args.engine`, None when not given);
                                 `engine_from_args(args)` checks the name, or picks the engine
                                 interface's default (compiled where it imports, else reference)

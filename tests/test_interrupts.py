@@ -7,12 +7,10 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import signal
 import subprocess
 import sys
 import threading
-import time
 from pathlib import Path
 
 import numpy as np
@@ -26,11 +24,11 @@ from test_long_runs import Terminal  # noqa: E402  (tests/ is on sys.path: conft
 COMPILED = "compiled" in engine_names()
 
 
-class Piped:
+class Piped(Terminal):
     """A command line run with standard error on a pipe, drained in a thread: what a log or a
-    CI job sees (no progress bar; one line per finished scene)."""
+    CI job sees (no progress bar; one line per finished scene). Waits as `Terminal` does."""
 
-    def __init__(self, *argv: str, cwd: Path):
+    def __init__(self, *argv: str, cwd: Path):  # noqa: super().__init__ would open a terminal
         env = dict(os.environ, NETSUSHISEN_DEBUG="")
         self.proc = subprocess.Popen([sys.executable, "-m", "netsushisen.cli", *map(str, argv)],
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -42,14 +40,6 @@ class Piped:
     def _drain(self) -> None:
         for chunk in iter(lambda: self.proc.stderr.read1(4096), b""):
             self.err.extend(chunk)
-
-    def wait_for(self, pattern: str, timeout: float) -> bool:
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline and self.proc.poll() is None:
-            if re.search(pattern, self.err.decode(errors="replace")):
-                return True
-            time.sleep(0.05)
-        return False
 
     def interrupt(self, timeout: float) -> int:
         self.proc.send_signal(signal.SIGINT)
@@ -63,8 +53,18 @@ class Piped:
             self.proc.kill()
             self.proc.wait()
 
-    def stderr_text(self) -> str:
-        return self.err.decode(errors="replace")
+
+def interrupted_after(run: Terminal, pattern: str, timeout: float) -> str:
+    """SIGINT once `pattern` shows on standard error; the command must exit 130 with no
+    traceback. Returns standard error."""
+    try:
+        assert run.wait_for(pattern, timeout=timeout), run.stderr_text()
+        code = run.interrupt(timeout=60)
+    finally:
+        run.close()
+    err = run.stderr_text()
+    assert code == 130 and "Traceback" not in err, err
+    return err
 
 
 @pytest.mark.skipif(not COMPILED, reason="the compiled engine does not import here")
@@ -73,14 +73,9 @@ def test_ctrl_c_during_a_compiled_render_writes_the_partial_image_and_statistics
     what was done (the reference engine's run: tests/test_long_runs.py)."""
     term = Terminal("render", "balls", "--res", "128", "--engine", "compiled", "-o", "b.png",
                     "--ids", "ids.npy", "--json", "b.json", cwd=tmp_path)
-    try:
-        assert term.wait_for(r"\b[1-9][\d,]*,\d{3},\d{3} cycles", timeout=240), term.stderr_text()
-        code = term.interrupt(timeout=60)  # after a million cycles; the whole render: ~90 M
-    finally:
-        term.close()
-    err = term.stderr_text()
-    assert code == 130, err
-    assert "netsushisen render: interrupted at cycle" in err and "Traceback" not in err
+    # after a million cycles; the whole render: ~90 M
+    err = interrupted_after(term, r"\b[1-9][\d,]*,\d{3},\d{3} cycles", timeout=240)
+    assert "netsushisen render: interrupted at cycle" in err
     stats = json.loads((tmp_path / "b.json").read_text())
     assert stats["run"]["status"] == "interrupted"
     assert 1_000_000 <= stats["run"]["cycles"] < 60_000_000
@@ -92,14 +87,7 @@ def test_ctrl_c_during_a_compiled_render_writes_the_partial_image_and_statistics
 
 def test_ctrl_c_during_paper_writes_the_finished_scenes(tmp_path):
     run = Piped("paper", "--res", "48", "--scenes", "tetra", "balls", "--out", "p", cwd=tmp_path)
-    try:
-        assert run.wait_for(r"tetra: done in", timeout=240), run.stderr_text()
-        code = run.interrupt(timeout=60)
-    finally:
-        run.close()
-    err = run.stderr_text()
-    assert code == 130, err
-    assert "Traceback" not in err
+    err = interrupted_after(run, r"tetra: done in", timeout=240)
     assert err.strip().splitlines()[-1] == ("netsushisen paper: interrupted; finished tetra, not "
                                             "balls; wrote what was finished to p/")
     report = (tmp_path / "p" / "report.md").read_text()
@@ -112,14 +100,7 @@ def test_ctrl_c_during_paper_writes_the_finished_scenes(tmp_path):
 def test_ctrl_c_during_accuracy_writes_the_finished_axes(tmp_path):
     run = Piped("accuracy", "tetra", "balls", "--res", "16", "--axes", "depth", "--out", "a",
                 cwd=tmp_path)
-    try:
-        assert run.wait_for(r"tetra depth: done at", timeout=300), run.stderr_text()
-        code = run.interrupt(timeout=60)
-    finally:
-        run.close()
-    err = run.stderr_text()
-    assert code == 130, err
-    assert "Traceback" not in err
+    err = interrupted_after(run, r"tetra depth: done at", timeout=300)
     assert err.strip().splitlines()[-1] == ("netsushisen accuracy: interrupted; wrote what was "
                                             "finished to a/")
     data = json.loads((tmp_path / "a" / "accuracy.json").read_text())

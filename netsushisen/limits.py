@@ -177,13 +177,17 @@ def machine_bytes(config: MachineConfig, engine: str) -> int:
 
 
 def render_footprint(what: str, config: MachineConfig | None, width: int, engine: str | None,
-                     golden: bool = False, height: int | None = None) -> Footprint:
+                     golden: bool = False, height: int | None = None,
+                     per_ray: bool = False) -> Footprint:
     """A machine render (config and engine given) and/or the golden model (`golden`) of
-    width×height (default square) eye rays."""
+    width×height (default square) eye rays; `per_ray`: only a machine render's host side per
+    ray (the least any use of the image costs)."""
     rays = width * (width if height is None else height)
     total = BASE_BYTES + rays * (GOLDEN_BYTES_PER_RAY if golden else 0)
+    if per_ray or (config is not None and engine is not None):
+        total += rays * RENDER_BYTES_PER_RAY
     if config is not None and engine is not None:
-        total += rays * RENDER_BYTES_PER_RAY + machine_bytes(config, engine)
+        total += machine_bytes(config, engine)
     return Footprint(what, total, rays)
 
 

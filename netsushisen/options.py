@@ -175,10 +175,16 @@ def add_resolution(parser: argparse.ArgumentParser, default: int | None, help: s
 
 
 def check_resolution(res: int | None) -> int | None:
-    """`res` if it is a resolution the tools take (None: not given), else a one-line error."""
+    """`res` if it is a resolution the tools take (None: not given), else a one-line error:
+    beyond the machine's pixel index, or more eye rays than this host holds even at a machine
+    render's least cost per ray (a command that knows its engine and PEs checks the whole run
+    with `check_footprint`; this catches every other taker of --res, e.g. `debug`)."""
     if res is not None and not 1 <= res <= MAX_RES:
         raise NetsushisenError(f"--res {res}: the image must be 1 to {MAX_RES:,} pixels on a "
                                "side (the machine numbers its pixels in one 32-bit word)")
+    if res is not None:
+        check_host(render_footprint(f"a {res}×{res} image", None, res, None, per_ray=True),
+                   quiet=True)
     return res
 
 

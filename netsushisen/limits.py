@@ -90,6 +90,13 @@ def machine_problems(config: MachineConfig) -> list[str]:
     return problems
 
 
+def check_words(words: int, what: str) -> None:
+    """One-line error if a memory of `words` words cannot exist on the machine."""
+    if not 0 <= words <= MAX_WORDS:
+        raise NetsushisenError(f"{what}: {words:,} words; a memory holds 0 to {MAX_WORDS:,} "
+                               "words (addresses are 32-bit signed integers)")
+
+
 def check_frame(width: int, height: int, what: str) -> None:
     """One-line error if a width×height frame is negative or has more samples than a pixel
     index can number."""
@@ -178,12 +185,13 @@ def machine_bytes(config: MachineConfig, engine: str) -> int:
 
 def render_footprint(what: str, config: MachineConfig | None, width: int, engine: str | None,
                      golden: bool = False, height: int | None = None,
-                     per_ray: bool = False) -> Footprint:
+                     per_ray: bool = False, extra_bytes: int = 0) -> Footprint:
     """A machine render (config and engine given) and/or the golden model (`golden`) of
     width×height (default square) eye rays; `per_ray`: only a machine render's host side per
-    ray (the least any use of the image costs)."""
+    ray (the least any use of the image costs); `extra_bytes`: anything else the run holds (a
+    memory image's global memories)."""
     rays = width * (width if height is None else height)
-    total = BASE_BYTES + rays * (GOLDEN_BYTES_PER_RAY if golden else 0)
+    total = BASE_BYTES + extra_bytes + rays * (GOLDEN_BYTES_PER_RAY if golden else 0)
     if per_ray or (config is not None and engine is not None):
         total += rays * RENDER_BYTES_PER_RAY
     if config is not None and engine is not None:

@@ -152,7 +152,7 @@ def config_from_args(args: argparse.Namespace, path: str | None = None,
 
 def check_footprint(what: str, config: MachineConfig | None, width: int, engine: str | None,
                     golden: bool = False, quiet: bool = False, height: int | None = None,
-                    option: str = "--res") -> Footprint:
+                    option: str = "--res", extra_bytes: int = 0) -> Footprint:
     """Before any allocation: a width×height (default square) frame must fit the machine's
     pixel index, and the run (a machine run of `config` on `engine`, and/or the golden model)
     this host's memory; a large run prints its size (unless quiet). One-line errors
@@ -162,7 +162,7 @@ def check_footprint(what: str, config: MachineConfig | None, width: int, engine:
     pes = f" on {config.pes:,} PE{'s' if config.pes != 1 else ''}" if config and engine else ""
     size = f" {width}×{height}" if width * height else ""
     return check_host(render_footprint(f"{what}{size}{pes}", config, width, engine,
-                                       golden, height), quiet=quiet)
+                                       golden, height, extra_bytes=extra_bytes), quiet=quiet)
 
 
 # ---------------------------------------------------------------------------------------------

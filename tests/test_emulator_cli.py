@@ -278,3 +278,26 @@ def test_outputs_in_a_missing_folder_are_refused_before_the_run(tmp_path, capsys
     assert main(["run", "--ic", str(tmp_path / "ic.s"), "--json", str(tmp_path / "no" / "s.json")]) == 1
     assert _err(capsys).strip() == (f"{tmp_path / 'no' / 's.json'}: error: cannot write here: "
                                     f"no folder '{tmp_path / 'no'}'")
+
+
+@pytest.mark.parametrize("image, message", [
+    ({"sizes": {"icgm": 100_000_000_000}}, "sizes.icgm: 100,000,000,000 words; a memory holds 0 "
+                                           "to 2,147,483,648 words"),
+    ({"frame": {"width": 100_000, "height": 100_000}}, "frame: 100,000×100,000 samples exceed the "
+                                                        "machine's frame"),
+    ({"frame": {"width": -5, "height": 3}}, "frame: a -5×3 frame"),
+])
+def test_image_sizes_beyond_the_machine_are_one_line_before_the_run(tmp_path, capsys, monkeypatch,
+                                                                    image, message):
+    from netsushisen.emulator import engine
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("the machine was built before the image was checked")
+
+    monkeypatch.setattr(engine, "Machine", forbidden)
+    (tmp_path / "ic.s").write_text("    halt\n")
+    (tmp_path / "img.json").write_text(json.dumps(image))
+    assert main(["run", "--ic", str(tmp_path / "ic.s"), "--image", str(tmp_path / "img.json"),
+                 "--engine", "reference"]) == 1
+    err = _err(capsys).strip()
+    assert len(err.splitlines()) == 1 and f"img.json: {message}" in err

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from netsushisen.errors import NetsushisenError
+from netsushisen.limits import check_words
 from netsushisen.options import (add_engine, add_program_options, check_footprint,
                                  check_output_folders, engine_from_args, machine_inputs)
 from netsushisen.progress import INTERRUPTED, RunMonitor
@@ -63,8 +64,12 @@ def run(args: argparse.Namespace) -> int:
     except ValueError:
         raise NetsushisenError(f"--cycles {args.cycles!r}: expected A:B, A: or :B") from None
     width, height = (image.frame or (0, 0)) if image is not None else (0, 0)
+    global_words = 0
+    for name, words in (image.sizes if image is not None else {}).items():
+        check_words(words, f"{args.image}: sizes.{name}")
+        global_words += words
     check_footprint("run", config, width, engine_name, height=height, quiet=args.quiet,
-                    option=f"{args.image}: frame")
+                    option=f"{args.image}: frame", extra_bytes=16 * global_words)
     engine = make_engine(engine_name, config, programs, image)
     trace_file = None
     if tracing:

@@ -210,7 +210,9 @@ def _latency_override_problem(proc: str, mnemonic: str) -> str | None:
 
     op = OPCODES.get(mnemonic)
     if op is None:
-        return f"{proc}.latency.{mnemonic}: unknown mnemonic {mnemonic!r}"
+        known = [m for m, o in OPCODES.items() if proc in o.procs]
+        return f"{proc}.latency.{mnemonic}: unknown mnemonic {mnemonic!r}" + (
+            _did_you_mean(mnemonic, known) if difflib.get_close_matches(mnemonic, known, 1) else "")
     if proc not in op.procs:
         return f"{proc}.latency.{mnemonic}: {proc.upper()} has no {mnemonic!r} instruction"
     if op.kind == "load" and proc in ("ic", "sc"):

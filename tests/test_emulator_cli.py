@@ -229,6 +229,8 @@ def test_unknown_set_field_suggests_the_closest(capsys):
     assert "did you mean 'ring.fifo_depth'?" in _err(capsys)
     assert main(["config", "--set", "rnig.fifo_depth=40"]) == 1
     assert "did you mean 'ring'?" in _err(capsys)
+    assert main(["config", "--set", "ic.latency.fdvi=40"]) == 1
+    assert "ic.latency.fdvi: unknown mnemonic 'fdvi'; did you mean 'fdiv'?" in _err(capsys)
 
 
 def test_object_file_that_breaks_the_checker_is_rejected(files, tmp_path, capsys):

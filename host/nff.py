@@ -19,21 +19,8 @@ Decisions the NFF description leaves open, made here:
   non-UTF-8 bytes are errors. `#` starts a comment that runs to the end of the line.
 * A `c` record with equal radii is a cylinder (`Kind.CYLINDER`), otherwise a cone (`Kind.CONE`).
 
-Geometry is checked per record (`_Parser.check_*`), errors where the record cannot be rendered
-as written, warnings where it can but probably not as meant:
-
-* **Errors** (exit 1, the first one stops the read): a sphere radius that is not positive; a
-  cone radius that is negative, or both zero; a coordinate or radius of magnitude beyond
-  MAX_COORD (1e18: the machine computes in fp32, where the squares and dot products every
-  intersection test takes overflow to infinity past about 1.8e19); a sphere or cylinder so
-  small beside its position that fp32 cannot tell its two sides apart (it would vanish, and a
-  scene of only such objects has no extent to build a grid on).
-* **Warnings** (`file:line:col: warning: ...` on standard error, the scene is used): a polygon
-  with zero area (collinear or repeated vertices: it is never hit; tessellators emit these at
-  poles, so they are legal), and a polygon of more than three vertices that is not planar (it
-  is rendered as the fan of triangles from its first vertex, which may not be the surface the
-  file meant). At most MAX_WARNINGS per kind are shown, then how many more; every warning is
-  also in the scene's notes (`scene info`).
+Geometry is checked per record (host/nff_geometry.py: which problems are errors, which are
+warnings, and why).
 
 Records go into a `SceneBuilder` (`nff_builder`), which the SPD generators write through too.
 `format_nff` writes a `Scene` back as NFF with C `%g` formatting (the SPD generators' own), with
@@ -51,6 +38,8 @@ import numpy as np
 
 from netsushisen.errors import Diagnostic, SceneError
 from netsushisen.host.nff_builder import SceneBuilder
+from netsushisen.host.nff_geometry import (FP32_EPS, MAX_WARNINGS, GeometryChecks,  # noqa: F401
+                                           scene_warnings)
 from netsushisen.host.scenes import Kind, Scene
 
 RECORD_NAMES = {
@@ -69,15 +58,6 @@ _COMMENT = re.compile(r"#[^\n]*")
 _TOKEN = re.compile(r"\S+")
 _MAX_SHOWN = 160  # longest source line quoted in a diagnostic
 
-MAX_COORD = 1e18
-"""Largest magnitude of a coordinate or radius: its square (every intersection test takes
-squares and dot products) must stay finite in fp32 (max 3.4e38)."""
-
-FP32_EPS = 2.0 ** -23
-"""fp32's relative spacing: an extent below |position| × 4·FP32_EPS is lost beside it."""
-
-MAX_WARNINGS = 5
-"""Warnings shown per kind of problem; the rest are counted."""
 
 
 # ------------------------------------------------------------------------------------------------
@@ -137,7 +117,7 @@ def _is_number(tok: str) -> bool:
     return "_" not in tok
 
 
-class _Parser:
+class _Parser(GeometryChecks):
     def __init__(self, text: str, filename: str):
         if "\r" in text:
             text = text.replace("\r\n", "\n").replace("\r", "\n")
@@ -148,9 +128,7 @@ class _Parser:
         self.pos = 0
         self.builder = SceneBuilder()
         self.first_pos: dict[str, int] = {}  # keyword -> token index of its first record
-        self.warnings: dict[str, list[int]] = {}  # message kind -> token indices of its records
-        self.messages: dict[str, str] = {}  # message kind -> message
-        self.polygons: dict[int, list] = {}  # vertex count -> (record, keyword, xyz) to check
+        self.init_checks()
         self.strict_tokens = "_" in self.text  # Python's float() accepts "1_0"; NFF does not
 
     # -- locating ---------------------------------------------------------------------------------
@@ -269,72 +247,6 @@ class _Parser:
         return self.builder.build(name=Path(self.filename).stem, source=self.filename,
                                   notes=self.warning_lines())
 
-    # -- geometry checks (the module docstring says which are errors and why) -------------------
-    def warn(self, kind: str, message: str, record: int) -> None:
-        self.messages.setdefault(kind, message)
-        self.warnings.setdefault(kind, []).append(record)
-
-    def warning_lines(self) -> list[str]:
-        """One located line per warning, MAX_WARNINGS per kind, then a count of the rest."""
-        shown = sorted((record, kind) for kind, records in self.warnings.items()
-                       for record in records[:MAX_WARNINGS])
-        lines = []
-        for record, kind in shown:  # in file order
-            line, col, _ = self.locate(record)
-            lines.append(Diagnostic(self.messages[kind], file=self.filename, line=line, col=col,
-                                    severity="warning").format())
-        for kind, records in self.warnings.items():
-            if len(records) > MAX_WARNINGS:
-                lines.append(Diagnostic(f"{len(records) - MAX_WARNINGS} more {kind}",
-                                        file=self.filename, severity="warning").format())
-        return lines
-
-    def check_magnitude(self, values: list[float], record: int, what: str) -> None:
-        big = next((v for v in values if abs(v) > MAX_COORD), None)
-        if big is not None:
-            raise self.error(f"{what}: {big:g} is too large (at most {MAX_COORD:g}: the machine "
-                             "computes in fp32, where its square overflows)", record)
-
-    def check_polygon(self, xyz: list[float], record: int, kw: str) -> None:
-        """Magnitudes now; area and planarity at the end, all polygons of a vertex count at
-        once (`check_polygons`: per-record numpy calls would double a large file's read)."""
-        self.check_magnitude(xyz, record, RECORD_NAMES[kw])
-        self.polygons.setdefault(len(xyz) // 3, []).append((record, kw, xyz))
-
-    def check_polygons(self) -> None:
-        found = []
-        for n, polys in self.polygons.items():
-            v = np.array([xyz for _, _, xyz in polys], dtype=np.float64).reshape(len(polys), n, 3)
-            edges = v[:, 1:] - v[:, :1]
-            area = np.cross(edges[:, :-1], edges[:, 1:]).sum(axis=1) * 0.5
-            size = np.linalg.norm(edges, axis=2).max(axis=1)
-            norm = np.linalg.norm(area, axis=1)
-            flat = (norm <= 1e-12 * size * size) | (size == 0.0)
-            off = np.zeros(len(polys))
-            if n > 3:
-                unit = area / np.where(flat, 1.0, norm)[:, None]
-                off = np.abs(np.einsum("pvk,pk->pv", edges, unit)).max(axis=1)
-            bent = ~flat & (off > 1e-4 * size)
-            for i in np.flatnonzero(flat | bent):
-                found.append((polys[i][0], polys[i][1], bool(flat[i]), float(off[i]),
-                              float(size[i])))
-        for record, kw, zero, off, size in sorted(found):  # in file order
-            if zero:
-                self.warn("zero-area polygons", f"{RECORD_NAMES[kw]} has zero area (collinear "
-                          "or repeated vertices): it is never hit", record)
-            else:
-                self.warn("non-planar polygons", f"{RECORD_NAMES[kw]} is not planar (a vertex "
-                          f"lies {off:.3g} off its plane, {off / size:.1%} of its size): it is "
-                          "rendered as the fan of triangles from its first vertex", record)
-
-    def check_round(self, centre: list[float], radius: float, record: int, what: str) -> None:
-        """A sphere's or cone end's radius against fp32's resolution at its position."""
-        scale = max(abs(c) for c in centre)
-        if 0.0 < radius <= scale * 4 * FP32_EPS:
-            raise self.error(f"{what}: radius {radius:g} is lost beside its position "
-                             f"{scale:g} in fp32 (the machine's precision): the object would "
-                             "vanish", record)
-
     def unknown(self, kw: str) -> SceneError:
         if _is_number(kw):
             return self.error(f"unexpected number '{_clip(kw)}' where a record keyword was "
@@ -432,7 +344,7 @@ class _Parser:
         n = self.vertex_count("p", record)
         xyz = self.numbers(3 * n, record, f"{RECORD_NAMES['p']} with {n} vertices",
                            " (x y z per vertex)")
-        self.check_polygon(xyz, record, "p")
+        self.check_polygon(xyz, record, RECORD_NAMES["p"])
         self.builder.add_polygon(xyz)
 
     def rec_pp(self, record: int) -> None:
@@ -441,7 +353,8 @@ class _Parser:
         xyzn = self.numbers(6 * n, record, f"{RECORD_NAMES['pp']} with {n} vertices",
                             " (x y z nx ny nz per vertex)")
         self.check_magnitude(xyzn, record, RECORD_NAMES["pp"])
-        self.check_polygon([x for i in range(0, 6 * n, 6) for x in xyzn[i:i + 3]], record, "pp")
+        self.check_polygon([x for i in range(0, 6 * n, 6) for x in xyzn[i:i + 3]], record,
+                           RECORD_NAMES["pp"])
         self.builder.add_patch(xyzn)
 
     def rec_s(self, record: int) -> None:
@@ -473,12 +386,6 @@ class _Parser:
             raise self.error(f"{what}: its axis ({axis:g} long) is lost beside its position in "
                              "fp32 (the machine's precision)", record)
         self.builder.add_cone(*v)
-
-
-def scene_warnings(scene: Scene) -> list[str]:
-    """The located warnings the reader left in a scene's notes (`file:line:col: warning: ...`),
-    for a command to print on standard error."""
-    return [note for note in scene.notes if ": warning: " in note]
 
 
 def _clip(tok: str, width: int = 24) -> str:

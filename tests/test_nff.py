@@ -167,7 +167,7 @@ BAD = {
     "non-ascii outside comment": (HEADER + "s 0 0 0 1 \u00e9\n", 9, 11,
                                   "non-ASCII character U+00E9"),
     "nul byte": (HEADER + "s 0 0 0 1\x00\n", 9, 9, "expected a number, found '1?'"),
-    # geometry the machine cannot render as written (host/nff.py says which are errors and why)
+    # geometry the machine cannot render as written (host/nff_geometry.py says which and why)
     "sphere radius negative": (HEADER + "s 0 0 0 -1\n", 9, 1, "the radius must be positive, got -1"),
     "sphere radius zero": (HEADER + "l 1 1 1\ns 0 0 0 0\n", 10, 1, "radius must be positive, got 0"),
     "sphere squares overflow fp32": (HEADER + "s 1e38 0 0 1\n", 9, 1, "1e+38 is too large"),

@@ -1,9 +1,9 @@
 """Render a scene with the golden numpy model (the oracle the emulated machine must match).
 
-Prints a short summary (and the scene's located warnings, host/nff.py); writes the image (PNG)
-only where -o says, and optionally the eye rays' hit-primitive ids
-(.npy, int32, -1 = background) and the statistics (JSON: primitives, visible_primitives, rays by
-kind, total references, seconds).
+Prints a short summary (and the scene's located warnings, host/nff_geometry.py); writes the
+image (PNG) only where -o says, and optionally the eye rays' hit-primitive ids (.npy, int32,
+-1 = background) and the statistics (JSON: primitives, visible_primitives, rays by kind, total
+references, seconds).
 """
 
 from __future__ import annotations

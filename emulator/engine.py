@@ -122,6 +122,19 @@ class Engine:
     def exit_code(self) -> int:
         return EXIT_CODES.get(self.machine.status, 0)
 
+    def blocked(self) -> list[tuple[str, str, str]]:
+        """After a run that ended `finished` (quiescence, docs/timing.md "End of run"): the
+        processors that never halted but wait forever on an empty receive FIFO, as
+        (processor, where: "pc 3 (loop)", port: "ring", "host" or "any" for `wait`), in machine
+        order. A kernel that serves messages in a loop ends so by design (`render`); a program
+        run by hand usually meant to halt. Read from the reference objects, which every engine
+        writes its state back into, so every engine gives the same answer."""
+        if self.machine.status != "finished":
+            return []
+        return [(core.name, core.where(core.pc), core.cause.split(":", 1)[1])
+                for core in self.machine.cores
+                if core.present and not core.halted and core.cause.startswith("fifo_empty:")]
+
     def statistics(self) -> dict:
         """The run's statistics (schema `netsushisen-stats`, emulator/stats.py)."""
         return run_stats.collect(self.machine)

@@ -19,6 +19,9 @@ Decisions the NFF description leaves open, made here:
   non-UTF-8 bytes are errors. `#` starts a comment that runs to the end of the line.
 * A `c` record with equal radii is a cylinder (`Kind.CYLINDER`), otherwise a cone (`Kind.CONE`).
 
+Geometry is checked per record (host/nff_geometry.py: which problems are errors, which are
+warnings, and why).
+
 Records go into a `SceneBuilder` (`nff_builder`), which the SPD generators write through too.
 `format_nff` writes a `Scene` back as NFF with C `%g` formatting (the SPD generators' own), with
 an `f` record wherever the material changes; reading and re-writing an SPD file reproduces it byte
@@ -35,6 +38,8 @@ import numpy as np
 
 from netsushisen.errors import Diagnostic, SceneError
 from netsushisen.host.nff_builder import SceneBuilder
+from netsushisen.host.nff_geometry import (FP32_EPS, MAX_WARNINGS, GeometryChecks,  # noqa: F401
+                                           scene_warnings)
 from netsushisen.host.scenes import Kind, Scene
 
 RECORD_NAMES = {
@@ -52,6 +57,7 @@ _KEYWORDS = frozenset(RECORD_NAMES) | frozenset(VIEW_KEYWORDS)
 _COMMENT = re.compile(r"#[^\n]*")
 _TOKEN = re.compile(r"\S+")
 _MAX_SHOWN = 160  # longest source line quoted in a diagnostic
+
 
 
 # ------------------------------------------------------------------------------------------------
@@ -111,7 +117,7 @@ def _is_number(tok: str) -> bool:
     return "_" not in tok
 
 
-class _Parser:
+class _Parser(GeometryChecks):
     def __init__(self, text: str, filename: str):
         if "\r" in text:
             text = text.replace("\r\n", "\n").replace("\r", "\n")
@@ -122,6 +128,7 @@ class _Parser:
         self.pos = 0
         self.builder = SceneBuilder()
         self.first_pos: dict[str, int] = {}  # keyword -> token index of its first record
+        self.init_checks()
         self.strict_tokens = "_" in self.text  # Python's float() accepts "1_0"; NFF does not
 
     # -- locating ---------------------------------------------------------------------------------
@@ -236,7 +243,9 @@ class _Parser:
         if self.builder.camera is None:
             raise self.error("no view block 'v' in the file (NFF needs 'v' followed by "
                              "from/at/up/angle/hither/resolution)")
-        return self.builder.build(name=Path(self.filename).stem, source=self.filename)
+        self.check_polygons()
+        return self.builder.build(name=Path(self.filename).stem, source=self.filename,
+                                  notes=self.warning_lines())
 
     def unknown(self, kw: str) -> SceneError:
         if _is_number(kw):
@@ -285,6 +294,8 @@ class _Parser:
             raise self.error(f"view block 'v' is missing {names} (it needs from, at, up, angle, "
                              "hither and resolution)", record)
         eye, at, up = (seen[k][0] for k in ("from", "at", "up"))
+        for key in ("from", "at"):
+            self.check_magnitude(seen[key][0], seen[key][1], f"'{key}' line of the view block 'v'")
         angle, hither = seen["angle"][0][0], seen["hither"][0][0]
         res = seen["resolution"][0]
         if not 0.0 < angle < 180.0:
@@ -307,6 +318,7 @@ class _Parser:
     def rec_l(self, record: int) -> None:
         what = RECORD_NAMES["l"]
         x, y, z = self.numbers(3, record, what, " (x y z)")
+        self.check_magnitude([x, y, z], record, what)
         k = self.numeric_run(3)
         color = None
         if k:
@@ -332,6 +344,7 @@ class _Parser:
         n = self.vertex_count("p", record)
         xyz = self.numbers(3 * n, record, f"{RECORD_NAMES['p']} with {n} vertices",
                            " (x y z per vertex)")
+        self.check_polygon(xyz, record, RECORD_NAMES["p"])
         self.builder.add_polygon(xyz)
 
     def rec_pp(self, record: int) -> None:
@@ -339,19 +352,39 @@ class _Parser:
         n = self.vertex_count("pp", record)
         xyzn = self.numbers(6 * n, record, f"{RECORD_NAMES['pp']} with {n} vertices",
                             " (x y z nx ny nz per vertex)")
+        self.check_magnitude(xyzn, record, RECORD_NAMES["pp"])
+        self.check_polygon([x for i in range(0, 6 * n, 6) for x in xyzn[i:i + 3]], record,
+                           RECORD_NAMES["pp"])
         self.builder.add_patch(xyzn)
 
     def rec_s(self, record: int) -> None:
         self.object_allowed("s", record)
-        self.builder.add_sphere(*self.numbers(4, record, RECORD_NAMES["s"], " (x y z radius)"))
+        what = RECORD_NAMES["s"]
+        x, y, z, r = self.numbers(4, record, what, " (x y z radius)")
+        self.check_magnitude([x, y, z, r], record, what)
+        if r <= 0.0:
+            raise self.error(f"{what}: the radius must be positive, got {r:g}", record)
+        self.check_round([x, y, z], r, record, what)
+        self.builder.add_sphere(x, y, z, r)
 
     def rec_c(self, record: int) -> None:
         self.object_allowed("c", record)
         v = self.numbers(8, record, RECORD_NAMES["c"],
                          " (base x y z radius, apex x y z radius)")
+        what = RECORD_NAMES["c"]
+        self.check_magnitude(v, record, what)
         if v[0:3] == v[4:7]:
-            raise self.error(f"{RECORD_NAMES['c']} has the same base and apex point "
-                             "(no axis)", record)
+            raise self.error(f"{what} has the same base and apex point (no axis)", record)
+        if v[3] < 0.0 or v[7] < 0.0:
+            raise self.error(f"{what}: a radius must not be negative, got "
+                             f"{v[3] if v[3] < 0.0 else v[7]:g}", record)
+        if v[3] == 0.0 and v[7] == 0.0:
+            raise self.error(f"{what}: both radii are zero (a line, never hit)", record)
+        self.check_round(v[0:3], max(v[3], v[7]), record, what)
+        axis = math.dist(v[0:3], v[4:7])
+        if axis <= max(map(abs, v[0:3] + v[4:7])) * 4 * FP32_EPS:
+            raise self.error(f"{what}: its axis ({axis:g} long) is lost beside its position in "
+                             "fp32 (the machine's precision)", record)
         self.builder.add_cone(*v)
 
 

@@ -11,6 +11,8 @@ t_g = 8·t_r, direct-mapped cache with 64-byte blocks) and documented choices el
 from __future__ import annotations
 
 import dataclasses
+import difflib
+import re
 import tomllib
 import typing
 from dataclasses import dataclass, field
@@ -186,6 +188,9 @@ class MachineConfig:
             problems.append(f"render.max_depth must be at least 1, got {self.render.max_depth}")
         if not 0.0 < self.prepass.share <= 1.0:
             problems.append(f"prepass.share must lie in (0, 1], got {self.prepass.share}")
+        from netsushisen.limits import machine_problems  # late: limits types against this module
+
+        problems += machine_problems(self)
         if problems:
             raise ConfigError([Diagnostic(p, file=source) for p in problems])
 
@@ -205,7 +210,9 @@ def _latency_override_problem(proc: str, mnemonic: str) -> str | None:
 
     op = OPCODES.get(mnemonic)
     if op is None:
-        return f"{proc}.latency.{mnemonic}: unknown mnemonic {mnemonic!r}"
+        known = [m for m, o in OPCODES.items() if proc in o.procs]
+        return f"{proc}.latency.{mnemonic}: unknown mnemonic {mnemonic!r}" + (
+            _did_you_mean(mnemonic, known) if difflib.get_close_matches(mnemonic, known, 1) else "")
     if proc not in op.procs:
         return f"{proc}.latency.{mnemonic}: {proc.upper()} has no {mnemonic!r} instruction"
     if op.kind == "load" and proc in ("ic", "sc"):
@@ -218,81 +225,185 @@ def _latency_override_problem(proc: str, mnemonic: str) -> str | None:
 # Loading, overriding, dumping
 
 
-def _convert(value: Any, tp: Any, path: str) -> Any:
-    """Coerce a TOML or command-line value to the field's declared type, or explain why not."""
+def _convert(value: Any, tp: Any, path: str, strict: bool = False) -> Any:
+    """Coerce a TOML or command-line value to the field's declared type, or explain why not.
+    `strict` (a value from a TOML file, which has its own types): a string is never a bool or
+    a number (`buffer_pool = "no"` is an error); on the command line (`--set`) the text is all
+    there is, so `no`, `0x10` and `1e3` are read as the field's type."""
     origin = typing.get_origin(tp)
     args = typing.get_args(tp)
     if origin is typing.Union or str(origin) == "<class 'types.UnionType'>":
-        if value is None or (isinstance(value, str) and value.lower() in ("none", "")):
+        if value is None or (not strict and isinstance(value, str) and value.lower() in ("none", "")):
             if type(None) in args:
                 return None
         inner = [a for a in args if a is not type(None)]
-        return _convert(value, inner[0], path)
+        return _convert(value, inner[0], path, strict)
     if tp is bool:
         if isinstance(value, bool):
             return value
-        if isinstance(value, str) and value.lower() in ("true", "1", "yes", "on"):
+        if not strict and isinstance(value, str) and value.lower() in ("true", "1", "yes", "on"):
             return True
-        if isinstance(value, str) and value.lower() in ("false", "0", "no", "off"):
+        if not strict and isinstance(value, str) and value.lower() in ("false", "0", "no", "off"):
             return False
-        raise ConfigError(f"{path}: expected true or false, got {value!r}")
+        raise ConfigError(f"{path}: expected true or false, got {_shown(value)}")
     if tp is int:
-        if isinstance(value, bool):
-            raise ConfigError(f"{path}: expected a whole number, got {value!r}")
-        if isinstance(value, int):
+        if isinstance(value, int) and not isinstance(value, bool):
             return value
-        try:
-            return int(str(value), 0)
-        except ValueError:
-            raise ConfigError(f"{path}: expected a whole number, got {value!r}") from None
+        if isinstance(value, str) and not strict:
+            try:
+                return int(value, 0)
+            except ValueError:
+                pass
+        raise ConfigError(f"{path}: expected a whole number, got {_shown(value)}")
     if tp is float:
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             return float(value)
-        try:
-            return float(str(value))
-        except ValueError:
-            raise ConfigError(f"{path}: expected a number, got {value!r}") from None
+        if isinstance(value, str) and not strict:
+            try:
+                return float(value)
+            except ValueError:
+                pass
+        raise ConfigError(f"{path}: expected a number, got {_shown(value)}")
     if tp is str:
+        if strict and not isinstance(value, str):
+            raise ConfigError(f"{path}: expected a string, got {_shown(value)}")
         return str(value)
     if origin is dict:
         if not isinstance(value, dict):
-            raise ConfigError(f"{path}: expected a table, got {value!r}")
-        return {str(k): _convert(v, args[1], f"{path}.{k}") for k, v in value.items()}
+            raise ConfigError(f"{path}: expected a table, got {_shown(value)}")
+        return {str(k): _convert(v, args[1], f"{path}.{k}", strict) for k, v in value.items()}
     raise ConfigError(f"{path}: unsupported type {tp}")
 
 
-def _apply(obj: Any, data: dict[str, Any], prefix: str) -> None:
+def _shown(value: Any) -> str:
+    """A value as the user wrote it, with what TOML made of it (`"no"` (a string))."""
+    kinds = {bool: "a boolean", int: "a whole number", float: "a number", str: "a string",
+             dict: "a table", list: "an array"}
+    kind = kinds.get(type(value))
+    text = _scalar(value) if isinstance(value, (bool, int, float, str)) else repr(value)
+    return f"{text} ({kind})" if kind else text
+
+
+def _did_you_mean(name: str, known: list[str]) -> str:
+    """`; did you mean 'x'?` for the closest known name, else the list of known names."""
+    close = difflib.get_close_matches(name, known, n=1, cutoff=0.6)
+    if close:
+        return f"; did you mean {close[0]!r}?"
+    return "; known: " + ", ".join(sorted(known))
+
+
+def _apply(obj: Any, data: dict[str, Any], prefix: str, problems: list[tuple[str, str]],
+           strict: bool = False) -> None:
+    """Set `data`'s fields on `obj`; every problem (unknown field or section, wrong type) is
+    appended to `problems` as (field path, message) and the other fields still apply, so a
+    file's every error is reported at once."""
     hints = typing.get_type_hints(type(obj))
-    names = {f.name for f in dataclasses.fields(obj)}
+    names = [f.name for f in dataclasses.fields(obj)]
     for key, value in data.items():
         path = f"{prefix}{key}"
         if key not in names:
-            raise ConfigError(f"unknown configuration field {path!r}; known: "
-                              + ", ".join(sorted(f"{prefix}{n}" for n in names)))
+            what = "section" if isinstance(value, dict) and strict else "field"
+            problems.append((path, f"unknown configuration {what} {path!r}"
+                                   + _did_you_mean(path, [f"{prefix}{n}" for n in names])))
+            continue
         current = getattr(obj, key)
         if dataclasses.is_dataclass(current):
             if not isinstance(value, dict):
-                raise ConfigError(f"{path}: expected a table of fields, got {value!r}")
-            _apply(current, value, path + ".")
-        else:
-            setattr(obj, key, _convert(value, hints[key], path))
+                problems.append((path, f"{path}: expected a table of fields, got {_shown(value)}"))
+                continue
+            _apply(current, value, path + ".", problems, strict)
+            continue
+        try:
+            setattr(obj, key, _convert(value, hints[key], path, strict))
+        except ConfigError as err:
+            problems.append((path, err.diagnostics[0].message))
+
+
+def key_lines(text: str) -> dict[str, int]:
+    """The 1-based line of every `[table]` header and `key = value` line, by dotted path.
+
+    tomllib gives the values but no positions. The configuration files this project reads and
+    writes are flat — `[section]` headers and `key = value` lines, as `config --dump` writes
+    them — so a scan of the text is enough: a header sets the current table, a `key =` line
+    (bare or quoted key, dotted allowed) names `table.key`. A key inside an inline table or a
+    multi-line value is not found; `line_of` then falls back to its table's line."""
+    lines: dict[str, int] = {}
+    table = ""
+    for n, raw in enumerate(text.splitlines(), 1):
+        s = raw.strip()
+        if not s or s.startswith("#"):
+            continue
+        header = re.match(r"^\[\s*([^\[\]]+?)\s*\]", s)
+        if header and not s.startswith("[["):
+            table = _dotted(header.group(1))
+            lines.setdefault(table, n)
+            continue
+        key = re.match(r"""^((?:"[^"]*"|'[^']*'|[A-Za-z0-9_\-]+)(?:\s*\.\s*(?:"[^"]*"|'[^']*'|[A-Za-z0-9_\-]+))*)\s*=""", s)
+        if key:
+            dotted = _dotted(key.group(1))
+            lines.setdefault(f"{table}.{dotted}" if table else dotted, n)
+    return lines
+
+
+def _dotted(key: str) -> str:
+    return ".".join(part.strip().strip("\"'") for part in key.split("."))
+
+
+def line_of(lines: dict[str, int], path: str) -> int | None:
+    """The line of field `path`, else of its nearest enclosing table that has one."""
+    parts = path.split(".")
+    for k in range(len(parts), 0, -1):
+        found = lines.get(".".join(parts[:k]))
+        if found is not None:
+            return found
+    return None
 
 
 def load_config(path: str | Path | None = None, overrides: list[str] | None = None) -> MachineConfig:
-    """Defaults, then a TOML file, then `field.path=value` overrides; validated."""
+    """Defaults, then a TOML file, then `field.path=value` overrides; validated. Every problem
+    is reported at once, a file's as `file:line: error: ...` (`key_lines`)."""
     config = MachineConfig()
+    source = str(path) if path is not None else "config"
+    located: list[tuple[str, str]] = []  # (field path, message), of the file
+    lines: dict[str, int] = {}
     if path is not None:
         p = Path(path)
         try:
-            data = tomllib.loads(p.read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise ConfigError(Diagnostic("no such configuration file", file=str(p))) from None
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
-            raise ConfigError(Diagnostic(f"not valid TOML: {err}", file=str(p))) from None
-        _apply(config, data, "")
+            text = p.read_text(encoding="utf-8")
+            data = tomllib.loads(text)
+        except (FileNotFoundError, IsADirectoryError):
+            raise ConfigError(Diagnostic("no such configuration file", file=source)) from None
+        except UnicodeDecodeError:
+            raise ConfigError(Diagnostic("not valid TOML: not UTF-8 text", file=source)) from None
+        except tomllib.TOMLDecodeError as err:
+            where = re.search(r"\(at line (\d+), column (\d+)\)", str(err))
+            message = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(err))
+            raise ConfigError(Diagnostic(f"not valid TOML: {message}", file=source,
+                                         line=int(where[1]) if where else None,
+                                         col=int(where[2]) if where else None)) from None
+        lines = key_lines(text)
+        _apply(config, data, "", located, strict=True)
+    diagnostics = [Diagnostic(message, file=source, line=line_of(lines, field_path))
+                   for field_path, message in located]
+    overridden = set()
     for item in overrides or []:
-        apply_override(config, item)
-    config.validate(str(path) if path is not None else "config")
+        overridden.add(item.partition("=")[0].strip())
+        try:
+            apply_override(config, item)
+        except ConfigError as err:
+            diagnostics += err.diagnostics
+    try:
+        config.validate(source)
+    except ConfigError as err:
+        for d in err.diagnostics:  # each problem starts with its field's path
+            field_path = d.message.split(" ", 1)[0].rstrip(":")
+            if field_path in overridden and path is not None:  # the value is --set's, not the file's
+                diagnostics.append(dataclasses.replace(d, file=None))
+            else:
+                diagnostics.append(dataclasses.replace(d, line=line_of(lines, field_path)))
+    if diagnostics:
+        diagnostics.sort(key=lambda d: (d.file != source, d.line is None, d.line or 0))
+        raise ConfigError(diagnostics)
     return config
 
 
@@ -306,8 +417,11 @@ def apply_override(config: MachineConfig, item: str) -> None:
     for i, part in enumerate(parts[:-1]):
         if isinstance(obj, dict):
             raise ConfigError(f"--set {item!r}: {'.'.join(parts[:i + 1])} is not a table")
-        if not dataclasses.is_dataclass(obj) or part not in {f.name for f in dataclasses.fields(obj)}:
-            raise ConfigError(f"--set {item!r}: unknown configuration field {'.'.join(parts[:i + 1])!r}")
+        names = [f.name for f in dataclasses.fields(obj)] if dataclasses.is_dataclass(obj) else []
+        if part not in names:
+            here = ".".join(parts[:i + 1])
+            raise ConfigError(f"--set {item!r}: unknown configuration field {here!r}"
+                              + _did_you_mean(here, [".".join([*parts[:i], n]) for n in names]))
         nxt = getattr(obj, part)
         if isinstance(nxt, dict):  # e.g. ic.latency.fdiv=20
             if i != len(parts) - 2:
@@ -320,19 +434,24 @@ def apply_override(config: MachineConfig, item: str) -> None:
         data = tomllib.loads(f"v = {raw}")["v"]
     except tomllib.TOMLDecodeError:
         pass
-    _apply(obj, {parts[-1]: data}, ".".join(parts[:-1]) + "." if len(parts) > 1 else "")
+    problems: list[tuple[str, str]] = []
+    _apply(obj, {parts[-1]: data}, ".".join(parts[:-1]) + "." if len(parts) > 1 else "", problems)
+    if problems:
+        raise ConfigError(problems[0][1])
+
+
+def _scalar(v: Any) -> str:
+    """A scalar as TOML writes it."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    return repr(v)
 
 
 def dump_toml(config: MachineConfig) -> str:
     """The configuration as TOML that `load_config` reads back to an equal config."""
     lines: list[str] = []
-
-    def scalar(v: Any) -> str:
-        if isinstance(v, bool):
-            return "true" if v else "false"
-        if isinstance(v, str):
-            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-        return repr(v)
 
     def emit(obj: Any, table: str) -> None:
         subtables = []
@@ -344,7 +463,7 @@ def dump_toml(config: MachineConfig) -> str:
             elif v is None:
                 doc_lines.append(f"# {f.name} = (unset)")
             else:
-                doc_lines.append(f"{f.name} = {scalar(v)}")
+                doc_lines.append(f"{f.name} = {_scalar(v)}")
         if doc_lines:
             if table:
                 lines.append(f"\n[{table}]")
@@ -353,7 +472,7 @@ def dump_toml(config: MachineConfig) -> str:
             full = f"{table}.{name}" if table else name
             if isinstance(v, dict):
                 lines.append(f"\n[{full}]")
-                lines.extend(f"{k} = {scalar(x)}" for k, x in sorted(v.items()))
+                lines.extend(f"{k} = {_scalar(x)}" for k, x in sorted(v.items()))
             else:
                 emit(v, full)
 

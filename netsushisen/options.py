@@ -16,6 +16,13 @@ the same and is checked the same way wherever it appears:
     add_resolution(parser, default)
                                 --res N (`args.res`); `check_resolution(args.res)` rejects
                                 N outside 1..MAX_RES with one line before anything is allocated
+    check_footprint(what, config, width, engine, golden=, quiet=)
+                                the run's frame against the machine's pixel index and its
+                                estimated memory against this host's (netsushisen/limits.py):
+                                one line if it cannot fit, its size printed if it is large
+    check_output_folders(*paths), write_output(path, write), fresh_output(stem)
+                                outputs: folders checked before the run, OSErrors as located
+                                lines, and `SCENE.png` or the first free `SCENE-N.png`
     add_engine(parser)          --engine NAME (`args.engine`, None when not given);
                                 `engine_from_args(args)` checks the name, or picks the engine
                                 interface's default (compiled where it imports, else reference)
@@ -38,13 +45,16 @@ from typing import TYPE_CHECKING
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.config import MachineConfig, load_config
 from netsushisen.isa.processors import STAGES
+from netsushisen.limits import (MAX_SIDE, Footprint, check_frame, check_host, machine_bytes,
+                                render_footprint)
 
 if TYPE_CHECKING:
     from netsushisen.emulator.trace import Window
 
-MAX_RES = 8192
-"""The largest --res: an 8192×8192 image (67 M eye rays) is beyond any run this toolchain
-finishes; a larger N is a typo, refused before the frame buffer is allocated."""
+MAX_RES = MAX_SIDE - 1
+"""The largest --res the machine can number: 46,339, so that even the SPD corners' (N+1)² eye
+rays fit the frame's 32-bit pixel index (netsushisen/limits.py). Whether this host can hold
+the run is `check_footprint`'s question, asked before anything is allocated."""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -134,9 +144,32 @@ def config_overrides(args: argparse.Namespace) -> list[str]:
     return overrides
 
 
-def config_from_args(args: argparse.Namespace, path: str | None = None) -> MachineConfig:
-    """The validated configuration: defaults, the --config file (or `path`), the overrides."""
-    return load_config(path if path is not None else args.config, config_overrides(args))
+def config_from_args(args: argparse.Namespace, path: str | None = None,
+                     host: bool = True) -> MachineConfig:
+    """The validated configuration: defaults, the --config file (or `path`), the overrides.
+    With `host`, also refused (one line) when even the leanest engine could not hold its PEs
+    in this host's memory (`--pes 100000`): the command's own `check_footprint`, which knows
+    the image and the engine, then refines the estimate."""
+    config = load_config(path if path is not None else args.config, config_overrides(args))
+    if host:
+        check_host(Footprint(f"a machine of {config.pes:,} PEs",
+                             machine_bytes(config, "reference")), quiet=True)
+    return config
+
+
+def check_footprint(what: str, config: MachineConfig | None, width: int, engine: str | None,
+                    golden: bool = False, quiet: bool = False, height: int | None = None,
+                    option: str = "--res", extra_bytes: int = 0) -> Footprint:
+    """Before any allocation: a width×height (default square) frame must fit the machine's
+    pixel index, and the run (a machine run of `config` on `engine`, and/or the golden model)
+    this host's memory; a large run prints its size (unless quiet). One-line errors
+    (netsushisen/limits.py)."""
+    height = width if height is None else height
+    check_frame(width, height, f"{option} {width}" if option == "--res" else option)
+    pes = f" on {config.pes:,} PE{'s' if config.pes != 1 else ''}" if config and engine else ""
+    size = f" {width}×{height}" if width * height else ""
+    return check_host(render_footprint(f"{what}{size}{pes}", config, width, engine,
+                                       golden, height, extra_bytes=extra_bytes), quiet=quiet)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -149,9 +182,16 @@ def add_resolution(parser: argparse.ArgumentParser, default: int | None, help: s
 
 
 def check_resolution(res: int | None) -> int | None:
-    """`res` if it is a resolution the tools take (None: not given), else a one-line error."""
+    """`res` if it is a resolution the tools take (None: not given), else a one-line error:
+    beyond the machine's pixel index, or more eye rays than this host holds even at a machine
+    render's least cost per ray (a command that knows its engine and PEs checks the whole run
+    with `check_footprint`; this catches every other taker of --res, e.g. `debug`)."""
     if res is not None and not 1 <= res <= MAX_RES:
-        raise NetsushisenError(f"--res {res}: the image must be 1 to {MAX_RES} pixels on a side")
+        raise NetsushisenError(f"--res {res}: the image must be 1 to {MAX_RES:,} pixels on a "
+                               "side (the machine numbers its pixels in one 32-bit word)")
+    if res is not None:
+        check_host(render_footprint(f"a {res}×{res} image", None, res, None, per_ray=True),
+                   quiet=True)
     return res
 
 
@@ -172,6 +212,37 @@ def engine_from_args(args: argparse.Namespace, default: str | None = None) -> st
     if args.engine is None:
         args.engine = default or default_engine()
     return check_engine(args.engine)
+
+
+def fresh_output(stem: str, suffix: str = ".png") -> str:
+    """The default output `STEM.png`, or when that exists the first free `STEM-1.png`,
+    `STEM-2.png`, ...: a command writes over a file only where `-o` names it (as `wget` and
+    browsers number a download rather than lose the earlier one)."""
+    path = Path(f"{stem}{suffix}")
+    n = 0
+    while path.exists():
+        n += 1
+        path = Path(f"{stem}-{n}{suffix}")
+    return str(path)
+
+
+def check_output_folders(*paths: str | None) -> None:
+    """Before any work: every output's folder exists (a run must not end unable to write what
+    it computed). A one-line located error otherwise."""
+    for path in paths:
+        if path:
+            folder = Path(path).parent
+            if not folder.is_dir():
+                raise NetsushisenError(Diagnostic(f"cannot write here: no folder {str(folder)!r}",
+                                                  file=str(path)))
+
+
+def write_output(path: str, write) -> None:
+    """`write(path)`, an OSError (no such folder, no permission) as a located one-line error."""
+    try:
+        write(path)
+    except OSError as err:
+        raise NetsushisenError(Diagnostic(f"cannot write: {err.strerror or err}", file=str(path))) from None
 
 
 # ---------------------------------------------------------------------------------------------

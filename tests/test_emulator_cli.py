@@ -173,11 +173,64 @@ def test_config_dump_roundtrip_and_check(tmp_path, capsys):
     (tmp_path / "bad.toml").write_text("[ring]\nfifo_depth = 0\n[ic.latency]\nldg = 3\n")
     assert main(["config", "--check", str(tmp_path / "bad.toml")]) == 1
     err = _err(capsys)
-    assert "bad.toml: error: ring.fifo_depth must be at least 1" in err
-    assert "bad.toml: error: ic.latency.ldg: IC load times come from ic_memory" in err
+    assert "bad.toml:2: error: ring.fifo_depth must be at least 1" in err
+    assert "bad.toml:4: error: ic.latency.ldg: IC load times come from ic_memory" in err
     (tmp_path / "broken.toml").write_text("[ring\n")
     assert main(["config", "--check", str(tmp_path / "broken.toml")]) == 1
-    assert "not valid TOML" in _err(capsys)
+    assert "broken.toml:1:6: error: not valid TOML: Expected ']'" in _err(capsys)
+
+
+BAD_CONFIG = """\
+pes = 2
+precison = "fp64"
+
+[rnig]                  # an unknown section hides nothing after it
+fifo_depth = 8
+
+[ring]
+buffer_pool = "no"
+fifo_depth = 0
+
+[ic_memory]
+t_g = "8"
+cache_share = 2.0
+"""
+
+
+def test_config_check_reports_every_error_at_its_line(tmp_path, capsys):
+    (tmp_path / "bad.toml").write_text(BAD_CONFIG)
+    assert main(["config", "--check", str(tmp_path / "bad.toml")]) == 1
+    err = _err(capsys).splitlines()
+    f = str(tmp_path / "bad.toml")
+    assert err == [
+        f"{f}:2: error: unknown configuration field 'precison'; did you mean 'precision'?",
+        f"{f}:4: error: unknown configuration section 'rnig'; did you mean 'ring'?",
+        f'{f}:8: error: ring.buffer_pool: expected true or false, got "no" (a string)',
+        f"{f}:9: error: ring.fifo_depth must be at least 1, got 0",
+        f'{f}:12: error: ic_memory.t_g: expected a whole number, got "8" (a string)',
+        f"{f}:13: error: ic_memory.cache_share must lie in 0..1, got 2.0"]
+    # the same through --config of a command, before any work; a --set value is not the file's
+    assert main(["render", "tetra", "--config", f, "--set", "pes=0"]) == 1
+    err = _err(capsys).splitlines()
+    assert len(err) == 7 and err[-1] == "error: pes must be at least 1, got 0"
+    # fixed, the file passes; on the command line a bool may be written yes/no
+    fixed = BAD_CONFIG.replace("precison", "precision").replace("[rnig]", "[render]").replace(
+        "fifo_depth = 8", "max_depth = 3").replace('"no"', "false").replace(
+        "fifo_depth = 0", "fifo_depth = 32").replace('"8"', "8").replace("2.0", "0.5")
+    (tmp_path / "good.toml").write_text(fixed)
+    assert main(["config", "--check", str(tmp_path / "good.toml"), "--set",
+                 "ring.buffer_pool=yes"]) == 0
+    out = capsys.readouterr().out
+    assert out.strip().endswith("good.toml: ok")
+
+
+def test_unknown_set_field_suggests_the_closest(capsys):
+    assert main(["config", "--set", "ring.fifo_dept=40"]) == 1
+    assert "did you mean 'ring.fifo_depth'?" in _err(capsys)
+    assert main(["config", "--set", "rnig.fifo_depth=40"]) == 1
+    assert "did you mean 'ring'?" in _err(capsys)
+    assert main(["config", "--set", "ic.latency.fdvi=40"]) == 1
+    assert "ic.latency.fdvi: unknown mnemonic 'fdvi'; did you mean 'fdiv'?" in _err(capsys)
 
 
 def test_object_file_that_breaks_the_checker_is_rejected(files, tmp_path, capsys):
@@ -196,3 +249,57 @@ def test_image_raw_word_too_wide_for_fp32(files, tmp_path, capsys):
     assert "icgm: raw word 0x100000000 is wider than a 32-bit (fp32) machine word" in _err(capsys)
     assert main(["run", "--ic", str(files / "ic.s"), "--image", str(tmp_path / "img.json"),
                  "--set", "precision=fp64", "-q"]) == 0
+
+
+def test_a_processor_blocked_forever_is_a_warning(tmp_path, capsys, engine_name):
+    """docs/timing.md "End of run": `finished` is quiescence, so a processor still waiting on
+    an empty FIFO is legal (exit 0) — but a program run by hand meant to halt: warn, naming the
+    processor, its PC and the FIFO, the same on every engine."""
+    (tmp_path / "ic.s").write_text("start:\n    addi r1, r0, 1\nloop:\n    recv r2, ring\n    halt\n")
+    (tmp_path / "sc.s").write_text("start:\n    wait\n    halt\n")
+    (tmp_path / "os.s").write_text("    halt\n")
+    code = main(["run", "--ic", str(tmp_path / "ic.s"), "--sc", str(tmp_path / "sc.s"), "--os",
+                 str(tmp_path / "os.s"), "--engine", engine_name, "-q", "--json",
+                 str(tmp_path / "s.json")])
+    assert code == 0
+    assert _err(capsys).splitlines() == [
+        "netsushisen run: warning: pe0.ic never halted: it waits forever at pc 1 (loop) on its "
+        "empty receive FIFO 'ring'; nothing is left to send it (the run ended `finished`)",
+        "netsushisen run: warning: pe0.sc never halted: it waits forever at pc 0 (start) in "
+        "`wait`, with every receive FIFO empty; nothing is left to send it (the run ended "
+        "`finished`)"]
+    assert json.loads((tmp_path / "s.json").read_text())["run"]["status"] == "finished"
+    # every processor halts: no warning
+    (tmp_path / "ic.s").write_text("    halt\n")
+    assert main(["run", "--ic", str(tmp_path / "ic.s"), "--engine", engine_name, "-q"]) == 0
+    assert _err(capsys) == ""
+
+
+def test_outputs_in_a_missing_folder_are_refused_before_the_run(tmp_path, capsys):
+    (tmp_path / "ic.s").write_text("    halt\n")
+    assert main(["run", "--ic", str(tmp_path / "ic.s"), "--json", str(tmp_path / "no" / "s.json")]) == 1
+    assert _err(capsys).strip() == (f"{tmp_path / 'no' / 's.json'}: error: cannot write here: "
+                                    f"no folder '{tmp_path / 'no'}'")
+
+
+@pytest.mark.parametrize("image, message", [
+    ({"sizes": {"icgm": 100_000_000_000}}, "sizes.icgm: 100,000,000,000 words; a memory holds 0 "
+                                           "to 2,147,483,648 words"),
+    ({"frame": {"width": 100_000, "height": 100_000}}, "frame: 100,000×100,000 samples exceed the "
+                                                        "machine's frame"),
+    ({"frame": {"width": -5, "height": 3}}, "frame: a -5×3 frame"),
+])
+def test_image_sizes_beyond_the_machine_are_one_line_before_the_run(tmp_path, capsys, monkeypatch,
+                                                                    image, message):
+    from netsushisen.emulator import engine
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("the machine was built before the image was checked")
+
+    monkeypatch.setattr(engine, "Machine", forbidden)
+    (tmp_path / "ic.s").write_text("    halt\n")
+    (tmp_path / "img.json").write_text(json.dumps(image))
+    assert main(["run", "--ic", str(tmp_path / "ic.s"), "--image", str(tmp_path / "img.json"),
+                 "--engine", "reference"]) == 1
+    err = _err(capsys).strip()
+    assert len(err.splitlines()) == 1 and f"img.json: {message}" in err

@@ -167,6 +167,21 @@ BAD = {
     "non-ascii outside comment": (HEADER + "s 0 0 0 1 \u00e9\n", 9, 11,
                                   "non-ASCII character U+00E9"),
     "nul byte": (HEADER + "s 0 0 0 1\x00\n", 9, 9, "expected a number, found '1?'"),
+    # geometry the machine cannot render as written (host/nff_geometry.py says which and why)
+    "sphere radius negative": (HEADER + "s 0 0 0 -1\n", 9, 1, "the radius must be positive, got -1"),
+    "sphere radius zero": (HEADER + "l 1 1 1\ns 0 0 0 0\n", 10, 1, "radius must be positive, got 0"),
+    "sphere squares overflow fp32": (HEADER + "s 1e38 0 0 1\n", 9, 1, "1e+38 is too large"),
+    "sphere lost in fp32": (HEADER + "s 1e15 0 0 1\n", 9, 1, "radius 1 is lost beside its position"),
+    "cone radius negative": (HEADER + "c 0 0 0 -1 0 0 1 1\n", 9, 1, "must not be negative, got -1"),
+    "cone radii zero": (HEADER + "c 0 0 0 0 0 0 1 0\n", 9, 1, "both radii are zero"),
+    "cone axis lost in fp32": (HEADER + "c 1e17 0 0 1e12 1e17 0 1 1e12\n", 9, 1,
+                               "its axis (1 long) is lost"),
+    "polygon overflow": (HEADER + "p 3\n0 0 0\n1e19 0 0\n0 1 0\n", 9, 1, "1e+19 is too large"),
+    "patch normal overflow": (HEADER + "pp 3\n0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1e30\n", 9, 1,
+                              "patch record 'pp': 1e+30 is too large"),
+    "light overflow": (HEADER + "l 1e20 0 0\n", 9, 1, "light record 'l': 1e+20 is too large"),
+    "view from overflow": (VIEW.replace("from 0 0 -5", "from 0 0 -5e20"), 2, 1,
+                           "'from' line of the view block 'v': -5e+20 is too large"),
 }
 
 
@@ -181,6 +196,49 @@ def test_bad_input_is_located(name):
     first = err.format().splitlines()[0]
     assert first.startswith(f"bad.nff:{line}:") and ": error: " in first
     assert "Traceback" not in err.format()
+
+
+def test_degenerate_polygons_are_located_warnings():
+    """Zero-area and non-planar polygons render (tessellators emit them), so they are warnings:
+    one located line each in file order, at most MAX_WARNINGS per kind, then a count."""
+    from netsushisen.host.nff import MAX_WARNINGS, scene_warnings
+
+    zero = "p 3 0 0 0 1 0 0 2 0 0\n"  # collinear
+    bent = "p 4 0 0 0 1 0 0 1 1 1 0 1 0\n"  # the third vertex is 0.41 off the others' plane
+    scene = parse(HEADER + zero + "s 0 0 0 1\n" + bent + "p 3 1 1 1 1 1 1 0 0 0\n")
+    assert scene.n_primitives == 4
+    assert scene_warnings(scene) == [
+        "t.nff:9:1: warning: polygon record 'p' has zero area (collinear or repeated vertices): "
+        "it is never hit",
+        "t.nff:11:1: warning: polygon record 'p' is not planar (a vertex lies 0.408 off its "
+        "plane, 23.6% of its size): it is rendered as the fan of triangles from its first vertex",
+        "t.nff:12:1: warning: polygon record 'p' has zero area (collinear or repeated vertices): "
+        "it is never hit"]
+    many = parse(HEADER + zero * (MAX_WARNINGS + 3) + "pp 3 0 0 0 0 0 1 1 0 0 0 0 1 0 1 0 0 0 1\n")
+    lines = scene_warnings(many)
+    assert len(lines) == MAX_WARNINGS + 1 and lines[-1] == "t.nff: warning: 3 more zero-area polygons"
+    assert not scene_warnings(parse(HEADER + "p 4 0 0 0 1 0 0 1 1 1e-6 0 1 0\n"))  # planar enough
+
+
+@pytest.mark.parametrize("record, code, message", [
+    ("s 1e38 0 0 1", 1, "error: sphere record 's': 1e+38 is too large"),
+    ("s 0 0 0 -1", 1, "error: sphere record 's': the radius must be positive"),
+    ("p 3 0 0 0 1 0 0 2 0 0", 0, "warning: polygon record 'p' has zero area"),
+])
+def test_no_numpy_warning_reaches_the_user(tmp_path, record, code, message):
+    """Run with every Python warning an error (`-W error`): a warning anywhere would be a
+    traceback; the user sees the located message only."""
+    import subprocess
+    import sys
+
+    (tmp_path / "s.nff").write_text(HEADER + "l 1 1 -5\ns 0 0 0 0.5\n" + record + "\n")
+    for command in (["golden", "s.nff", "--res", "2", "-o", "s.png"], ["scene", "info", "s.nff"]):
+        done = subprocess.run([sys.executable, "-W", "error", "-m", "netsushisen.cli", *command],
+                              cwd=tmp_path, capture_output=True, text=True, timeout=120)
+        if command[0] == "golden":
+            assert done.returncode == code, done.stderr
+            assert f"s.nff:11:1: {message}" in done.stderr.splitlines()[0]
+        assert "Traceback" not in done.stderr and "Warning:" not in done.stderr, done.stderr
 
 
 @pytest.mark.parametrize("text, fragment", [

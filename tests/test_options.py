@@ -89,7 +89,7 @@ def test_resolution_out_of_range_is_one_line_before_any_work(cli, tmp_path, no_w
             _one_line_error(cli, "debug", "tetra", "--res", "0")]
     assert len(set(big)) == 1 and len(set(zero)) == 1
     assert big[0] == zero[0].replace("--res 0", "--res 99999")
-    assert f"1 to {MAX_RES}" in big[0]
+    assert f"1 to {MAX_RES:,}" in big[0]
     assert not (tmp_path / "p").exists() and not (tmp_path / "t.png").exists()
 
 
@@ -124,3 +124,101 @@ def test_set_is_one_option_everywhere(cli, tmp_path):
                  ["run", "--ic", "x.s"], ["debug", "tetra:1"], ["config"]):
         code, _, err = cli(*argv, "--set", "ring.nosuch=1")
         assert code == 1 and "unknown configuration field 'ring.nosuch'" in err, argv
+
+
+# ---------------------------------------------------------------------------------------------
+# Limits before work (netsushisen/limits.py)
+
+
+def test_too_many_pes_or_too_large_an_image_is_one_line_before_any_work(cli, tmp_path, no_work,
+                                                                        program, monkeypatch):
+    """On a host with 16 GiB free, 100,000 PEs (~2.5 MiB each even on the reference engine), an
+    8192² render (~1 KiB an eye ray) or a 3000² golden image (~3 KiB an eye ray) are refused at
+    once, naming the limit, with nothing written."""
+    from netsushisen import limits
+
+    monkeypatch.setattr(limits, "available_bytes", lambda: 16 * limits.GiB)
+    pes = [_one_line_error(cli, "render", "tetra", "--pes", "100000", "-o", tmp_path / "t.png"),
+           _one_line_error(cli, "run", "--ic", program, "--pes", "100000"),
+           _one_line_error(cli, "debug", "tetra", "--set", "pes=100000"),
+           _one_line_error(cli, "paper", "--set", "pes=100000", "--out", tmp_path / "p", "--quiet"),
+           _one_line_error(cli, "accuracy", "tetra", "--set", "pes=100000", "--out", tmp_path / "a")]
+    assert len(set(pes)) == 1 and "100,000 PEs needs about" in pes[0]
+    assert "of host memory, more than the" in pes[0]
+    big = _one_line_error(cli, "render", "tetra", "--res", "8192", "-o", tmp_path / "t.png")
+    assert big.startswith("error: a 8192×8192 image needs about 64.2 GiB")
+    if "compiled" in engine_names():  # ~9.5 MiB a PE on the compiled engine, 2.5 on the reference
+        err = _one_line_error(cli, "render", "tetra", "--pes", "2000", "--engine", "compiled",
+                              "-o", tmp_path / "t.png")
+        assert "render tetra 32×32 on 2,000 PEs needs about 20.3 GiB" in err
+    assert "golden tetra 3000×3000 needs" in _one_line_error(cli, "golden", "tetra", "--res", "3000")
+    assert _one_line_error(cli, "debug", "tetra", "--res", "8192").startswith(
+        "error: a 8192×8192 image needs about 64.2 GiB of host memory, more than the 16.0 GiB")
+    assert not any(tmp_path.glob("*.png")) and not (tmp_path / "p").exists()
+
+
+def test_sizes_past_the_machine_s_words_are_refused(cli, tmp_path, no_work):
+    """Addresses and the pixel index are 32-bit signed words: a memory of more than 2^31 words
+    or a frame of 46,341² samples cannot exist on the machine."""
+    err = _one_line_error(cli, "render", "tetra", "--set", "os.local_words=3000000000",
+                          "-o", tmp_path / "t.png")
+    assert "os.local_words 3,000,000,000 is more than a memory can address" in err
+    err = _one_line_error(cli, "golden", "tetra", "--set", "ic_memory.resident_bytes=9000000000")
+    assert "ic_memory.resident_bytes" in err and "2,147,483,648 words" in err
+    err = _one_line_error(cli, "render", "tetra", "--res", str(MAX_RES), "--corners")
+    assert "image needs about" in err  # legal for the machine, not for this host
+    err = _one_line_error(cli, "render", "tetra", "--res", str(MAX_RES + 1))
+    assert "32-bit word" in err
+
+
+def test_deep_fifos_count_against_host_memory(cli, tmp_path, no_work):
+    """The compiled engine allocates every FIFO at the deepest's capacity: 10^8 words is
+    ~45 GB for one PE's 56 FIFOs; the reference engine's FIFOs grow only with their words."""
+    err = _one_line_error(cli, "render", "tetra", "--res", "2", "--engine", "compiled",
+                          "--set", "ring.fifo_depth=1000000000", "-o", tmp_path / "t.png")
+    assert "needs about" in err and "GiB of host memory" in err
+
+
+def test_large_runs_announce_their_size(monkeypatch):
+    from netsushisen import limits
+    from netsushisen.isa.config import MachineConfig
+
+    lines: list[str] = []
+    monkeypatch.setattr(limits, "available_bytes", lambda: 64 * limits.GiB)
+    small = limits.render_footprint("render tetra 32×32", MachineConfig(), 32, "compiled")
+    limits.check_host(small, announce=lines.append)
+    assert lines == [] and not small.large
+    big = limits.render_footprint("render tetra 1024×1024", MachineConfig(), 1024, "compiled")
+    limits.check_host(big, quiet=True, announce=lines.append)
+    assert lines == []
+    limits.check_host(big, announce=lines.append)
+    assert lines == ["render tetra 1024×1024: 1,048,576 eye rays, about 1.2 GiB of host memory "
+                     "of 64.0 GiB available"]
+    many = MachineConfig(pes=200)
+    assert limits.machine_bytes(many, "compiled") > limits.machine_bytes(many, "reference")
+    assert limits.render_footprint("x", many, 2, "compiled").large
+    monkeypatch.setattr(limits, "available_bytes", lambda: limits.GiB)
+    with pytest.raises(NetsushisenError, match="more than the 1.0 GiB available"):
+        limits.check_host(big, announce=lines.append)
+
+
+def test_render_never_overwrites_an_image_it_was_not_told_to(cli, tmp_path, monkeypatch):
+    """The default SCENE.png, then SCENE-1.png, SCENE-2.png: an earlier image is never lost;
+    -o names the file to write (over) exactly; golden writes an image only where -o says."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["render", "tetra:1", "--res", "2", "--kernels", MISS_KERNELS, "--engine",
+            "reference", "--quiet"]
+    (tmp_path / "tetra.png").write_bytes(b"an earlier image")
+    for _ in range(2):
+        code, _, err = cli(*argv)
+        assert code == 0, err
+    assert (tmp_path / "tetra.png").read_bytes() == b"an earlier image"
+    assert (tmp_path / "tetra-1.png").stat().st_size > 0 and (tmp_path / "tetra-2.png").exists()
+    code, _, err = cli(*argv, "-o", "tetra.png")
+    assert code == 0 and (tmp_path / "tetra.png").read_bytes() != b"an earlier image"
+    assert not (tmp_path / "tetra-3.png").exists()
+    code, _, err = cli("golden", "tetra:1", "--res", "2")
+    assert code == 0 and sorted(p.name for p in tmp_path.iterdir()) == [
+        "tetra-1.png", "tetra-2.png", "tetra.png"]
+    err = _one_line_error(cli, *argv, "-o", tmp_path / "no" / "t.png")
+    assert err.endswith(f"cannot write here: no folder '{tmp_path / 'no'}'")

@@ -27,8 +27,8 @@ from pathlib import Path
 
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
-from netsushisen.options import (add_config_options, add_engine, add_resolution, check_resolution,
-                                 config_from_args, engine_from_args)
+from netsushisen.options import (add_config_options, add_engine, add_resolution, check_footprint,
+                                 check_resolution, config_from_args, engine_from_args)
 from netsushisen.reports.accuracy import AXES
 
 DEFAULT_SCENES = ("tetra", "balls", "mount", "rings")
@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     axes = parse_axes(args.axes)
     engine = engine_from_args(args)
     config = config_from_args(args)
-    config.validate()
+    check_footprint("accuracy", config, args.res, engine, golden=True, quiet=args.quiet)
     specs = list(args.scenes) or list(DEFAULT_SCENES)
     scenes = [load_scene(s) for s in specs]  # every bad name is reported before any work
     out = Path(args.out)

@@ -4,7 +4,9 @@
     netsushisen config --check FILE [--set ...]                         validate a file
 
 `--dump` prints the defaults (or FILE with the overrides applied) as TOML that `--config` reads
-back; `--check` reports every problem of FILE as a located error (exit 1) or prints `ok`.
+back; `--check` reports every problem of FILE as `FILE:LINE: error: ...` (exit 1) — unknown
+sections and fields (with the closest known name), values of the wrong type (a TOML string is
+never a bool or a number: `buffer_pool = "no"` is an error), impossible values — or prints `ok`.
 """
 
 from __future__ import annotations
@@ -25,11 +27,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if args.check:
-        config = config_from_args(args, path=args.check)
+        config = config_from_args(args, path=args.check, host=False)
         print(f"{args.check}: ok")
         if not args.dump:
             return 0
     else:
-        config = config_from_args(args)
+        config = config_from_args(args, host=False)
     print(dump_toml(config), end="")
     return 0

@@ -1,23 +1,27 @@
 """Render a scene with the golden numpy model (the oracle the emulated machine must match).
 
-Prints a short summary; optionally writes the image (PNG), the eye rays' hit-primitive ids
-(.npy, int32, -1 = background) and the statistics (JSON: primitives, visible_primitives, rays by
-kind, total references, seconds).
+Prints a short summary (and the scene's located warnings, host/nff_geometry.py); writes the
+image (PNG) only where -o says, and optionally the eye rays' hit-primitive ids (.npy, int32,
+-1 = background) and the statistics (JSON: primitives, visible_primitives, rays by kind, total
+references, seconds).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
 
-from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.golden import render
 from netsushisen.host.images import write_png
-from netsushisen.options import add_config_options, add_resolution, check_resolution, config_from_args
+from netsushisen.host.nff import scene_warnings
+from netsushisen.options import (add_config_options, add_resolution, check_footprint,
+                                 check_output_folders, check_resolution, config_from_args,
+                                 write_output)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -26,15 +30,21 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--corners", action="store_true",
                         help="SPD eye rays through the pixel corners ((N+1)^2 rays, pixel = mean of 4)")
     add_config_options(parser, precision=True, depth=True)
-    parser.add_argument("-o", "--output", metavar="PNG", help="write the image as PNG")
+    parser.add_argument("-o", "--output", metavar="PNG", help="write the image as PNG (only "
+                        "here: without -o no image is written)")
     parser.add_argument("--ids", metavar="NPY", help="write the eye rays' hit-primitive ids (.npy)")
     parser.add_argument("--json", metavar="FILE", help="write the statistics as JSON")
 
 
 def run(args: argparse.Namespace) -> int:
     check_resolution(args.res)
+    check_output_folders(args.output, args.ids, args.json)
     config = config_from_args(args)
+    check_footprint(f"golden {args.scene}", None, args.res + 1 if args.corners else args.res,
+                    None, golden=True)
     scene = load_scene(args.scene)
+    for line in scene_warnings(scene):
+        print(line, file=sys.stderr)
     result = render(scene, config, res=args.res, corners=args.corners)
     stats = {"scene": scene.name, "source": scene.source, "res": args.res, "corners": args.corners,
              "precision": result.precision, "primitives": scene.n_primitives,
@@ -45,10 +55,7 @@ def run(args: argparse.Namespace) -> int:
                         (args.ids, lambda p: np.save(p, result.hit_ids)),
                         (args.json, lambda p: Path(p).write_text(json.dumps(stats, indent=2) + "\n"))):
         if path:
-            try:
-                write(path)
-            except OSError as err:
-                raise NetsushisenError(Diagnostic(f"cannot write: {err.strerror}", file=str(path))) from None
+            write_output(path, write)
     r = result.rays
     total = r["eye"] + r["reflection"] + r["refraction"] + r["shadow"]
     print(f"{scene.name}: {scene.n_primitives} primitives, {result.visible_primitives} visible; "

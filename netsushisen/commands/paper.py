@@ -27,8 +27,8 @@ from pathlib import Path
 
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
-from netsushisen.options import (add_config_options, add_engine, add_resolution, check_resolution,
-                                 config_from_args, engine_from_args)
+from netsushisen.options import (add_config_options, add_engine, add_resolution, check_footprint,
+                                 check_resolution, config_from_args, engine_from_args)
 from netsushisen.reports.paper import findings, report_markdown, verdict_counts
 from netsushisen.reports.paper_data import PAPER_SCENES, analyse_scene
 from netsushisen.reports.paper_plots import write_csvs, write_figures
@@ -63,6 +63,8 @@ def run(args: argparse.Namespace) -> int:
     check_resolution(args.res)
     engine = engine_from_args(args)
     config = config_from_args(args)
+    check_footprint("paper", None, args.res + 1 if args.corners else args.res, None, golden=True,
+                    quiet=args.quiet)
     scenes = [load_scene(s) for s in args.scenes]  # every bad name is reported before any work
     out = Path(args.out)
     if out.exists() and not out.is_dir():

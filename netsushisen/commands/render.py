@@ -21,15 +21,18 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
 from netsushisen import render as pipeline
 from netsushisen.emulator import stats as run_stats
 from netsushisen.host.images import write_png
+from netsushisen.host.nff import scene_warnings
 from netsushisen.options import (add_config_options, add_engine, add_resolution, add_timeline,
-                                 check_resolution, config_from_args, engine_from_args,
-                                 timeline_from_args)
+                                 check_footprint, check_output_folders, check_resolution,
+                                 config_from_args, engine_from_args, fresh_output,
+                                 timeline_from_args, write_output)
 from netsushisen.progress import INTERRUPTED, RunMonitor
 from netsushisen.reports.summary import print_render_summary
 
@@ -42,7 +45,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_config_options(parser, pes=True, precision=True)
     parser.add_argument("--generic", action="store_true", help="assemble every feature, not only the scene's")
     parser.add_argument("--slots", type=int, default=pipeline.DEFAULT_SLOTS, help="rays OS keeps in flight")
-    parser.add_argument("-o", dest="output", help="image file (default: SCENE.png)")
+    parser.add_argument("-o", dest="output", help="image file (default: SCENE.png, or SCENE-1.png, "
+                        "SCENE-2.png, ... when that exists: never overwritten unless named here)")
     parser.add_argument("--ids", help="save the eye rays' hit-primitive ids (int32 .npy, -1 background)")
     parser.add_argument("--json", help="write the statistics JSON here")
     parser.add_argument("--kernels", help="folder with your own os.s, ic.s, sc.s")
@@ -56,13 +60,18 @@ def run(args: argparse.Namespace) -> int:
     from netsushisen.emulator.trace import TimelineRun
 
     check_resolution(args.res)
+    check_output_folders(args.output, args.ids, args.json)
     engine_name = engine_from_args(args)
     request = timeline_from_args(args)
     config = config_from_args(args)
+    check_footprint(f"render {args.scene}", config, args.res + 1 if args.corners else args.res,
+                    engine_name, quiet=args.quiet)
     overrides = {s: getattr(args, s) for s in ("os", "ic", "sc") if getattr(args, s)}
     start = time.perf_counter()
     setup = pipeline.prepare(args.scene, config, args.res, args.corners, args.generic, args.slots,
                              args.kernels, overrides)
+    for line in scene_warnings(setup.scene):
+        print(line, file=sys.stderr)
     engine = setup.engine(engine_name)
     side = setup.side
     monitor = RunMonitor(engine, total=side * side, unit="eye rays",
@@ -72,15 +81,15 @@ def run(args: argparse.Namespace) -> int:
         run_result = timeline.run(monitor) if timeline is not None else monitor.run()
     result = pipeline.finish(setup, engine, run_result)
     seconds = time.perf_counter() - start
-    output = args.output or f"{setup.scene.name}.png"
-    write_png(output, result.image_u8)
+    output = args.output or fresh_output(setup.scene.name)
+    write_output(output, lambda p: write_png(p, result.image_u8))
     written = [output]
     if args.ids:
-        np.save(args.ids, result.hit_ids)
+        write_output(args.ids, lambda p: np.save(p, result.hit_ids))
         written.append(args.ids)
     if args.json:
-        with open(args.json, "w", encoding="utf-8") as f:
-            f.write(run_stats.dumps(result.stats))
+        write_output(args.json, lambda p: Path(p).write_text(run_stats.dumps(result.stats),
+                                                             encoding="utf-8"))
         written.append(args.json)
     if not args.quiet:
         print_render_summary(result.stats, seconds, output)

@@ -8,6 +8,8 @@
 
 Each program is optional (a processor without one is absent: it never issues); `.s` sources are
 assembled on the fly, anything else is read as an object file. The same programs run on every PE.
+A run that ends `finished` with a processor that never halted, waiting forever on an empty
+receive FIFO, warns (processor, PC, FIFO) on standard error; the exit status stays 0.
 Exit status: 0 the run ended (all halted or quiescent), 1 bad input, 2 run-time fault,
 3 deadlock, 4 cycle limit, 5 the tandem engine's two engines differ, 130 interrupted (Ctrl-C).
 Statistics (--json) and the frame buffer (--frame) are written whatever the outcome (after
@@ -26,8 +28,10 @@ from pathlib import Path
 import numpy as np
 
 from netsushisen.errors import NetsushisenError
-from netsushisen.options import (add_engine, add_program_options, add_timeline, engine_from_args,
-                                 machine_inputs, timeline_from_args)
+from netsushisen.limits import check_words
+from netsushisen.options import (add_engine, add_program_options, add_timeline, check_footprint,
+                                 check_output_folders, engine_from_args, machine_inputs,
+                                 timeline_from_args)
 from netsushisen.progress import INTERRUPTED, RunMonitor
 
 
@@ -63,10 +67,18 @@ def run(args: argparse.Namespace) -> int:
         raise NetsushisenError(f"--trace needs --engine reference (the trace follows the reference "
                                f"engine cycle by cycle), not --engine {engine_name}")
     config, programs, image = machine_inputs(args)
+    check_output_folders(args.json, args.frame, args.trace_out)
     try:
         parse_cycles(args.cycles)
     except ValueError:
         raise NetsushisenError(f"--cycles {args.cycles!r}: expected A:B, A: or :B") from None
+    width, height = (image.frame or (0, 0)) if image is not None else (0, 0)
+    global_words = 0
+    for name, words in (image.sizes if image is not None else {}).items():
+        check_words(words, f"{args.image}: sizes.{name}")
+        global_words += words
+    check_footprint("run", config, width, engine_name, height=height, quiet=args.quiet,
+                    option=f"{args.image}: frame", extra_bytes=16 * global_words)
     engine = make_engine(engine_name, config, programs, image)
     trace_file = None
     if tracing:
@@ -101,4 +113,9 @@ def run(args: argparse.Namespace) -> int:
         return INTERRUPTED
     if result.error is not None:
         print(result.error.format(), file=sys.stderr)
+    for processor, where, port in engine.blocked():
+        fifo = ("in `wait`, with every receive FIFO empty" if port == "any"
+                else f"on its empty receive FIFO '{port}'")
+        print(f"netsushisen run: warning: {processor} never halted: it waits forever at {where} "
+              f"{fifo}; nothing is left to send it (the run ended `finished`)", file=sys.stderr)
     return result.exit_code

@@ -67,12 +67,25 @@ def run(args: argparse.Namespace) -> int:
         raise NetsushisenError(f"--workers {args.workers}: give at least 1")
     spec = load_spec(args.spec)
     engine = _engine(args.engine or spec.engine)
+    _check_footprint(spec, engine, args.quiet)
     summary = run_sweep(spec, Path(args.out), engine, scheduler=args.scheduler,
                         workers=args.workers, show=not args.quiet and sys.stderr.isatty())
     print(summary.line())
     if summary.interrupted:
         return 130
     return 1 if summary.failed else 0
+
+
+def _check_footprint(spec: Spec, engine: str, quiet: bool) -> None:
+    """Before the cluster starts: the largest point must fit a worker's host (and the machine's
+    frame); a large one is announced (netsushisen/limits.py)."""
+    from netsushisen.limits import machine_bytes
+    from netsushisen.options import check_footprint
+
+    configs = [point_config(spec, p) for p in points(spec)]
+    if configs:
+        largest = max(configs, key=lambda c: machine_bytes(c, engine))
+        check_footprint(f"sweep point of {spec.path.name}", largest, spec.res, engine, quiet=quiet)
 
 
 def _engine(name: str | None) -> str:

@@ -1,0 +1,215 @@
+"""What the machine and this host can hold: every size limit, checked before anything is allocated.
+
+A run that cannot fit must say so in one line, at once, naming the limit — not be killed by the
+kernel after a minute of silence (exit 137) or die with `MemoryError` half-way. Two kinds of limit:
+
+- **The machine's** (architecture; `machine_problems`, called by `MachineConfig.validate`):
+  integers, addresses and the pixel index are 32-bit two's complement words (isa/words.py:
+  `wrap32`), so a memory holds at most 2^31 words (addresses 0 … 2^31−1) and a frame at most
+  2^31 − 1 samples (the RAY_PIXEL / COL pixel index is `y·width + x` in one integer word): at
+  most MAX_SIDE = 46,340 samples on a side.
+- **This host's** (`check_host`): the memory a run will take, estimated from the configuration,
+  the image size and the engine, against the memory this process may use (`available_bytes`:
+  the smallest of /proc/meminfo's MemAvailable, the cgroup's memory.max headroom and
+  RLIMIT_AS). The estimate is a model with measured constants (below), meant to refuse the
+  impossible (`render --pes 100000`, `render --res 8192`) and to announce the large, not to
+  account for every byte. A run whose estimate passes LARGE_BYTES, or that traces more than
+  LARGE_RAYS eye rays, prints one line with its size when it starts (`Footprint.note`).
+
+Every command that builds a machine or an image (render, golden, run, paper, accuracy, sweep,
+debug) goes through these checks via netsushisen/options.py before its first allocation.
+"""
+
+from __future__ import annotations
+
+import math
+import resource
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from netsushisen.errors import NetsushisenError
+
+if TYPE_CHECKING:
+    from netsushisen.isa.config import MachineConfig
+
+MAX_WORDS = 1 << 31
+"""Words one memory can hold: addresses are 32-bit signed integer words (0 … 2^31 − 1)."""
+
+MAX_SAMPLES = (1 << 31) - 1
+"""Samples (eye rays) one frame can hold: the pixel index `y·width + x` is one integer word."""
+
+MAX_SIDE = math.isqrt(MAX_SAMPLES)
+"""Samples on a side of the (square) frame: 46,340 (46,340² < 2^31 ≤ 46,341²)."""
+
+MiB = 1 << 20
+GiB = 1 << 30
+
+BASE_BYTES = 192 * MiB
+"""The process before any image or machine: Python, numpy, numba and the compiled engine
+loaded (measured: `render tetra --res 4` peaks at 171 MB)."""
+
+RENDER_BYTES_PER_RAY = 1024
+"""Host memory per eye ray of a machine render: the host stream (14 words a ray), the frame and
+id buffers, the pre-pass and the images written (measured: tetra 64² → 256², 0.81 KiB a ray)."""
+
+GOLDEN_BYTES_PER_RAY = 3 * 1024
+"""Host memory per eye ray of the golden model (vectorised over every ray of a generation;
+measured: tetra 512² 0.42 KiB, balls 512² 2.7 KiB a ray, reflections included)."""
+
+PE_BYTES = {"reference": 1 * MiB, "compiled": 8 * MiB, "tandem": 9 * MiB}
+"""Per-PE overhead beyond its memories and FIFOs, by engine (measured with the bundled kernels,
+1 → 64 PEs: the reference engine's objects about 0.9 MiB a PE; the compiled engine's decoded
+bundle and per-PC stall tables about 7.9 MiB a PE; tandem holds both)."""
+
+FIFOS_PER_PE = 56
+"""FIFOs and link channels of one PE's ring with the buffer pool on (11 without): the compiled
+engine allocates each at the deepest one's capacity."""
+
+LARGE_BYTES = 1 * GiB
+LARGE_RAYS = 1 << 18
+"""A run past either of these prints its size when it starts (unless quiet)."""
+
+
+def machine_problems(config: MachineConfig) -> list[str]:
+    """The configuration's fields that exceed what the machine's words can address."""
+    problems = []
+    for stage in ("os", "ic", "sc"):
+        words = getattr(config, stage).local_words
+        if words > MAX_WORDS:
+            problems.append(f"{stage}.local_words {words:,} is more than a memory can address "
+                            f"({MAX_WORDS:,} words: addresses are 32-bit signed integers)")
+    for name in ("ic_memory", "sc_memory"):
+        mem = getattr(config, name)
+        for size in ("cache_bytes", "resident_bytes"):
+            words = getattr(mem, size) // config.word_bytes
+            if words > MAX_WORDS:
+                problems.append(f"{name}.{size} {getattr(mem, size):,} is more than a memory can "
+                                f"address ({MAX_WORDS:,} words of {config.word_bytes} bytes)")
+    return problems
+
+
+def check_words(words: int, what: str) -> None:
+    """One-line error if a memory of `words` words cannot exist on the machine."""
+    if not 0 <= words <= MAX_WORDS:
+        raise NetsushisenError(f"{what}: {words:,} words; a memory holds 0 to {MAX_WORDS:,} "
+                               "words (addresses are 32-bit signed integers)")
+
+
+def check_frame(width: int, height: int, what: str) -> None:
+    """One-line error if a width×height frame is negative or has more samples than a pixel
+    index can number."""
+    if width < 0 or height < 0:
+        raise NetsushisenError(f"{what}: a {width}×{height} frame (width and height must not be "
+                               "negative)")
+    if width * height > MAX_SAMPLES:
+        raise NetsushisenError(f"{what}: {width:,}×{height:,} samples exceed the machine's frame "
+                               f"({MAX_SAMPLES:,} samples, {MAX_SIDE:,} on a side: the pixel index "
+                               "is one 32-bit integer word)")
+
+
+# ---------------------------------------------------------------------------------------------
+# Host memory
+
+
+def _meminfo_available() -> int | None:
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def _cgroup_headroom() -> int | None:
+    try:
+        limit = Path("/sys/fs/cgroup/memory.max").read_text().strip()
+        if limit == "max":
+            return None
+        used = int(Path("/sys/fs/cgroup/memory.current").read_text().strip())
+        return max(int(limit) - used, 0)
+    except (OSError, ValueError):
+        return None
+
+
+def available_bytes() -> int | None:
+    """Memory this process may still take (None: unknown, no host check): the smallest of the
+    kernel's MemAvailable, the cgroup's headroom and the address-space limit (ulimit -v)."""
+    candidates = [_meminfo_available(), _cgroup_headroom()]
+    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    if soft != resource.RLIM_INFINITY:
+        candidates.append(soft)
+    known = [c for c in candidates if c is not None]
+    return min(known) if known else None
+
+
+def size_text(n: float) -> str:
+    return f"{n / GiB:,.1f} GiB" if n >= GiB else f"{n / MiB:,.0f} MiB"
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """The estimated host memory of one run and what it is made of."""
+
+    what: str  # e.g. "render tetra 256×256 on 4 PEs (compiled engine)"
+    bytes: int
+    eye_rays: int = 0
+
+    @property
+    def large(self) -> bool:
+        return self.bytes >= LARGE_BYTES or self.eye_rays >= LARGE_RAYS
+
+    def note(self, available: int | None = None) -> str:
+        """The line a large run prints when it starts."""
+        rays = f"{self.eye_rays:,} eye rays, " if self.eye_rays else ""
+        have = f" of {size_text(available)} available" if available else ""
+        return f"{self.what}: {rays}about {size_text(self.bytes)} of host memory{have}"
+
+
+def machine_bytes(config: MachineConfig, engine: str) -> int:
+    """Host memory of the machine's PEs: memories, FIFOs and per-PE engine state."""
+    word = 8 if config.precision == "fp64" else 4
+    per_pe = PE_BYTES.get(engine, PE_BYTES["tandem"])
+    per_pe += word * sum(getattr(config, s).local_words for s in ("os", "ic", "sc"))
+    for name in ("ic_memory", "sc_memory"):
+        mem = getattr(config, name)
+        per_pe += mem.resident_bytes + 16 * (mem.cache_bytes // max(mem.block_bytes, 1))
+    if engine != "reference":  # the compiled engine's copies of memories and FIFO buffers
+        deepest = max(config.ring.fifo_depth, config.ring.link_buffer_words)
+        per_pe += 8 * deepest * (FIFOS_PER_PE if config.ring.buffer_pool else 11)
+        per_pe += 8 * sum(getattr(config, s).local_words for s in ("os", "ic", "sc"))
+    return config.pes * per_pe
+
+
+def render_footprint(what: str, config: MachineConfig | None, width: int, engine: str | None,
+                     golden: bool = False, height: int | None = None,
+                     per_ray: bool = False, extra_bytes: int = 0) -> Footprint:
+    """A machine render (config and engine given) and/or the golden model (`golden`) of
+    width×height (default square) eye rays; `per_ray`: only a machine render's host side per
+    ray (the least any use of the image costs); `extra_bytes`: anything else the run holds (a
+    memory image's global memories)."""
+    rays = width * (width if height is None else height)
+    total = BASE_BYTES + extra_bytes + rays * (GOLDEN_BYTES_PER_RAY if golden else 0)
+    if per_ray or (config is not None and engine is not None):
+        total += rays * RENDER_BYTES_PER_RAY
+    if config is not None and engine is not None:
+        total += machine_bytes(config, engine)
+    return Footprint(what, total, rays)
+
+
+def check_host(footprint: Footprint, quiet: bool = False, announce=None) -> Footprint:
+    """Refuse a run whose estimate exceeds the memory available (one line naming both), and
+    announce a large one (`announce(line)`, default: print to standard error) unless quiet."""
+    available = available_bytes()
+    if available is not None and footprint.bytes > available:
+        raise NetsushisenError(f"{footprint.what} needs about {size_text(footprint.bytes)} of "
+                               f"host memory, more than the {size_text(available)} available; "
+                               "use a smaller --res or --pes (or smaller memories / FIFOs)")
+    if footprint.large and not quiet:
+        if announce is None:
+            def announce(line: str) -> None:
+                print(f"netsushisen: {line}", file=sys.stderr)
+        announce(footprint.note(available))
+    return footprint

@@ -735,7 +735,7 @@ def test_interactive_session_in_tmux(tmp_path, size):
     env = dict(os.environ, NETSUSHISEN_DEBUG_HISTORY="", DRIVE_QUICK="1", PYTHON=sys.executable,
                DRIVE_SIZE=size)
     r = subprocess.run(["bash", str(PROJECT / "tools" / "drive_debugger.sh"), str(out)],
-                       capture_output=True, text=True, timeout=60, env=env)
+                       capture_output=True, text=True, timeout=300, env=env)
     assert r.returncode == 0, r.stdout + r.stderr
     screens = out.read_text().split("===== ")
     stop = [s for s in screens if s.startswith("(nss) continue")][0]

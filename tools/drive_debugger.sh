@@ -88,10 +88,10 @@ tmux new-session -d -s "$SESSION" -x "$COLS" -y "$ROWS" \
 screen() { tmux capture-pane -p -t "$SESSION"; }
 
 # wait until the screen has changed from $2 (if given) and the prompt is back (the last
-# non-empty line is `(nss)`), at most ~15 s
+# non-empty line is `(nss)`), at most ~90 s (a loaded machine starts the debugger slowly)
 wait_prompt() {
     local before=${2:-}
-    for _ in $(seq 1 150); do
+    for _ in $(seq 1 900); do
         local now
         now=$(screen)
         if [ "$now" != "$before" ] && printf '%s\n' "$now" | grep -v '^\s*$' | tail -n 1 | grep -q '^(nss) *$'; then
@@ -142,7 +142,10 @@ step "bogus"             "error: unknown command 'bogus'"      0
 # Tab completion: `info reg<Tab>` completes to `info registers`
 tmux send-keys -t "$SESSION" -l "info reg"
 tmux send-keys -t "$SESSION" Tab
-sleep 0.3
+for _ in $(seq 1 100); do  # the completion is drawn when the front end gets to it
+    screen | grep -q "(nss) info registers" && break
+    sleep 0.1
+done
 # (on a short terminal the table's title has scrolled away: its last row, lr, is there)
 if [ "$ROWS" -ge 45 ]; then SHOWN="registers pe0.ic (* changed since the previous stop)"; else SHOWN="lr "; fi
 step "" "$SHOWN" "$((1 - QUICK))" "info reg<Tab> (completes to: info registers)"

@@ -18,9 +18,12 @@ from pathlib import Path
 
 from netsushisen.asm.checker import check_bundle
 from netsushisen.asm.expressions import BUILTIN_CONSTANTS, ExprError, evaluate, names_in
+from netsushisen.asm.macros import (INVOKE_RE, MAX_EXPANSION_DEPTH, MAX_REPT, Macro, MacroError,
+                                    bind, block_directive, describe, find_end, parse_header,
+                                    relocate, substitute)
 from netsushisen.asm.objects import Op, Program, SourceLoc
-from netsushisen.asm.parser import (CONDITIONAL_RE, Bundle, Chunk, Directive, Instr, Loc,
-                                    parse_chunk, split_statements)
+from netsushisen.asm.parser import (CONDITIONAL_RE, Bundle, Chunk, Directive, Expansion, Instr,
+                                    Loc, parse_chunk, split_statements)
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.opcodes import OPCODES
 from netsushisen.isa.processors import N_REGISTERS, PROCESSORS, REGISTER_ALIASES
@@ -29,7 +32,8 @@ from netsushisen.isa.words import wrap32
 
 MAX_INCLUDE_DEPTH = 32
 DIRECTIVES = ("proc", "equ", "reg", "include", "if", "ifdef", "ifndef", "elif", "else", "endif",
-              "text", "data", "word", "float", "space", "align", "error")
+              "text", "data", "word", "float", "space", "align", "error",
+              "macro", "endm", "rept", "endr")
 _REG_RE = re.compile(r"r(\d+)$")
 
 
@@ -78,13 +82,38 @@ class _State:
     section: str = "text"
     diags: list[tuple[int, int, Diagnostic]] = field(default_factory=list)
     order: int = 0
-    lines: dict[tuple[str, int], str] = field(default_factory=dict)
+    lines: dict[tuple[str, int, Expansion | None], str] = field(default_factory=dict)
+    """(file, line, expansion) -> the source line as assembled (a body line after substitution)."""
+    macros: dict[str, Macro] = field(default_factory=dict)
+    expansions: int = 0  # macro invocations so far: `\@`
 
     def error(self, message: str, loc: Loc | None, order: int | None = None) -> None:
-        src = self.lines.get((loc.file, loc.line)) if loc else None
-        self.diags.append((self.order if order is None else order, loc.col if loc else 0,
-                           Diagnostic(message, loc.file if loc else None, loc.line if loc else None,
-                                      loc.col if loc else None, src)))
+        src = self.lines.get((loc.file, loc.line, loc.via)) if loc else None
+        self.add((self.order if order is None else order, loc.col if loc else 0),
+                 Diagnostic(message, loc.file if loc else None, loc.line if loc else None,
+                            loc.col if loc else None, src), loc.via if loc else None)
+
+    def add(self, key: tuple[int, int], diag: Diagnostic, via: Expansion | None) -> None:
+        """A diagnostic, then a note for each macro / .rept expansion it lies in (innermost
+        first, as GNU as and compilers print them): the line inside the body and the invocation
+        are both named."""
+        self.diags.append((*key, diag))
+        chain = []
+        while via is not None:
+            chain.append(via)
+            via = via.at.via
+        if len(chain) > 5:  # a runaway recursion: the innermost few and the first invocation
+            chain = chain[:3] + [None] + chain[-1:]
+        for via in chain:
+            if via is None:
+                self.diags.append((*key, Diagnostic("... (more expansions)", severity="note")))
+                continue
+            at = via.at
+            what = (f"in expansion of macro '{via.name}'" if via.kind == "macro"
+                    else f"in repetition {via.index} of {via.name} (.rept)")
+            self.diags.append((*key, Diagnostic(what, at.file, at.line, at.col,
+                                                self.lines.get((at.file, at.line, at.via)),
+                                                severity="note")))
 
 
 def register_index(name: str, aliases: dict[str, tuple[int, Loc]] | None = None) -> int | None:
@@ -158,20 +187,39 @@ class Assembler:
     def _walk(self, text: str, file: str, base_dir: Path, stack: list[str]) -> None:
         st = self.st
         for n, line in enumerate(text.split("\n"), start=1):
-            st.lines[(file, n)] = line
+            st.lines[(file, n, None)] = line
         chunks, split_errors = split_statements(text, file)
         for d in split_errors:
             st.order += 1
             st.diags.append((st.order, d.col or 0, d))
+        self._statements(chunks, base_dir, stack, 0)
+
+    def _statements(self, chunks: list[Chunk], base_dir: Path, stack: list[str],
+                    depth: int) -> None:
+        """Assemble a run of statements: a file's, or one macro / .rept expansion's (its
+        conditionals must close inside it, as a file's must)."""
+        st = self.st
         conds: list[_Cond] = []
-        for chunk in chunks:
+        i = 0
+        while i < len(chunks):
+            chunk = chunks[i]
+            i += 1
             st.order += 1
             active = not conds or conds[-1].active
             if not active and not CONDITIONAL_RE.match(chunk.text):
                 continue  # skipped like a preprocessor: not even parsed
+            if active:
+                block = block_directive(chunk)
+                if block is not None:
+                    i = self._block(block, chunk, chunks, i, base_dir, stack, depth)
+                    continue
+                call = INVOKE_RE.match(chunk.text.lstrip())
+                if call and call.group(2) in st.macros:
+                    self._invoke(chunk, call, base_dir, stack, depth)
+                    continue
             parsed = parse_chunk(chunk)
             if isinstance(parsed, Diagnostic):
-                st.diags.append((st.order, parsed.col or 0, parsed))
+                st.add((st.order, parsed.col or 0), parsed, chunk.via)
                 continue
             item = parsed.item
             if isinstance(item, Directive) and item.name in ("if", "ifdef", "ifndef", "elif", "else", "endif"):
@@ -190,6 +238,106 @@ class Assembler:
                 self._add_bundle(instrs, item.loc, chunk)
         for c in conds:
             st.error(".if without a matching .endif", c.loc)
+
+    # -- macros and .rept (asm/macros.py) ------------------------------------------------------
+
+    def _block(self, block, chunk: Chunk, chunks: list[Chunk], i: int, base_dir: Path,
+               stack: list[str], depth: int) -> int:
+        """A `.macro`, `.rept` or stray `.endm`/`.endr` line at chunks[i - 1]: define or expand
+        the block; returns the index of the statement after it."""
+        st = self.st
+
+        def loc(col: int) -> Loc:
+            return Loc(chunk.file, chunk.line, col, chunk.via)
+
+        for name, col in block.labels:
+            self._define_label(name, loc(col))
+        at = loc(block.rest_col - len(block.kind) - 1)
+        if block.kind in ("endm", "endr"):
+            opener = "macro" if block.kind == "endm" else "rept"
+            st.error(f".{block.kind} without a matching .{opener}", at)
+            return i
+        end = find_end(chunks, i, block.kind)
+        closer = "endm" if block.kind == "macro" else "endr"
+        if block.kind == "macro":
+            try:
+                name, params, defaults = parse_header(block.rest, block.rest_col)
+            except MacroError as err:
+                st.error(err.message, loc(err.col))
+                return len(chunks) if end is None else end + 1
+            if end is None:
+                st.error(f"unterminated .macro '{name}': no .{closer} before the end of the "
+                         "file", at)
+                return len(chunks)
+            if name in OPCODES or register_index(name) is not None:
+                st.error(f"'{name}' is {'an instruction' if name in OPCODES else 'a register'}"
+                         "; a macro cannot take its name", at)
+            elif name in st.macros:
+                prev = st.macros[name].loc
+                st.error(f"macro '{name}' is already defined (at {prev.file}:{prev.line})", at)
+            else:
+                st.macros[name] = Macro(name, params, defaults, chunks[i:end], at, st.order)
+            return end + 1
+        if end is None:
+            st.error(f"unterminated .rept: no .{closer} before the end of the file", at)
+            return len(chunks)
+        parsed = parse_chunk(chunk)  # `.rept N` is an ordinary directive to the grammar
+        count = None
+        if isinstance(parsed, Diagnostic) or len(parsed.item.args) != 1 \
+                or parsed.item.args[0].kind != "expr":
+            st.error(".rept takes one count: .rept N", at)
+        else:
+            arg = parsed.item.args[0]
+            count = self._eval(arg.value, arg.loc, allow_labels=False)
+            if count is not None and (not isinstance(count, int) or not 0 <= count <= MAX_REPT):
+                st.error(f".rept needs a count from 0 to {MAX_REPT}, got {count!r}", arg.loc)
+                count = None
+        if count is not None and self._deep_enough(at, depth):
+            for r in range(1, count + 1):
+                via = Expansion("rept", f"{count}", at, r)
+                self._expand([relocate(c, via) for c in chunks[i:end]], base_dir, stack, depth)
+        return end + 1
+
+    def _deep_enough(self, at: Loc, depth: int) -> bool:
+        if depth < MAX_EXPANSION_DEPTH:
+            return True
+        self.st.error(f"macro / .rept expansions nested deeper than {MAX_EXPANSION_DEPTH} "
+                      "(does a macro invoke itself?)", at)
+        return False
+
+    def _invoke(self, chunk: Chunk, call, base_dir: Path, stack: list[str], depth: int) -> None:
+        st = self.st
+        lead = len(chunk.text) - len(chunk.text.lstrip())
+        for name, col in [(m.group(1), m.start(1) + 1) for m in
+                          re.finditer(r"([A-Za-z_]\w*)\s*:", call.group(1))]:
+            self._define_label(name, Loc(chunk.file, chunk.line, col + lead, chunk.via))
+        macro = st.macros[call.group(2)]
+        at = Loc(chunk.file, chunk.line, call.start(2) + lead + 1, chunk.via)
+        args_col = call.start(3) + lead + 1
+        try:
+            values = bind(macro, call.group(3), args_col + len(call.group(3)) - len(call.group(3).lstrip()))
+        except MacroError as err:
+            st.error(err.message, Loc(at.file, at.line, err.col, at.via))
+            return
+        if not self._deep_enough(at, depth):
+            return
+        st.expansions += 1
+        via = Expansion("macro", macro.name, at)
+        body = []
+        for c in macro.body:
+            try:
+                body.append(substitute(c, macro, values, st.expansions, via))
+            except MacroError as err:
+                for n, line in enumerate(c.source_lines):
+                    st.lines[(c.file, c.line + n, via)] = line
+                st.error(err.message, Loc(c.file, err.line or c.line, err.col, via))
+        self._expand(body, base_dir, stack, depth)
+
+    def _expand(self, body: list[Chunk], base_dir: Path, stack: list[str], depth: int) -> None:
+        for c in body:
+            for n, line in enumerate(c.source_lines):
+                self.st.lines[(c.file, c.line + n, c.via)] = line
+        self._statements(body, base_dir, stack, depth + 1)
 
     def _conditional(self, d: Directive, conds: list[_Cond]) -> None:
         st = self.st
@@ -431,7 +579,7 @@ class Assembler:
                 for problem in check_bundle(proc, ops):
                     st.error(problem, pb.loc, pb.order)
             bundles.append(tuple(ops))
-            smap.append(SourceLoc(pb.loc.file, pb.loc.line, pb.text))
+            smap.append(SourceLoc(pb.loc.file, pb.loc.line, pb.text, describe(pb.loc.via, st.lines)))
         data: list[tuple[str, int | float]] = []
         for kind, expr, loc, order in st.data:
             v = self._eval(expr, loc, allow_labels=True, order=order)
@@ -454,9 +602,17 @@ class Assembler:
         st = self.st
         opcode = OPCODES.get(instr.mnemonic)
         if opcode is None:
-            close = difflib.get_close_matches(instr.mnemonic, list(OPCODES), n=1)
-            hint = f" (did you mean '{close[0]}'?)" if close else ""
-            st.error(f"unknown mnemonic '{instr.mnemonic}'{hint}", instr.loc, order)
+            macro = st.macros.get(instr.mnemonic)
+            if macro is not None:  # defined further down: GNU as wants it defined first too
+                st.error(f"macro '{macro.name}' is used before its definition (at "
+                         f"{macro.loc.file}:{macro.loc.line})", instr.loc, order)
+                return None
+            close = difflib.get_close_matches(instr.mnemonic, list(OPCODES) + list(st.macros), n=1)
+            hint = ""
+            if close:
+                hint = f" (did you mean {'macro ' if close[0] in st.macros else ''}'{close[0]}'?)"
+            what = "mnemonic or macro" if st.macros else "mnemonic"
+            st.error(f"unknown {what} '{instr.mnemonic}'{hint}", instr.loc, order)
             return None
         if proc is not None and proc.name not in opcode.procs:
             have = ", ".join(sorted(p.upper() for p in opcode.procs))

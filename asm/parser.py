@@ -24,10 +24,22 @@ from netsushisen.errors import Diagnostic
 
 
 @dataclass(frozen=True)
+class Expansion:
+    """Where a line inside a `.macro` or `.rept` body was expanded: the invocation (or `.rept`)
+    statement, itself possibly inside another expansion. Errors in the body name both places."""
+
+    kind: str  # "macro" or "rept"
+    name: str  # the macro's name ("" for .rept)
+    at: "Loc"  # the invoking statement
+    index: int = 0  # .rept: which repetition, from 1
+
+
+@dataclass(frozen=True)
 class Loc:
     file: str
     line: int
     col: int
+    via: Expansion | None = None
 
 
 @dataclass
@@ -80,6 +92,7 @@ class Chunk:
     file: str
     line: int  # first line, 1-based
     source_lines: list[str]
+    via: Expansion | None = None  # set on the lines of a macro or .rept expansion
 
     def source_line(self, line: int) -> str:
         i = line - self.line
@@ -200,7 +213,7 @@ class _ToAst(Transformer):
     def _loc(self, meta_or_token) -> Loc:
         line = getattr(meta_or_token, "line", 1) or 1
         col = getattr(meta_or_token, "column", 1) or 1
-        return Loc(self.chunk.file, self.chunk.line + line - 1, col)
+        return Loc(self.chunk.file, self.chunk.line + line - 1, col, self.chunk.via)
 
     # expressions: nested tuples
     def int(self, items):
@@ -326,4 +339,4 @@ def parse_chunk(chunk: Chunk) -> Statement | Diagnostic:
             msg = f"syntax error: {err}"
         return Diagnostic(msg, chunk.file, line, col, chunk.source_line(line))
     labels, item = _ToAst(chunk).transform(tree)
-    return Statement(labels, item, Loc(chunk.file, chunk.line, 1), chunk.source_lines)
+    return Statement(labels, item, Loc(chunk.file, chunk.line, 1, chunk.via), chunk.source_lines)

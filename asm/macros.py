@@ -1,0 +1,243 @@
+"""`.macro`/`.endm` and `.rept`/`.endr`: text-level expansion of the source, GNU as style.
+
+A kernel writer repeats blocks that differ only in a register, a load mnemonic or a label
+suffix (IC's resident and global twin of each shape test, OS's 13-word queue copy). A macro
+writes such a block once:
+
+    .macro LOAD3 op, base, dst          # parameters: names, `name=default` for optional ones
+        { \\op \\dst\\()x, [\\base] }         # \\param is replaced by the argument's text,
+        { \\op \\dst\\()y, [\\base + 1] }     # \\() joins it to what follows, \\@ counts expansions
+    .endm
+    LOAD3 ldg, shp, c_                  # arguments: comma separated, `name=value` by keyword
+
+    .rept 4                             # the body, 4 times over
+        nop
+    .endr
+
+Expansion works on the logical statements `parser.split_statements` cut, before they are parsed:
+a body is kept as statements and every expanded statement keeps the file and line it was written
+at, plus an `Expansion` naming the invocation (or `.rept`), so an error inside a body is reported
+at the body's line AND at the invocation, and the listing shows which expansion a bundle came
+from. Conditionals (`.if`) inside a body are evaluated at each expansion, like GNU as. The
+assembler (asm/assembler.py) drives this module: it finds the blocks, binds the arguments and
+assembles the expanded statements as if they were written out.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, replace
+
+from netsushisen.asm.parser import Chunk, Expansion, Loc
+
+MAX_EXPANSION_DEPTH = 64
+"""Macro invocations and `.rept`s nested deeper than this are an error (a macro that invokes
+itself without end)."""
+
+MAX_REPT = 1 << 16
+"""The largest `.rept` count: more bundles than any processor's program memory holds."""
+
+_LABELS = r"((?:[A-Za-z_]\w*\s*:\s*)*)"
+BLOCK_RE = re.compile(_LABELS + r"\.(macro|endm|rept|endr)\b(.*)$", re.S)
+INVOKE_RE = re.compile(_LABELS + r"([A-Za-z_]\w*)(?=\s|$)(.*)$", re.S)
+LABEL_RE = re.compile(r"([A-Za-z_]\w*)\s*:")
+_NAME_RE = re.compile(r"[A-Za-z_]\w*$")
+_SUBST_RE = re.compile(r"\\(\(\)|@|[A-Za-z_]\w*)")
+
+
+class MacroError(Exception):
+    """A malformed macro header, call or body line: the message and its column (1-based)."""
+
+    def __init__(self, message: str, col: int = 1, line: int | None = None):
+        super().__init__(message)
+        self.message, self.col, self.line = message, col, line
+
+
+@dataclass
+class Macro:
+    name: str
+    params: list[str]
+    defaults: dict[str, str]
+    body: list[Chunk]
+    loc: Loc  # the `.macro` line
+    order: int  # when it was defined (a use before it is an error)
+
+
+@dataclass
+class Block:
+    """A `.macro`/`.endm`/`.rept`/`.endr` line: the labels before it, which, and the rest."""
+
+    labels: list[tuple[str, int]]  # name, column
+    kind: str
+    rest: str
+    rest_col: int  # column of `rest` in the line
+
+
+def _labels(text: str, upto: int) -> list[tuple[str, int]]:
+    return [(m.group(1), m.start(1) + 1) for m in LABEL_RE.finditer(text[:upto])]
+
+
+def block_directive(chunk: Chunk) -> Block | None:
+    """The block directive a statement is, if it is one."""
+    stripped = chunk.text.lstrip()
+    m = BLOCK_RE.match(stripped)
+    if not m:
+        return None
+    lead = len(chunk.text) - len(stripped)
+    return Block([(n, c + lead) for n, c in _labels(stripped, m.end(1))], m.group(2),
+                 m.group(3), m.start(3) + lead + 1)
+
+
+def find_end(chunks: list[Chunk], start: int, kind: str) -> int | None:
+    """Index of the `.endm` (kind "macro") or `.endr` ("rept") closing a block whose body starts
+    at `start`, counting nested blocks of the same kind; None if the file ends first."""
+    closer = {"macro": "endm", "rept": "endr"}[kind]
+    depth = 0
+    for i in range(start, len(chunks)):
+        b = block_directive(chunks[i])
+        if b is None:
+            continue
+        if b.kind == kind:
+            depth += 1
+        elif b.kind == closer:
+            if depth == 0:
+                return i
+            depth -= 1
+    return None
+
+
+def parse_header(rest: str, col: int) -> tuple[str, list[str], dict[str, str]]:
+    """`NAME [param[=default] [, param...]]` of a `.macro` line (parameters may also be
+    separated by spaces, as GNU as allows)."""
+    text = rest.strip()
+    if not text:
+        raise MacroError(".macro needs a name: .macro NAME [param[=default], ...]", col)
+    m = re.match(r"[A-Za-z_]\w*", text)
+    name_col = col + len(rest) - len(rest.lstrip())
+    if not m or (len(text) > m.end() and not text[m.end()].isspace() and text[m.end()] != ","):
+        raise MacroError(f"bad macro name {text.split()[0]!r}: a name is letters, digits and _",
+                         name_col)
+    name = m.group(0)
+    params: list[str] = []
+    defaults: dict[str, str] = {}
+    tail = text[m.end():].lstrip(" \t,")
+    items = [p.strip() for p in split_args(tail)] if "=" in tail else \
+        [p for p in re.split(r"[\s,]+", tail) if p]
+    for item in items:
+        pname, eq, default = item.partition("=")
+        pname = pname.strip()
+        if not _NAME_RE.match(pname):
+            raise MacroError(f"bad parameter {item!r} of macro '{name}': write name or "
+                             "name=default", name_col)
+        if pname in params:
+            raise MacroError(f"macro '{name}' names parameter '{pname}' twice", name_col)
+        params.append(pname)
+        if eq:
+            defaults[pname] = default.strip()
+    return name, params, defaults
+
+
+def split_args(text: str) -> list[str]:
+    """Top-level comma-separated pieces of `text` (commas inside [], () or strings do not
+    split); an empty text is no argument."""
+    if not text.strip():
+        return []
+    out, depth, cur, in_string, i = [], 0, [], False, 0
+    while i < len(text):
+        c = text[i]
+        if in_string:
+            if c == "\\" and i + 1 < len(text):
+                cur.append(c)
+                i += 1
+                c = text[i]
+            elif c == '"':
+                in_string = False
+        elif c == '"':
+            in_string = True
+        elif c in "([":
+            depth += 1
+        elif c in ")]":
+            depth -= 1
+        elif c == "," and depth == 0:
+            out.append("".join(cur))
+            cur = []
+            i += 1
+            continue
+        cur.append(c)
+        i += 1
+    out.append("".join(cur))
+    return out
+
+
+def bind(macro: Macro, args_text: str, col: int) -> dict[str, str]:
+    """The parameters' values for one invocation: positional arguments, then `name=value` ones,
+    then defaults; a missing argument without a default or one too many is an error."""
+    values: dict[str, str] = {}
+    positional = True
+    want = ", ".join(p + (f"={macro.defaults[p]}" if p in macro.defaults else "")
+                     for p in macro.params) or "no arguments"
+    for k, raw in enumerate(split_args(args_text)):
+        arg = raw.strip()
+        m = re.match(r"([A-Za-z_]\w*)\s*=(?!=)(.*)$", arg, re.S)
+        if m and m.group(1) in macro.params:
+            positional = False
+            if m.group(1) in values:
+                raise MacroError(f"macro '{macro.name}': argument '{m.group(1)}' given twice", col)
+            values[m.group(1)] = m.group(2).strip()
+            continue
+        if not positional:
+            raise MacroError(f"macro '{macro.name}': a positional argument after a keyword one",
+                             col)
+        if k >= len(macro.params):
+            raise MacroError(f"macro '{macro.name}' takes {len(macro.params)} argument"
+                             f"{'s' if len(macro.params) != 1 else ''} ({want}), got "
+                             f"{len(split_args(args_text))}", col)
+        if arg:
+            values[macro.params[k]] = arg
+    missing = [p for p in macro.params if p not in values and p not in macro.defaults]
+    if missing:
+        raise MacroError(f"macro '{macro.name}' needs argument{'s' if len(missing) > 1 else ''} "
+                         f"{', '.join(repr(p) for p in missing)} ({want})", col)
+    return {p: values.get(p, macro.defaults.get(p, "")) for p in macro.params}
+
+
+def substitute(chunk: Chunk, macro: Macro, values: dict[str, str], counter: int,
+               via: Expansion) -> Chunk:
+    """One body statement with `\\param`, `\\()` and `\\@` replaced; an unknown `\\name` in the
+    code (not in a comment) is a MacroError at its line and column."""
+    for n, line in enumerate(chunk.text.split("\n")):
+        for m in _SUBST_RE.finditer(line):
+            key = m.group(1)
+            if key not in ("()", "@") and key not in values:
+                have = ", ".join(macro.params) or "none"
+                raise MacroError(f"'\\{key}' is not a parameter of macro '{macro.name}' "
+                                 f"(its parameters: {have})", m.start() + 1, chunk.line + n)
+
+    def sub(m: re.Match) -> str:
+        key = m.group(1)
+        if key == "()":
+            return ""
+        if key == "@":
+            return str(counter)
+        return values.get(key, m.group(0))
+
+    return Chunk(_SUBST_RE.sub(sub, chunk.text), chunk.file, chunk.line,
+                 [_SUBST_RE.sub(sub, s) for s in chunk.source_lines], via)
+
+
+def relocate(chunk: Chunk, via: Expansion) -> Chunk:
+    """A `.rept` body statement as one repetition's copy."""
+    return replace(chunk, via=via)
+
+
+def describe(via: Expansion | None, lines: dict) -> str:
+    """`file:line: invocation` for each expansion a bundle is in, outermost first, for the
+    listing; "" outside any."""
+    parts = []
+    while via is not None:
+        at = via.at
+        text = (lines.get((at.file, at.line, at.via)) or "").strip()
+        what = f"{text}  [{via.index} of {via.name}]" if via.kind == "rept" else text
+        parts.append(f"{at.file}:{at.line}: {what}")
+        via = at.via
+    return " > ".join(reversed(parts))

@@ -155,6 +155,61 @@
 .reg ch_pz  = r47
 .reg ch_l   = r48               # |u|
 
+# ---- macros: the code that reads a record comes in twins, one per memory ------------------------
+# A shape record is read from resident memory (`ldr`) or from ICGM through the cache (`ldg`) by
+# the paper's priority rule, so every block that reads one is written once, as a macro of the
+# label suffix m (r / g) and the load ld (ldr / ldg), and expanded once per memory the scene uses.
+# TWINS expands BLOCK for the global memory, then (jumping over it to `shared`) for resident
+# memory: `TWINS SPH_LOAD, sph_test` gives sph_g, then sph_r, falling into sph_test.
+.macro TWINS block, shared
+.if HAS_GLOBAL
+    \block g, ldg
+.if HAS_RESIDENT
+    j \shared
+.endif
+.endif
+.if HAS_RESIDENT
+    \block r, ldr
+.endif
+.endm
+
+# The kind dispatch: `kind` = `word` & KIND_MASK (polygon 0, sphere 1, cylinder 2, cone 3), then a
+# jump to poly_<to>, sph_<to>, cyl_<to> or cone_<to> (only the kinds the scene has).
+.macro KIND_JUMP kind, word, to
+.if N_KINDS > 1
+    { andi \kind, \word, KIND_MASK }
+.endif
+.if HAS_POLYGONS && N_KINDS > 1
+    beqz \kind, poly_\to
+.endif
+.if HAS_SPHERES && (HAS_CYLINDERS || HAS_CONES)
+    beq \kind, one, sph_\to
+.endif
+.if HAS_CYLINDERS && HAS_CONES
+    beq \kind, two, cyl_\to
+.endif
+.if HAS_CONES
+    j cone_\to
+.elif HAS_CYLINDERS
+    j cyl_\to
+.elif HAS_SPHERES
+    j sph_\to
+.else
+    j poly_\to
+.endif
+.endm
+
+# The first hit words of a cylinder or cone (B, a), `ld` from the winner's memory, with w = P - B
+# and its first two products with a on their way (axis_normal, ic_hit.inc, goes on from there).
+.macro AXIS_HIT_LOAD ld, base, axis
+    { \ld ch_bx, [wshp + \base] }
+    { \ld ch_by, [wshp + (\base + 1)] ; fsub ch_bx, hpx, ch_bx }
+    { \ld ch_bz, [wshp + (\base + 2)] ; fsub ch_by, hpy, ch_by }
+    { \ld ch_ax, [wshp + \axis]     ; fsub ch_bz, hpz, ch_bz }
+    { \ld ch_ay, [wshp + (\axis + 1)] ; fmul ch_px, ch_bx, ch_ax }
+    { \ld ch_az, [wshp + (\axis + 2)] ; fmul ch_py, ch_by, ch_ay }
+.endm
+
 .data
 slot_table: .space SLOTS * SLOT_WORDS   # slot s at slot_table + (s << SLOT_SHIFT)
 .if HAS_PATCHES
@@ -286,57 +341,17 @@ cell_loop:
     { bgeu m_t, mlim, rec_g }
 .endif
 
-# Kind dispatch: polygon 0, sphere 1, cylinder 2, cone 3; only the kinds the scene has.
+# Kind dispatch (KIND_JUMP): only the kinds the scene has.
+.macro REC_LOAD m, ld
+rec_\m:
+    { \ld kw, [shp + REC_KIND] }
+    KIND_JUMP m_t, kw, \m
+.endm
 .if HAS_RESIDENT
-rec_r:
-    { ldr kw, [shp + REC_KIND] }
-.if N_KINDS > 1
-    { andi m_t, kw, KIND_MASK }
+    REC_LOAD r, ldr
 .endif
-.if HAS_POLYGONS && N_KINDS > 1
-    beqz m_t, poly_r
-.endif
-.if HAS_SPHERES && (HAS_CYLINDERS || HAS_CONES)
-    beq m_t, one, sph_r
-.endif
-.if HAS_CYLINDERS && HAS_CONES
-    beq m_t, two, cyl_r
-.endif
-.if HAS_CONES
-    j cone_r
-.elif HAS_CYLINDERS
-    j cyl_r
-.elif HAS_SPHERES
-    j sph_r
-.else
-    j poly_r
-.endif
-.endif
-
 .if HAS_GLOBAL
-rec_g:
-    { ldg kw, [shp + REC_KIND] }
-.if N_KINDS > 1
-    { andi m_t, kw, KIND_MASK }
-.endif
-.if HAS_POLYGONS && N_KINDS > 1
-    beqz m_t, poly_g
-.endif
-.if HAS_SPHERES && (HAS_CYLINDERS || HAS_CONES)
-    beq m_t, one, sph_g
-.endif
-.if HAS_CYLINDERS && HAS_CONES
-    beq m_t, two, cyl_g
-.endif
-.if HAS_CONES
-    j cone_g
-.elif HAS_CYLINDERS
-    j cyl_g
-.elif HAS_SPHERES
-    j sph_g
-.else
-    j poly_g
-.endif
+    REC_LOAD g, ldg
 .endif
 
 # A test's result beat `best` (the check ends every test): a shadow ray is occluded; a surface

@@ -20,7 +20,7 @@ from netsushisen.asm.checker import check_bundle
 from netsushisen.asm.expressions import BUILTIN_CONSTANTS, ExprError, evaluate, names_in
 from netsushisen.asm.macros import (INVOKE_RE, MAX_EXPANSION_DEPTH, MAX_REPT, Macro, MacroError,
                                     bind, block_directive, describe, find_end, parse_header,
-                                    relocate, substitute)
+                                    repetition, stray_escape, substitute)
 from netsushisen.asm.objects import Op, Program, SourceLoc
 from netsushisen.asm.parser import (CONDITIONAL_RE, Bundle, Chunk, Directive, Expansion, Instr,
                                     Loc, parse_chunk, split_statements)
@@ -217,6 +217,12 @@ class Assembler:
                 if call and call.group(2) in st.macros:
                     self._invoke(chunk, call, base_dir, stack, depth)
                     continue
+                stray = stray_escape(chunk.text) if "\\" in chunk.text else None
+                if stray is not None:
+                    where = "a .rept body" if stray[0] == "\\+" else "a .macro body"
+                    st.error(f"'{stray[0]}' means something only inside {where}",
+                             Loc(chunk.file, chunk.line, stray[1], chunk.via))
+                    continue
             parsed = parse_chunk(chunk)
             if isinstance(parsed, Diagnostic):
                 st.add((st.order, parsed.col or 0), parsed, chunk.via)
@@ -295,7 +301,7 @@ class Assembler:
         if count is not None and self._deep_enough(at, depth):
             for r in range(1, count + 1):
                 via = Expansion("rept", f"{count}", at, r)
-                self._expand([relocate(c, via) for c in chunks[i:end]], base_dir, stack, depth)
+                self._expand(repetition(chunks[i:end], via), base_dir, stack, depth)
         return end + 1
 
     def _deep_enough(self, at: Loc, depth: int) -> bool:

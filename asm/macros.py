@@ -10,8 +10,8 @@ writes such a block once:
     .endm
     LOAD3 ldg, shp, c_                  # arguments: comma separated, `name=value` by keyword
 
-    .rept 4                             # the body, 4 times over
-        nop
+    .rept 4                             # the body, 4 times over; \\+ is the
+        { st r1, [r2 + \\+] }               #   iterations done so far (0, 1, 2, 3)
     .endr
 
 Expansion works on the logical statements `parser.split_statements` cut, before they are parsed:
@@ -225,9 +225,32 @@ def substitute(chunk: Chunk, macro: Macro, values: dict[str, str], counter: int,
                  [_SUBST_RE.sub(sub, s) for s in chunk.source_lines], via)
 
 
-def relocate(chunk: Chunk, via: Expansion) -> Chunk:
-    """A `.rept` body statement as one repetition's copy."""
-    return replace(chunk, via=via)
+def repetition(body: list[Chunk], via: Expansion) -> list[Chunk]:
+    """One repetition's copy of a `.rept` body: `\\+` (the iterations done so far, from 0, as
+    GNU as) replaced in the body's own lines; a nested `.rept`'s lines keep theirs."""
+    out, depth = [], 0
+    for chunk in body:
+        b = block_directive(chunk)
+        if b is not None and b.kind in ("rept", "endr"):
+            depth += 1 if b.kind == "rept" else -1
+        if depth == 0 and "\\+" in chunk.text:
+            n = str(via.index - 1)
+            chunk = replace(chunk, text=chunk.text.replace("\\+", n),
+                            source_lines=[s.replace("\\+", n) for s in chunk.source_lines])
+        out.append(replace(chunk, via=via))
+    return out
+
+
+STRAY_RE = re.compile(r"\\(\(\)|@|\+|[A-Za-z_]\w*)")
+
+
+def stray_escape(text: str) -> tuple[str, int] | None:
+    """A `\\name`, `\\@`, `\\()` or `\\+` left in a statement (outside strings) after expansion:
+    what it is and its column, or None."""
+    m = STRAY_RE.search(text)
+    if m is None or text[:m.start()].count('"') % 2:
+        return None
+    return m.group(0), m.start() + 1
 
 
 def describe(via: Expansion | None, lines: dict) -> str:

@@ -316,6 +316,25 @@ on_shaded:
     j main
 .endif
 
+# A RAY message from SC into the overflow queue (on_ray finds no free slot; the drain takes one
+# off the ring): its pixel word, received already, is in `pix`; the other 12 words come straight
+# from the ring, `a` and `b` taking turns so a word is stored while the next arrives. Then the
+# tail wraps and OS goes on at `next`. A full queue stops the run (queue_overflow).
+.macro ENQUEUE pix, a, b, next
+    li \a, QUEUE_CAP
+    beq qcount, \a, queue_overflow
+    { st \pix, [qtail + RAY_PIXEL] ; recv \a, ring }
+.rept 5                                             # words 1..10
+    { st \a, [qtail + (2 * \+ + 1)] ; recv \b, ring }
+    { st \b, [qtail + (2 * \+ + 2)] ; recv \a, ring }
+.endr
+    { st \a, [qtail + 11] ; recv \b, ring }
+    { st \b, [qtail + 12] ; addi qtail, qtail, QUEUE_ENTRY }
+    { li \a, QUEUE_END ; addi qcount, qcount, 1 }
+    bne qtail, \a, \next
+    { li qtail, QUEUE_BASE ; j \next }
+.endm
+
 .if SECONDARY
 # RAY from SC (t3 = its pixel word): start it in a free slot, or queue it
 on_ray:
@@ -338,24 +357,7 @@ on_ray:
     { recv rwb, ring ; lf one, 1.0 ; j setup }
 
 enqueue:
-    li t0, QUEUE_CAP
-    beq qcount, t0, queue_overflow
-    { st t3, [qtail + RAY_PIXEL] ; recv t0, ring }
-    { st t0, [qtail + 1] ; recv t1, ring }
-    { st t1, [qtail + 2] ; recv t0, ring }
-    { st t0, [qtail + 3] ; recv t1, ring }
-    { st t1, [qtail + 4] ; recv t0, ring }
-    { st t0, [qtail + 5] ; recv t1, ring }
-    { st t1, [qtail + 6] ; recv t0, ring }
-    { st t0, [qtail + 7] ; recv t1, ring }
-    { st t1, [qtail + 8] ; recv t0, ring }
-    { st t0, [qtail + 9] ; recv t1, ring }
-    { st t1, [qtail + 10] ; recv t0, ring }
-    { st t0, [qtail + 11] ; recv t1, ring }
-    { st t1, [qtail + 12] ; addi qtail, qtail, QUEUE_ENTRY }
-    { li t0, QUEUE_END ; addi qcount, qcount, 1 }
-    bne qtail, t0, main
-    { li qtail, QUEUE_BASE ; j main }
+    ENQUEUE t3, t0, t1, main
 
 queue_overflow:                 # more rays wait than OS memory holds: stop the run with a
     ld t0, [r0 - 1]             # memory fault whose report names this label
@@ -867,24 +869,7 @@ drain:
 .if SERIAL_TREES
     addi alive, alive, 1
 .endif
-    li d0, QUEUE_CAP
-    beq qcount, d0, queue_overflow
-    { st d1, [qtail + RAY_PIXEL] ; recv d0, ring }
-    { st d0, [qtail + 1] ; recv d1, ring }
-    { st d1, [qtail + 2] ; recv d0, ring }
-    { st d0, [qtail + 3] ; recv d1, ring }
-    { st d1, [qtail + 4] ; recv d0, ring }
-    { st d0, [qtail + 5] ; recv d1, ring }
-    { st d1, [qtail + 6] ; recv d0, ring }
-    { st d0, [qtail + 7] ; recv d1, ring }
-    { st d1, [qtail + 8] ; recv d0, ring }
-    { st d0, [qtail + 9] ; recv d1, ring }
-    { st d1, [qtail + 10] ; recv d0, ring }
-    { st d0, [qtail + 11] ; recv d1, ring }
-    { st d1, [qtail + 12] ; addi qtail, qtail, QUEUE_ENTRY }
-    { li d0, QUEUE_END ; addi qcount, qcount, 1 }
-    bne qtail, d0, drain_room
-    { li qtail, QUEUE_BASE ; j drain_room }
+    ENQUEUE d1, d0, d1, drain_room
 .else
     j drain_room                                    # (nothing else reaches OS here)
 .endif

@@ -256,27 +256,37 @@ main:
     beq m_hdr, hvf, visit_first
     { beq slot, cur, visit ; fsel lim, shadow, pinf, m_texit ; fsel best, shadow, tmax, pinf }
 
+# A ray's geometry and kind between its registers and its slot-table entry (m_sb = slot <<
+# SLOT_SHIFT): `op` is ld (reload) or st (write_back), one word a bundle.
+.macro SLOT_RAY op
+    { \op ox, [m_sb + (slot_table + RAY_OX)] }
+    { \op oy, [m_sb + (slot_table + RAY_OY)] }
+    { \op oz, [m_sb + (slot_table + RAY_OZ)] }
+    { \op dx, [m_sb + (slot_table + RAY_DX)] }
+    { \op dy, [m_sb + (slot_table + RAY_DY)] }
+    { \op dz, [m_sb + (slot_table + RAY_DZ)] }
+    { \op tmin, [m_sb + (slot_table + RAY_TMIN)] }
+    { \op tmax, [m_sb + (slot_table + RAY_TMAX)] }
+    { \op shadow, [m_sb + (slot_table + SLOT_SHADOW)] }
+.endm
+# ... and the rest of its polygon setup: the axis flags after fx1.
+.macro SLOT_AXES op
+    { \op fx2, [m_sb + (slot_table + SLOT_FX2)] }
+    { \op fy1, [m_sb + (slot_table + SLOT_FY1)] }
+    { \op fy2, [m_sb + (slot_table + SLOT_FY2)] }
+    { \op fz1, [m_sb + (slot_table + SLOT_FZ1)] }
+    { \op fz2, [m_sb + (slot_table + SLOT_FZ2)] }
+.endm
+
 # VISIT of a ray that is not in the registers: load it from the slot table.
 reload:
     { slli m_sb, slot, SLOT_SHIFT }
-    { ld ox, [m_sb + (slot_table + RAY_OX)] }
-    { ld oy, [m_sb + (slot_table + RAY_OY)] }
-    { ld oz, [m_sb + (slot_table + RAY_OZ)] }
-    { ld dx, [m_sb + (slot_table + RAY_DX)] }
-    { ld dy, [m_sb + (slot_table + RAY_DY)] }
-    { ld dz, [m_sb + (slot_table + RAY_DZ)] }
-    { ld tmin, [m_sb + (slot_table + RAY_TMIN)] }
-    { ld tmax, [m_sb + (slot_table + RAY_TMAX)] }
-    { ld shadow, [m_sb + (slot_table + SLOT_SHADOW)] }
+    SLOT_RAY ld
 .if HAS_POLYGONS
     { ld sx, [m_sb + (slot_table + SLOT_SX)] }
     { ld sy, [m_sb + (slot_table + SLOT_SY)] ; fsel best, shadow, tmax, pinf }
     { ld fx1, [m_sb + (slot_table + SLOT_FX1)] ; fsel lim, shadow, pinf, m_texit }
-    { ld fx2, [m_sb + (slot_table + SLOT_FX2)] }
-    { ld fy1, [m_sb + (slot_table + SLOT_FY1)] }
-    { ld fy2, [m_sb + (slot_table + SLOT_FY2)] }
-    { ld fz1, [m_sb + (slot_table + SLOT_FZ1)] }
-    { ld fz2, [m_sb + (slot_table + SLOT_FZ2)] }
+    SLOT_AXES ld
 .else
     { fsel best, shadow, tmax, pinf ; fsel lim, shadow, pinf, m_texit }
 .endif
@@ -378,24 +388,12 @@ send_next:
 # The ray goes on: write its geometry and setup to the slot table while OS steps to the next leaf.
 write_back:
     { slli m_sb, slot, SLOT_SHIFT }
-    { st ox, [m_sb + (slot_table + RAY_OX)] }
-    { st oy, [m_sb + (slot_table + RAY_OY)] }
-    { st oz, [m_sb + (slot_table + RAY_OZ)] }
-    { st dx, [m_sb + (slot_table + RAY_DX)] }
-    { st dy, [m_sb + (slot_table + RAY_DY)] }
-    { st dz, [m_sb + (slot_table + RAY_DZ)] }
-    { st tmin, [m_sb + (slot_table + RAY_TMIN)] }
-    { st tmax, [m_sb + (slot_table + RAY_TMAX)] }
-    { st shadow, [m_sb + (slot_table + SLOT_SHADOW)] }
+    SLOT_RAY st
 .if HAS_POLYGONS
     { st sx, [m_sb + (slot_table + SLOT_SX)] }
     { st sy, [m_sb + (slot_table + SLOT_SY)] }
     { st fx1, [m_sb + (slot_table + SLOT_FX1)] }
-    { st fx2, [m_sb + (slot_table + SLOT_FX2)] }
-    { st fy1, [m_sb + (slot_table + SLOT_FY1)] }
-    { st fy2, [m_sb + (slot_table + SLOT_FY2)] }
-    { st fz1, [m_sb + (slot_table + SLOT_FZ1)] }
-    { st fz2, [m_sb + (slot_table + SLOT_FZ2)] }
+    SLOT_AXES st
 .endif
     { fmov dirty, r0 ; j main }
 

@@ -316,6 +316,19 @@ on_shaded:
     j main
 .endif
 
+# The middle of a RAY message, words 4..11 (o.z, d, t_min, t_max, w.r, w.g), from `port` into the
+# ray registers, one a bundle (a new ray from SC on the ring or from the host).
+.macro RECV_RAY port
+    recv roz, \port
+    recv rdx, \port
+    recv rdy, \port
+    recv rdz, \port
+    recv rtmin, \port
+    recv rtmax, \port
+    recv rwr, \port
+    recv rwg, \port
+.endm
+
 # A RAY message from SC into the overflow queue (on_ray finds no free slot; the drain takes one
 # off the ring): its pixel word, received already, is in `pix`; the other 12 words come straight
 # from the ring, `a` and `b` taking turns so a word is stored while the next arrives. Then the
@@ -346,14 +359,7 @@ on_ray:
     { ld slot, [nfree + free_stack] ; recv rinfo, ring }
     { slli sp, slot, SLOT_SHIFT ; recv rox, ring }
     { addi sp, sp, SLOT_TABLE ; recv roy, ring }
-    recv roz, ring
-    recv rdx, ring
-    recv rdy, ring
-    recv rdz, ring
-    recv rtmin, ring
-    recv rtmax, ring
-    recv rwr, ring
-    recv rwg, ring
+    RECV_RAY ring
     { recv rwb, ring ; lf one, 1.0 ; j setup }
 
 enqueue:
@@ -388,14 +394,7 @@ from_host:
     { slli sp, slot, SLOT_SHIFT ; recv rinfo, host }
     { addi sp, sp, SLOT_TABLE ; recv rox, host }
     recv roy, host
-    recv roz, host
-    recv rdx, host
-    recv rdy, host
-    recv rdz, host
-    recv rtmin, host
-    recv rtmax, host
-    recv rwr, host
-    recv rwg, host
+    RECV_RAY host
     { recv rwb, host ; lf one, 1.0 }
 
 # ---------------------------------------------------------------------------------------------

@@ -327,12 +327,13 @@ class Assembler:
             return
         if not self._deep_enough(at, depth):
             return
+        counter = st.expansions  # \@: macros expanded before this one (GNU as counts from 0)
         st.expansions += 1
         via = Expansion("macro", macro.name, at)
         body = []
         for c in macro.body:
             try:
-                body.append(substitute(c, macro, values, st.expansions, via))
+                body.append(substitute(c, macro, values, counter, via))
             except MacroError as err:
                 for n, line in enumerate(c.source_lines):
                     st.lines[(c.file, c.line + n, via)] = line

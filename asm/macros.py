@@ -138,8 +138,8 @@ def parse_header(rest: str, col: int) -> tuple[str, list[str], dict[str, str]]:
 
 
 def split_args(text: str) -> list[str]:
-    """Top-level comma-separated pieces of `text` (commas inside [], () or strings do not
-    split); an empty text is no argument."""
+    """Top-level comma-separated pieces of `text` (commas inside [], (), {} or strings do not
+    split: a whole bundle can be one argument); an empty text is no argument."""
     if not text.strip():
         return []
     out, depth, cur, in_string, i = [], 0, [], False, 0
@@ -154,9 +154,9 @@ def split_args(text: str) -> list[str]:
                 in_string = False
         elif c == '"':
             in_string = True
-        elif c in "([":
+        elif c in "([{":
             depth += 1
-        elif c in ")]":
+        elif c in ")]}":
             depth -= 1
         elif c == "," and depth == 0:
             out.append("".join(cur))

@@ -28,7 +28,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, replace
 
-from netsushisen.asm.parser import Chunk, Expansion, Loc
+from netsushisen.asm.parser import Chunk, Expansion, Loc, parse_macro_header
 
 MAX_EXPANSION_DEPTH = 64
 """Macro invocations and `.rept`s nested deeper than this are an error (a macro that invokes
@@ -41,7 +41,6 @@ _LABELS = r"((?:[A-Za-z_]\w*\s*:\s*)*)"
 BLOCK_RE = re.compile(_LABELS + r"\.(macro|endm|rept|endr)\b(.*)$", re.S)
 INVOKE_RE = re.compile(_LABELS + r"([A-Za-z_]\w*)(?=\s|$)(.*)$", re.S)
 LABEL_RE = re.compile(r"([A-Za-z_]\w*)\s*:")
-_NAME_RE = re.compile(r"[A-Za-z_]\w*$")
 _SUBST_RE = re.compile(r"\\(\(\)|@|[A-Za-z_]\w*)")
 
 
@@ -107,33 +106,23 @@ def find_end(chunks: list[Chunk], start: int, kind: str) -> int | None:
 
 
 def parse_header(rest: str, col: int) -> tuple[str, list[str], dict[str, str]]:
-    """`NAME [param[=default] [, param...]]` of a `.macro` line (parameters may also be
-    separated by spaces, as GNU as allows)."""
-    text = rest.strip()
-    if not text:
+    """`NAME [param[=default] [, param...]]` of a `.macro` line (grammar.lark's `macro_header`;
+    parameters may also be separated by spaces, as GNU as allows). `col`: where `rest` starts."""
+    if not rest.strip():
         raise MacroError(".macro needs a name: .macro NAME [param[=default], ...]", col)
-    m = re.match(r"[A-Za-z_]\w*", text)
-    name_col = col + len(rest) - len(rest.lstrip())
-    if not m or (len(text) > m.end() and not text[m.end()].isspace() and text[m.end()] != ","):
-        raise MacroError(f"bad macro name {text.split()[0]!r}: a name is letters, digits and _",
-                         name_col)
-    name = m.group(0)
+    parsed = parse_macro_header(rest)
+    if isinstance(parsed[1], int):
+        raise MacroError(f"bad .macro line: {parsed[0]} (write .macro NAME [param[=default], "
+                         "...])", col + parsed[1] - 1)
+    name, items = parsed
     params: list[str] = []
     defaults: dict[str, str] = {}
-    tail = text[m.end():].lstrip(" \t,")
-    items = [p.strip() for p in split_args(tail)] if "=" in tail else \
-        [p for p in re.split(r"[\s,]+", tail) if p]
-    for item in items:
-        pname, eq, default = item.partition("=")
-        pname = pname.strip()
-        if not _NAME_RE.match(pname):
-            raise MacroError(f"bad parameter {item!r} of macro '{name}': write name or "
-                             "name=default", name_col)
+    for pname, default, pcol in items:
         if pname in params:
-            raise MacroError(f"macro '{name}' names parameter '{pname}' twice", name_col)
+            raise MacroError(f"macro '{name}' names parameter '{pname}' twice", col + pcol - 1)
         params.append(pname)
-        if eq:
-            defaults[pname] = default.strip()
+        if default is not None:
+            defaults[pname] = default
     return name, params, defaults
 
 

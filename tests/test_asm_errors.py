@@ -58,6 +58,9 @@ CASES = [
      "macro 'M' is already defined (at"),
     ("rept_bad_count", ".proc os\n.rept 1 - 2\n  nop\n.endr\n  halt\n", 2, 7,
      ".rept needs a count from 0 to"),
+    ("macro_bad_header", ".proc os\n.macro 5M a\n.endm\n  halt\n", 2, 8, "bad .macro line"),
+    ("macro_param_twice", ".proc os\n.macro N a, a\n.endm\n  halt\n", 2, 13,
+     "macro 'N' names parameter 'a' twice"),
     ("stray_backslash", ".proc os\n  addi r1, r1, \\+\n", 2, 16,
      "'\\+' means something only inside a .rept body"),
 ]

@@ -18,9 +18,8 @@ from pathlib import Path
 
 from netsushisen.asm.checker import check_bundle
 from netsushisen.asm.expressions import BUILTIN_CONSTANTS, ExprError, evaluate, names_in
-from netsushisen.asm.macros import (INVOKE_RE, MAX_EXPANSION_DEPTH, MAX_REPT, Macro, MacroError,
-                                    bind, block_directive, describe, find_end, parse_header,
-                                    repetition, stray_escape, substitute)
+from netsushisen.asm.macros import (INVOKE_RE, Macro, MacroExpansion, block_directive, describe,
+                                    stray_escape)
 from netsushisen.asm.objects import Op, Program, SourceLoc
 from netsushisen.asm.parser import (CONDITIONAL_RE, Bundle, Chunk, Directive, Expansion, Instr,
                                     Loc, parse_chunk, split_statements)
@@ -145,7 +144,7 @@ def _read_source(path: Path, display: str) -> str:
     return text
 
 
-class Assembler:
+class Assembler(MacroExpansion):
     def __init__(self, proc: str | None = None, defines: dict[str, int | float] | None = None,
                  include_dirs: list[str | Path] | None = None):
         if proc is not None and proc not in PROCESSORS:
@@ -244,107 +243,6 @@ class Assembler:
                 self._add_bundle(instrs, item.loc, chunk)
         for c in conds:
             st.error(".if without a matching .endif", c.loc)
-
-    # -- macros and .rept (asm/macros.py) ------------------------------------------------------
-
-    def _block(self, block, chunk: Chunk, chunks: list[Chunk], i: int, base_dir: Path,
-               stack: list[str], depth: int) -> int:
-        """A `.macro`, `.rept` or stray `.endm`/`.endr` line at chunks[i - 1]: define or expand
-        the block; returns the index of the statement after it."""
-        st = self.st
-
-        def loc(col: int) -> Loc:
-            return Loc(chunk.file, chunk.line, col, chunk.via)
-
-        for name, col in block.labels:
-            self._define_label(name, loc(col))
-        at = loc(block.rest_col - len(block.kind) - 1)
-        if block.kind in ("endm", "endr"):
-            opener = "macro" if block.kind == "endm" else "rept"
-            st.error(f".{block.kind} without a matching .{opener}", at)
-            return i
-        end = find_end(chunks, i, block.kind)
-        closer = "endm" if block.kind == "macro" else "endr"
-        if block.kind == "macro":
-            try:
-                name, params, defaults = parse_header(block.rest, block.rest_col)
-            except MacroError as err:
-                st.error(err.message, loc(err.col))
-                return len(chunks) if end is None else end + 1
-            if end is None:
-                st.error(f"unterminated .macro '{name}': no .{closer} before the end of the "
-                         "file", at)
-                return len(chunks)
-            if name in OPCODES or register_index(name) is not None:
-                st.error(f"'{name}' is {'an instruction' if name in OPCODES else 'a register'}"
-                         "; a macro cannot take its name", at)
-            elif name in st.macros:
-                prev = st.macros[name].loc
-                st.error(f"macro '{name}' is already defined (at {prev.file}:{prev.line})", at)
-            else:
-                st.macros[name] = Macro(name, params, defaults, chunks[i:end], at, st.order)
-            return end + 1
-        if end is None:
-            st.error(f"unterminated .rept: no .{closer} before the end of the file", at)
-            return len(chunks)
-        parsed = parse_chunk(chunk)  # `.rept N` is an ordinary directive to the grammar
-        count = None
-        if isinstance(parsed, Diagnostic) or len(parsed.item.args) != 1 \
-                or parsed.item.args[0].kind != "expr":
-            st.error(".rept takes one count: .rept N", at)
-        else:
-            arg = parsed.item.args[0]
-            count = self._eval(arg.value, arg.loc, allow_labels=False)
-            if count is not None and (not isinstance(count, int) or not 0 <= count <= MAX_REPT):
-                st.error(f".rept needs a count from 0 to {MAX_REPT}, got {count!r}", arg.loc)
-                count = None
-        if count is not None and self._deep_enough(at, depth):
-            for r in range(1, count + 1):
-                via = Expansion("rept", f"{count}", at, r)
-                self._expand(repetition(chunks[i:end], via), base_dir, stack, depth)
-        return end + 1
-
-    def _deep_enough(self, at: Loc, depth: int) -> bool:
-        if depth < MAX_EXPANSION_DEPTH:
-            return True
-        self.st.error(f"macro / .rept expansions nested deeper than {MAX_EXPANSION_DEPTH} "
-                      "(does a macro invoke itself?)", at)
-        return False
-
-    def _invoke(self, chunk: Chunk, call, base_dir: Path, stack: list[str], depth: int) -> None:
-        st = self.st
-        lead = len(chunk.text) - len(chunk.text.lstrip())
-        for name, col in [(m.group(1), m.start(1) + 1) for m in
-                          re.finditer(r"([A-Za-z_]\w*)\s*:", call.group(1))]:
-            self._define_label(name, Loc(chunk.file, chunk.line, col + lead, chunk.via))
-        macro = st.macros[call.group(2)]
-        at = Loc(chunk.file, chunk.line, call.start(2) + lead + 1, chunk.via)
-        args_col = call.start(3) + lead + 1
-        try:
-            values = bind(macro, call.group(3), args_col + len(call.group(3)) - len(call.group(3).lstrip()))
-        except MacroError as err:
-            st.error(err.message, Loc(at.file, at.line, err.col, at.via))
-            return
-        if not self._deep_enough(at, depth):
-            return
-        counter = st.expansions  # \@: macros expanded before this one (GNU as counts from 0)
-        st.expansions += 1
-        via = Expansion("macro", macro.name, at)
-        body = []
-        for c in macro.body:
-            try:
-                body.append(substitute(c, macro, values, counter, via))
-            except MacroError as err:
-                for n, line in enumerate(c.source_lines):
-                    st.lines[(c.file, c.line + n, via)] = line
-                st.error(err.message, Loc(c.file, err.line or c.line, err.col, via))
-        self._expand(body, base_dir, stack, depth)
-
-    def _expand(self, body: list[Chunk], base_dir: Path, stack: list[str], depth: int) -> None:
-        for c in body:
-            for n, line in enumerate(c.source_lines):
-                self.st.lines[(c.file, c.line + n, c.via)] = line
-        self._statements(body, base_dir, stack, depth + 1)
 
     def _conditional(self, d: Directive, conds: list[_Cond]) -> None:
         st = self.st

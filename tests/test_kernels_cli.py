@@ -145,3 +145,15 @@ def test_kernels_list(cli):
     assert code == 0
     assert [line.split()[0] for line in out.splitlines()] == sorted(
         p.name for p in KERNELS.iterdir() if p.suffix in (".s", ".inc"))
+
+
+def test_asm_scene_takes_an_nff_file(cli):
+    """SCENE is what render takes: a built-in name or an .nff file."""
+    from pathlib import Path
+
+    nff = Path(__file__).parent / "scenes" / "grazing_sphere.nff"
+    code, out, err = cli("asm", "--scene", nff, "--show-defines")
+    assert code == 0, err
+    defines = _defines(out)
+    assert defines == pipeline.kernel_inputs(str(nff), MachineConfig(), 32).defines
+    assert defines["HAS_SPHERES"] == 1 and defines["HAS_POLYGONS"] == 0

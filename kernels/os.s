@@ -260,6 +260,17 @@ init_free:                              # free_stack[i] = i
 # With every slot busy (and no NEXT put aside) only the ring can help, so sleep in `recv` on the
 # ring (a waiting host ray must not keep OS spinning).
 
+# A ring message's header and first payload word (into `word`), then the jump for NEXT and DONE:
+# `n` = tag - TAG_NEXT, `d` = tag - TAG_DONE (the other tags fall through, `tag` still the tag
+# unless `d` is the same register). `main` and the drain both take messages this way.
+.macro RING_MSG tag, word, n, d, next, done
+    recv \tag, ring                                 # header
+    { srli \tag, \tag, HDR_TAG_SHIFT ; recv \word, ring }  # tag; first payload word
+    { addi \n, \tag, -TAG_NEXT ; addi \d, \tag, -TAG_DONE }
+    beqz \n, \next
+    beqz \d, \done
+.endm
+
 main:
     { poll t0, ring ; ld t1, [NDEFER] }
     { bnez t0, ring_msg ; sltu t2, r0, nfree }     # t2 = a slot is free
@@ -278,11 +289,7 @@ main:
 defer_or_ring:
     bnez t1, from_defer
 ring_msg:
-    recv t0, ring                                   # header
-    { srli t0, t0, HDR_TAG_SHIFT ; recv t3, ring }  # tag; first payload word
-    { addi t1, t0, -TAG_NEXT ; addi t2, t0, -TAG_DONE }
-    beqz t1, on_next
-    beqz t2, on_done
+    RING_MSG t0, t3, t1, t2, on_next, on_done
 .if SERIAL_TREES
     addi t1, t0, -TAG_SHADED
     beqz t1, on_shaded
@@ -641,18 +648,24 @@ level_out:
 .endif
     j ray_end
 
-.if HAS_SUBGRIDS
-# Back to the top level, which was stepped past the divided voxel when the ray entered its
-# sub-grid; its t_enter is the divided voxel's T_exit (lexit).
-leave_sub:
-    { ld kbx, [sp + S_TOP_KB] ; ld kby, [sp + (S_TOP_KB + 1)] }
-    { ld kbz, [sp + (S_TOP_KB + 2)] ; ld addr, [sp + S_TOP_ADDR] }
+# The top level's traversal state into the level registers: its lo corner and cell size (the
+# voxel data's header) and the ray's res + up and voxel-address steps there (its slot).
+.macro TOP_LEVEL
     { ld llox, [VOXEL_BASE + VD_LO] ; ld lloy, [VOXEL_BASE + (VD_LO + 1)] }
     { ld lloz, [VOXEL_BASE + (VD_LO + 2)] ; ld lcx, [VOXEL_BASE + VD_CELL] }
     { ld lcy, [VOXEL_BASE + (VD_CELL + 1)] ; ld lcz, [VOXEL_BASE + (VD_CELL + 2)] }
     { ld lRx, [sp + S_TOP_R] ; ld lRy, [sp + (S_TOP_R + 1)] }
     { ld lRz, [sp + (S_TOP_R + 2)] ; ld dsx, [sp + S_TOP_DS] }
     { ld dsy, [sp + (S_TOP_DS + 1)] ; ld dsz, [sp + (S_TOP_DS + 2)] }
+.endm
+
+.if HAS_SUBGRIDS
+# Back to the top level, which was stepped past the divided voxel when the ray entered its
+# sub-grid; its t_enter is the divided voxel's T_exit (lexit).
+leave_sub:
+    { ld kbx, [sp + S_TOP_KB] ; ld kby, [sp + (S_TOP_KB + 1)] }
+    { ld kbz, [sp + (S_TOP_KB + 2)] ; ld addr, [sp + S_TOP_ADDR] }
+    TOP_LEVEL
     { fmov tprev, lexit ; li insub, 0 ; st r0, [sp + S_INSUB] }
     { fmov lexit, finf ; fmov lim, stmax ; j step_entry }
 .endif
@@ -694,18 +707,10 @@ first_send:
     { send ring, vw ; st addr, [sp + S_ADDR] }
     { send ring, m1 ; st tcur, [sp + S_TCUR] }
     { ld t1, [sp + 0] ; st r0, [sp + S_FIRST] }
-    { ld t2, [sp + 1] ; send ring, t1 }
-    { ld t1, [sp + 2] ; send ring, t2 }
-    { ld t2, [sp + 3] ; send ring, t1 }
-    { ld t1, [sp + 4] ; send ring, t2 }
-    { ld t2, [sp + 5] ; send ring, t1 }
-    { ld t1, [sp + 6] ; send ring, t2 }
-    { ld t2, [sp + 7] ; send ring, t1 }
-    { ld t1, [sp + 8] ; send ring, t2 }
-    { ld t2, [sp + 9] ; send ring, t1 }
-    { ld t1, [sp + 10] ; send ring, t2 }
-    { ld t2, [sp + 11] ; send ring, t1 }
-    { ld t1, [sp + 12] ; send ring, t2 }
+.rept 6                                             # the ray record, words 1..12: t1 and t2
+    { ld t2, [sp + (2 * \+ + 1)] ; send ring, t1 }   #   take turns, one loaded while the
+    { ld t1, [sp + (2 * \+ + 2)] ; send ring, t2 }   #   other is sent
+.endr
     { send ring, t1 ; j main }
 first_full:
     { li dneed, 1 + LEN_VISIT_FIRST ; li dret, first_send }
@@ -797,12 +802,7 @@ on_next:
 .if HAS_SUBGRIDS
     bnez insub, next_sub
 .endif
-    { ld llox, [VOXEL_BASE + VD_LO] ; ld lloy, [VOXEL_BASE + (VD_LO + 1)] }
-    { ld lloz, [VOXEL_BASE + (VD_LO + 2)] ; ld lcx, [VOXEL_BASE + VD_CELL] }
-    { ld lcy, [VOXEL_BASE + (VD_CELL + 1)] ; ld lcz, [VOXEL_BASE + (VD_CELL + 2)] }
-    { ld lRx, [sp + S_TOP_R] ; ld lRy, [sp + (S_TOP_R + 1)] }
-    { ld lRz, [sp + (S_TOP_R + 2)] ; ld dsx, [sp + S_TOP_DS] }
-    { ld dsy, [sp + (S_TOP_DS + 1)] ; ld dsz, [sp + (S_TOP_DS + 2)] }
+    TOP_LEVEL
     { fmov lexit, finf ; fmov lim, stmax ; j step }
 .if HAS_SUBGRIDS
 next_sub:
@@ -853,11 +853,7 @@ ray_end_full:
 drain:
     poll d0, ring
     beqz d0, drain_room
-    recv d0, ring                                   # header
-    { srli d0, d0, HDR_TAG_SHIFT ; recv d1, ring }  # tag; first payload word
-    { addi d2, d0, -TAG_NEXT ; addi d0, d0, -TAG_DONE }
-    beqz d2, drain_next
-    beqz d0, drain_done
+    RING_MSG d0, d1, d2, d0, drain_next, drain_done
 .if SERIAL_TREES
     addi d2, d0, TAG_DONE - TAG_SHADED
     beqz d2, drain_shaded

@@ -18,9 +18,11 @@ from pathlib import Path
 
 from netsushisen.asm.checker import check_bundle
 from netsushisen.asm.expressions import BUILTIN_CONSTANTS, ExprError, evaluate, names_in
+from netsushisen.asm.macros import (INVOKE_RE, Macro, MacroExpansion, block_directive, describe,
+                                    stray_escape)
 from netsushisen.asm.objects import Op, Program, SourceLoc
-from netsushisen.asm.parser import (CONDITIONAL_RE, Bundle, Chunk, Directive, Instr, Loc,
-                                    parse_chunk, split_statements)
+from netsushisen.asm.parser import (CONDITIONAL_RE, Bundle, Chunk, Directive, Expansion, Instr,
+                                    Loc, parse_chunk, split_statements)
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.opcodes import OPCODES
 from netsushisen.isa.processors import N_REGISTERS, PROCESSORS, REGISTER_ALIASES
@@ -29,7 +31,8 @@ from netsushisen.isa.words import wrap32
 
 MAX_INCLUDE_DEPTH = 32
 DIRECTIVES = ("proc", "equ", "reg", "include", "if", "ifdef", "ifndef", "elif", "else", "endif",
-              "text", "data", "word", "float", "space", "align", "error")
+              "text", "data", "word", "float", "space", "align", "error",
+              "macro", "endm", "rept", "endr")
 _REG_RE = re.compile(r"r(\d+)$")
 
 
@@ -78,13 +81,38 @@ class _State:
     section: str = "text"
     diags: list[tuple[int, int, Diagnostic]] = field(default_factory=list)
     order: int = 0
-    lines: dict[tuple[str, int], str] = field(default_factory=dict)
+    lines: dict[tuple[str, int, Expansion | None], str] = field(default_factory=dict)
+    """(file, line, expansion) -> the source line as assembled (a body line after substitution)."""
+    macros: dict[str, Macro] = field(default_factory=dict)
+    expansions: int = 0  # macro invocations so far: `\@`
 
     def error(self, message: str, loc: Loc | None, order: int | None = None) -> None:
-        src = self.lines.get((loc.file, loc.line)) if loc else None
-        self.diags.append((self.order if order is None else order, loc.col if loc else 0,
-                           Diagnostic(message, loc.file if loc else None, loc.line if loc else None,
-                                      loc.col if loc else None, src)))
+        src = self.lines.get((loc.file, loc.line, loc.via)) if loc else None
+        self.add((self.order if order is None else order, loc.col if loc else 0),
+                 Diagnostic(message, loc.file if loc else None, loc.line if loc else None,
+                            loc.col if loc else None, src), loc.via if loc else None)
+
+    def add(self, key: tuple[int, int], diag: Diagnostic, via: Expansion | None) -> None:
+        """A diagnostic, then a note for each macro / .rept expansion it lies in (innermost
+        first, as GNU as and compilers print them): the line inside the body and the invocation
+        are both named."""
+        self.diags.append((*key, diag))
+        chain = []
+        while via is not None:
+            chain.append(via)
+            via = via.at.via
+        if len(chain) > 5:  # a runaway recursion: the innermost few and the first invocation
+            chain = chain[:3] + [None] + chain[-1:]
+        for via in chain:
+            if via is None:
+                self.diags.append((*key, Diagnostic("... (more expansions)", severity="note")))
+                continue
+            at = via.at
+            what = (f"in expansion of macro '{via.name}'" if via.kind == "macro"
+                    else f"in repetition {via.index} of {via.name} (.rept)")
+            self.diags.append((*key, Diagnostic(what, at.file, at.line, at.col,
+                                                self.lines.get((at.file, at.line, at.via)),
+                                                severity="note")))
 
 
 def register_index(name: str, aliases: dict[str, tuple[int, Loc]] | None = None) -> int | None:
@@ -116,7 +144,7 @@ def _read_source(path: Path, display: str) -> str:
     return text
 
 
-class Assembler:
+class Assembler(MacroExpansion):
     def __init__(self, proc: str | None = None, defines: dict[str, int | float] | None = None,
                  include_dirs: list[str | Path] | None = None):
         if proc is not None and proc not in PROCESSORS:
@@ -158,20 +186,45 @@ class Assembler:
     def _walk(self, text: str, file: str, base_dir: Path, stack: list[str]) -> None:
         st = self.st
         for n, line in enumerate(text.split("\n"), start=1):
-            st.lines[(file, n)] = line
+            st.lines[(file, n, None)] = line
         chunks, split_errors = split_statements(text, file)
         for d in split_errors:
             st.order += 1
             st.diags.append((st.order, d.col or 0, d))
+        self._statements(chunks, base_dir, stack, 0)
+
+    def _statements(self, chunks: list[Chunk], base_dir: Path, stack: list[str],
+                    depth: int) -> None:
+        """Assemble a run of statements: a file's, or one macro / .rept expansion's (its
+        conditionals must close inside it, as a file's must)."""
+        st = self.st
         conds: list[_Cond] = []
-        for chunk in chunks:
+        i = 0
+        while i < len(chunks):
+            chunk = chunks[i]
+            i += 1
             st.order += 1
             active = not conds or conds[-1].active
             if not active and not CONDITIONAL_RE.match(chunk.text):
                 continue  # skipped like a preprocessor: not even parsed
+            if active:
+                block = block_directive(chunk)
+                if block is not None:
+                    i = self._block(block, chunk, chunks, i, base_dir, stack, depth)
+                    continue
+                call = INVOKE_RE.match(chunk.text.lstrip())
+                if call and call.group(2) in st.macros:
+                    self._invoke(chunk, call, base_dir, stack, depth)
+                    continue
+                stray = stray_escape(chunk.text) if "\\" in chunk.text else None
+                if stray is not None:
+                    where = "a .rept body" if stray[0] == "\\+" else "a .macro body"
+                    st.error(f"'{stray[0]}' means something only inside {where}",
+                             Loc(chunk.file, chunk.line, stray[1], chunk.via))
+                    continue
             parsed = parse_chunk(chunk)
             if isinstance(parsed, Diagnostic):
-                st.diags.append((st.order, parsed.col or 0, parsed))
+                st.add((st.order, parsed.col or 0), parsed, chunk.via)
                 continue
             item = parsed.item
             if isinstance(item, Directive) and item.name in ("if", "ifdef", "ifndef", "elif", "else", "endif"):
@@ -431,7 +484,7 @@ class Assembler:
                 for problem in check_bundle(proc, ops):
                     st.error(problem, pb.loc, pb.order)
             bundles.append(tuple(ops))
-            smap.append(SourceLoc(pb.loc.file, pb.loc.line, pb.text))
+            smap.append(SourceLoc(pb.loc.file, pb.loc.line, pb.text, describe(pb.loc.via, st.lines)))
         data: list[tuple[str, int | float]] = []
         for kind, expr, loc, order in st.data:
             v = self._eval(expr, loc, allow_labels=True, order=order)
@@ -454,9 +507,17 @@ class Assembler:
         st = self.st
         opcode = OPCODES.get(instr.mnemonic)
         if opcode is None:
-            close = difflib.get_close_matches(instr.mnemonic, list(OPCODES), n=1)
-            hint = f" (did you mean '{close[0]}'?)" if close else ""
-            st.error(f"unknown mnemonic '{instr.mnemonic}'{hint}", instr.loc, order)
+            macro = st.macros.get(instr.mnemonic)
+            if macro is not None:  # defined further down: GNU as wants it defined first too
+                st.error(f"macro '{macro.name}' is used before its definition (at "
+                         f"{macro.loc.file}:{macro.loc.line})", instr.loc, order)
+                return None
+            close = difflib.get_close_matches(instr.mnemonic, list(OPCODES) + list(st.macros), n=1)
+            hint = ""
+            if close:
+                hint = f" (did you mean {'macro ' if close[0] in st.macros else ''}'{close[0]}'?)"
+            what = "mnemonic or macro" if st.macros else "mnemonic"
+            st.error(f"unknown {what} '{instr.mnemonic}'{hint}", instr.loc, order)
             return None
         if proc is not None and proc.name not in opcode.procs:
             have = ", ".join(sorted(p.upper() for p in opcode.procs))

@@ -55,7 +55,9 @@ def target_names(program: Program) -> dict[int, str]:
 
 
 def listing(program: Program) -> str:
-    """Address, slots and source of every bundle; then the data words."""
+    """Address, slots and source of every bundle; then the data words. A bundle a macro or
+    `.rept` produced shows the body line it was written at, as substituted, under a row naming
+    the expansion (invocation line and text), as GNU as's `-alm` listing shows macro lines."""
     labels = target_names(program)
     rows = [f"; listing of a {program.processor.title} program: "
             f"{len(program.bundles)} bundles, {len(program.data)} data words"]
@@ -63,15 +65,19 @@ def listing(program: Program) -> str:
     for name, (section, addr) in sorted(program.labels.items()):
         if section == "text":
             by_addr.setdefault(addr, []).append(name)
+    expansion = ""
     for addr, bundle in enumerate(program.bundles):
         for name in by_addr.get(addr, []):
             rows.append(f"{name}:")
+        loc = program.source_map[addr] if addr < len(program.source_map) else None
+        if loc and loc.via and loc.via != expansion:  # the invocation, then its bundles (as -alm)
+            rows.append(f"{'':5s}  ; expands {loc.via}")
+        expansion = loc.via if loc else ""
         if program.processor.vliw:
             cells = [op.format(labels) if op else "-" for _, op in slot_assignment(program, bundle)]
             text = " | ".join(cells) if bundle else "(nop)"
         else:
             text = " ; ".join(op.format(labels) for op in bundle) or "nop"
-        loc = program.source_map[addr] if addr < len(program.source_map) else None
         where = f"{loc.file}:{loc.line}" if loc else ""
         rows.append(f"{addr:5d}  {text:<60s} ; {where}  {loc.text if loc else ''}".rstrip())
     if program.data:

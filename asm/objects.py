@@ -101,6 +101,9 @@ class SourceLoc:
     file: str
     line: int
     text: str = ""
+    via: str = ""
+    """The macro / .rept expansions the bundle came from (`file:line: invocation`, outermost
+    first, joined by ` > `); "" for a bundle written out."""
 
 
 @dataclass
@@ -154,7 +157,8 @@ class Program:
                          for op in bundle] for bundle in self.bundles],
             "data": [[k, v] for k, v in self.data],
             "labels": {name: [sec, addr] for name, (sec, addr) in sorted(self.labels.items())},
-            "source_map": [[s.file, s.line, s.text] for s in self.source_map],
+            "source_map": [[s.file, s.line, s.text, *([s.via] if s.via else [])]
+                           for s in self.source_map],
             "defines": dict(sorted(self.defines.items())),
         }
 
@@ -198,7 +202,8 @@ class Program:
                 bundles.append(tuple(ops))
             data = [(str(k), float(v) if k == "f" else int(v)) for k, v in obj.get("data", [])]
             labels = {str(n): (str(s), int(a)) for n, (s, a) in obj.get("labels", {}).items()}
-            smap = [SourceLoc(str(f), int(l), str(t)) for f, l, t in obj.get("source_map", [])]
+            smap = [SourceLoc(str(f), int(l), str(t), *[str(v) for v in via])
+                    for f, l, t, *via in obj.get("source_map", [])]
             defines = dict(obj.get("defines", {}))
         except NetsushisenError:
             raise

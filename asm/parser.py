@@ -24,10 +24,22 @@ from netsushisen.errors import Diagnostic
 
 
 @dataclass(frozen=True)
+class Expansion:
+    """Where a line inside a `.macro` or `.rept` body was expanded: the invocation (or `.rept`)
+    statement, itself possibly inside another expansion. Errors in the body name both places."""
+
+    kind: str  # "macro" or "rept"
+    name: str  # the macro's name ("" for .rept)
+    at: "Loc"  # the invoking statement
+    index: int = 0  # .rept: which repetition, from 1
+
+
+@dataclass(frozen=True)
 class Loc:
     file: str
     line: int
     col: int
+    via: Expansion | None = None
 
 
 @dataclass
@@ -80,6 +92,7 @@ class Chunk:
     file: str
     line: int  # first line, 1-based
     source_lines: list[str]
+    via: Expansion | None = None  # set on the lines of a macro or .rept expansion
 
     def source_line(self, line: int) -> str:
         i = line - self.line
@@ -175,7 +188,28 @@ CONDITIONAL_RE = re.compile(r"^\s*(?:[A-Za-z_]\w*\s*:\s*)*\.(if|ifdef|ifndef|eli
 @lru_cache(maxsize=1)
 def _lark() -> Lark:
     grammar = resources.files("netsushisen.asm").joinpath("grammar.lark").read_text()
-    return Lark(grammar, parser="lalr", propagate_positions=True, maybe_placeholders=False)
+    return Lark(grammar, parser="lalr", propagate_positions=True, maybe_placeholders=False,
+                start=["start", "macro_header"])
+
+
+def parse_macro_header(text: str) -> tuple[str, list[tuple[str, str | None, int]]] | tuple[str, int]:
+    """The rest of a `.macro` line: (name, [(param, default or None, column)]), or on a syntax
+    error (message, column) — columns 1-based within `text`."""
+    try:
+        tree = _lark().parse(text, start="macro_header")
+    except UnexpectedInput as err:
+        col = getattr(err, "column", 1) or 1
+        if isinstance(err, UnexpectedCharacters):
+            return f"unexpected character {text[col - 1:col]!r}", col
+        tok = getattr(err, "token", None)
+        if tok is None or tok.type == "$END":
+            return "the line ends too early", len(text.rstrip()) + 1
+        return f"unexpected {str(tok)!r}", col
+    params = []
+    for p in tree.children[1:]:
+        name, default = p.children[0], (p.children[1] if len(p.children) > 1 else None)
+        params.append((str(name), None if default is None else str(default).strip(), name.column))
+    return str(tree.children[0]), params
 
 
 _TOKEN_NAMES = {
@@ -200,7 +234,7 @@ class _ToAst(Transformer):
     def _loc(self, meta_or_token) -> Loc:
         line = getattr(meta_or_token, "line", 1) or 1
         col = getattr(meta_or_token, "column", 1) or 1
-        return Loc(self.chunk.file, self.chunk.line + line - 1, col)
+        return Loc(self.chunk.file, self.chunk.line + line - 1, col, self.chunk.via)
 
     # expressions: nested tuples
     def int(self, items):
@@ -299,7 +333,7 @@ def _expr_loc(expr) -> Loc | None:
 def parse_chunk(chunk: Chunk) -> Statement | Diagnostic:
     """Parse one logical statement; a syntax error comes back as a located Diagnostic."""
     try:
-        tree = _lark().parse(chunk.text)
+        tree = _lark().parse(chunk.text, start="start")
     except UnexpectedInput as err:
         line = chunk.line + (getattr(err, "line", 1) or 1) - 1
         col = getattr(err, "column", 1) or 1
@@ -326,4 +360,4 @@ def parse_chunk(chunk: Chunk) -> Statement | Diagnostic:
             msg = f"syntax error: {err}"
         return Diagnostic(msg, chunk.file, line, col, chunk.source_line(line))
     labels, item = _ToAst(chunk).transform(tree)
-    return Statement(labels, item, Loc(chunk.file, chunk.line, 1), chunk.source_lines)
+    return Statement(labels, item, Loc(chunk.file, chunk.line, 1, chunk.via), chunk.source_lines)

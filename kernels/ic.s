@@ -155,6 +155,61 @@
 .reg ch_pz  = r47
 .reg ch_l   = r48               # |u|
 
+# ---- macros: the code that reads a record comes in twins, one per memory ------------------------
+# A shape record is read from resident memory (`ldr`) or from ICGM through the cache (`ldg`) by
+# the paper's priority rule, so every block that reads one is written once, as a macro of the
+# label suffix m (r / g) and the load ld (ldr / ldg), and expanded once per memory the scene uses.
+# TWINS expands BLOCK for the global memory, then (jumping over it to `shared`) for resident
+# memory: `TWINS SPH_LOAD, sph_test` gives sph_g, then sph_r, falling into sph_test.
+.macro TWINS block, shared
+.if HAS_GLOBAL
+    \block g, ldg
+.if HAS_RESIDENT
+    j \shared
+.endif
+.endif
+.if HAS_RESIDENT
+    \block r, ldr
+.endif
+.endm
+
+# The kind dispatch: `kind` = `word` & KIND_MASK (polygon 0, sphere 1, cylinder 2, cone 3), then a
+# jump to poly_<to>, sph_<to>, cyl_<to> or cone_<to> (only the kinds the scene has).
+.macro KIND_JUMP kind, word, to
+.if N_KINDS > 1
+    { andi \kind, \word, KIND_MASK }
+.endif
+.if HAS_POLYGONS && N_KINDS > 1
+    beqz \kind, poly_\to
+.endif
+.if HAS_SPHERES && (HAS_CYLINDERS || HAS_CONES)
+    beq \kind, one, sph_\to
+.endif
+.if HAS_CYLINDERS && HAS_CONES
+    beq \kind, two, cyl_\to
+.endif
+.if HAS_CONES
+    j cone_\to
+.elif HAS_CYLINDERS
+    j cyl_\to
+.elif HAS_SPHERES
+    j sph_\to
+.else
+    j poly_\to
+.endif
+.endm
+
+# The first hit words of a cylinder or cone (B, a), `ld` from the winner's memory, with w = P - B
+# and its first two products with a on their way (axis_normal, ic_hit.inc, goes on from there).
+.macro AXIS_HIT_LOAD ld, base, axis
+    { \ld ch_bx, [wshp + \base] }
+    { \ld ch_by, [wshp + (\base + 1)] ; fsub ch_bx, hpx, ch_bx }
+    { \ld ch_bz, [wshp + (\base + 2)] ; fsub ch_by, hpy, ch_by }
+    { \ld ch_ax, [wshp + \axis]     ; fsub ch_bz, hpz, ch_bz }
+    { \ld ch_ay, [wshp + (\axis + 1)] ; fmul ch_px, ch_bx, ch_ax }
+    { \ld ch_az, [wshp + (\axis + 2)] ; fmul ch_py, ch_by, ch_ay }
+.endm
+
 .data
 slot_table: .space SLOTS * SLOT_WORDS   # slot s at slot_table + (s << SLOT_SHIFT)
 .if HAS_PATCHES
@@ -201,27 +256,37 @@ main:
     beq m_hdr, hvf, visit_first
     { beq slot, cur, visit ; fsel lim, shadow, pinf, m_texit ; fsel best, shadow, tmax, pinf }
 
+# A ray's geometry and kind between its registers and its slot-table entry (m_sb = slot <<
+# SLOT_SHIFT): `op` is ld (reload) or st (write_back), one word a bundle.
+.macro SLOT_RAY op
+    { \op ox, [m_sb + (slot_table + RAY_OX)] }
+    { \op oy, [m_sb + (slot_table + RAY_OY)] }
+    { \op oz, [m_sb + (slot_table + RAY_OZ)] }
+    { \op dx, [m_sb + (slot_table + RAY_DX)] }
+    { \op dy, [m_sb + (slot_table + RAY_DY)] }
+    { \op dz, [m_sb + (slot_table + RAY_DZ)] }
+    { \op tmin, [m_sb + (slot_table + RAY_TMIN)] }
+    { \op tmax, [m_sb + (slot_table + RAY_TMAX)] }
+    { \op shadow, [m_sb + (slot_table + SLOT_SHADOW)] }
+.endm
+# ... and the rest of its polygon setup: the axis flags after fx1.
+.macro SLOT_AXES op
+    { \op fx2, [m_sb + (slot_table + SLOT_FX2)] }
+    { \op fy1, [m_sb + (slot_table + SLOT_FY1)] }
+    { \op fy2, [m_sb + (slot_table + SLOT_FY2)] }
+    { \op fz1, [m_sb + (slot_table + SLOT_FZ1)] }
+    { \op fz2, [m_sb + (slot_table + SLOT_FZ2)] }
+.endm
+
 # VISIT of a ray that is not in the registers: load it from the slot table.
 reload:
     { slli m_sb, slot, SLOT_SHIFT }
-    { ld ox, [m_sb + (slot_table + RAY_OX)] }
-    { ld oy, [m_sb + (slot_table + RAY_OY)] }
-    { ld oz, [m_sb + (slot_table + RAY_OZ)] }
-    { ld dx, [m_sb + (slot_table + RAY_DX)] }
-    { ld dy, [m_sb + (slot_table + RAY_DY)] }
-    { ld dz, [m_sb + (slot_table + RAY_DZ)] }
-    { ld tmin, [m_sb + (slot_table + RAY_TMIN)] }
-    { ld tmax, [m_sb + (slot_table + RAY_TMAX)] }
-    { ld shadow, [m_sb + (slot_table + SLOT_SHADOW)] }
+    SLOT_RAY ld
 .if HAS_POLYGONS
     { ld sx, [m_sb + (slot_table + SLOT_SX)] }
     { ld sy, [m_sb + (slot_table + SLOT_SY)] ; fsel best, shadow, tmax, pinf }
     { ld fx1, [m_sb + (slot_table + SLOT_FX1)] ; fsel lim, shadow, pinf, m_texit }
-    { ld fx2, [m_sb + (slot_table + SLOT_FX2)] }
-    { ld fy1, [m_sb + (slot_table + SLOT_FY1)] }
-    { ld fy2, [m_sb + (slot_table + SLOT_FY2)] }
-    { ld fz1, [m_sb + (slot_table + SLOT_FZ1)] }
-    { ld fz2, [m_sb + (slot_table + SLOT_FZ2)] }
+    SLOT_AXES ld
 .else
     { fsel best, shadow, tmax, pinf ; fsel lim, shadow, pinf, m_texit }
 .endif
@@ -286,57 +351,17 @@ cell_loop:
     { bgeu m_t, mlim, rec_g }
 .endif
 
-# Kind dispatch: polygon 0, sphere 1, cylinder 2, cone 3; only the kinds the scene has.
+# Kind dispatch (KIND_JUMP): only the kinds the scene has.
+.macro REC_LOAD m, ld
+rec_\m:
+    { \ld kw, [shp + REC_KIND] }
+    KIND_JUMP m_t, kw, \m
+.endm
 .if HAS_RESIDENT
-rec_r:
-    { ldr kw, [shp + REC_KIND] }
-.if N_KINDS > 1
-    { andi m_t, kw, KIND_MASK }
+    REC_LOAD r, ldr
 .endif
-.if HAS_POLYGONS && N_KINDS > 1
-    beqz m_t, poly_r
-.endif
-.if HAS_SPHERES && (HAS_CYLINDERS || HAS_CONES)
-    beq m_t, one, sph_r
-.endif
-.if HAS_CYLINDERS && HAS_CONES
-    beq m_t, two, cyl_r
-.endif
-.if HAS_CONES
-    j cone_r
-.elif HAS_CYLINDERS
-    j cyl_r
-.elif HAS_SPHERES
-    j sph_r
-.else
-    j poly_r
-.endif
-.endif
-
 .if HAS_GLOBAL
-rec_g:
-    { ldg kw, [shp + REC_KIND] }
-.if N_KINDS > 1
-    { andi m_t, kw, KIND_MASK }
-.endif
-.if HAS_POLYGONS && N_KINDS > 1
-    beqz m_t, poly_g
-.endif
-.if HAS_SPHERES && (HAS_CYLINDERS || HAS_CONES)
-    beq m_t, one, sph_g
-.endif
-.if HAS_CYLINDERS && HAS_CONES
-    beq m_t, two, cyl_g
-.endif
-.if HAS_CONES
-    j cone_g
-.elif HAS_CYLINDERS
-    j cyl_g
-.elif HAS_SPHERES
-    j sph_g
-.else
-    j poly_g
-.endif
+    REC_LOAD g, ldg
 .endif
 
 # A test's result beat `best` (the check ends every test): a shadow ray is occluded; a surface
@@ -363,24 +388,12 @@ send_next:
 # The ray goes on: write its geometry and setup to the slot table while OS steps to the next leaf.
 write_back:
     { slli m_sb, slot, SLOT_SHIFT }
-    { st ox, [m_sb + (slot_table + RAY_OX)] }
-    { st oy, [m_sb + (slot_table + RAY_OY)] }
-    { st oz, [m_sb + (slot_table + RAY_OZ)] }
-    { st dx, [m_sb + (slot_table + RAY_DX)] }
-    { st dy, [m_sb + (slot_table + RAY_DY)] }
-    { st dz, [m_sb + (slot_table + RAY_DZ)] }
-    { st tmin, [m_sb + (slot_table + RAY_TMIN)] }
-    { st tmax, [m_sb + (slot_table + RAY_TMAX)] }
-    { st shadow, [m_sb + (slot_table + SLOT_SHADOW)] }
+    SLOT_RAY st
 .if HAS_POLYGONS
     { st sx, [m_sb + (slot_table + SLOT_SX)] }
     { st sy, [m_sb + (slot_table + SLOT_SY)] }
     { st fx1, [m_sb + (slot_table + SLOT_FX1)] }
-    { st fx2, [m_sb + (slot_table + SLOT_FX2)] }
-    { st fy1, [m_sb + (slot_table + SLOT_FY1)] }
-    { st fy2, [m_sb + (slot_table + SLOT_FY2)] }
-    { st fz1, [m_sb + (slot_table + SLOT_FZ1)] }
-    { st fz2, [m_sb + (slot_table + SLOT_FZ2)] }
+    SLOT_AXES st
 .endif
     { fmov dirty, r0 ; j main }
 

@@ -260,6 +260,17 @@ init_free:                              # free_stack[i] = i
 # With every slot busy (and no NEXT put aside) only the ring can help, so sleep in `recv` on the
 # ring (a waiting host ray must not keep OS spinning).
 
+# A ring message's header and first payload word (into `word`), then the jump for NEXT and DONE:
+# `n` = tag - TAG_NEXT, `d` = tag - TAG_DONE (the other tags fall through, `tag` still the tag
+# unless `d` is the same register). `main` and the drain both take messages this way.
+.macro RING_MSG tag, word, n, d, next, done
+    recv \tag, ring                                 # header
+    { srli \tag, \tag, HDR_TAG_SHIFT ; recv \word, ring }  # tag; first payload word
+    { addi \n, \tag, -TAG_NEXT ; addi \d, \tag, -TAG_DONE }
+    beqz \n, \next
+    beqz \d, \done
+.endm
+
 main:
     { poll t0, ring ; ld t1, [NDEFER] }
     { bnez t0, ring_msg ; sltu t2, r0, nfree }     # t2 = a slot is free
@@ -278,11 +289,7 @@ main:
 defer_or_ring:
     bnez t1, from_defer
 ring_msg:
-    recv t0, ring                                   # header
-    { srli t0, t0, HDR_TAG_SHIFT ; recv t3, ring }  # tag; first payload word
-    { addi t1, t0, -TAG_NEXT ; addi t2, t0, -TAG_DONE }
-    beqz t1, on_next
-    beqz t2, on_done
+    RING_MSG t0, t3, t1, t2, on_next, on_done
 .if SERIAL_TREES
     addi t1, t0, -TAG_SHADED
     beqz t1, on_shaded
@@ -316,6 +323,38 @@ on_shaded:
     j main
 .endif
 
+# The middle of a RAY message, words 4..11 (o.z, d, t_min, t_max, w.r, w.g), from `port` into the
+# ray registers, one a bundle (a new ray from SC on the ring or from the host).
+.macro RECV_RAY port
+    recv roz, \port
+    recv rdx, \port
+    recv rdy, \port
+    recv rdz, \port
+    recv rtmin, \port
+    recv rtmax, \port
+    recv rwr, \port
+    recv rwg, \port
+.endm
+
+# A RAY message from SC into the overflow queue (on_ray finds no free slot; the drain takes one
+# off the ring): its pixel word, received already, is in `pix`; the other 12 words come straight
+# from the ring, `a` and `b` taking turns so a word is stored while the next arrives. Then the
+# tail wraps and OS goes on at `next`. A full queue stops the run (queue_overflow).
+.macro ENQUEUE pix, a, b, next
+    li \a, QUEUE_CAP
+    beq qcount, \a, queue_overflow
+    { st \pix, [qtail + RAY_PIXEL] ; recv \a, ring }
+.rept 5                                             # words 1..10
+    { st \a, [qtail + (2 * \+ + 1)] ; recv \b, ring }
+    { st \b, [qtail + (2 * \+ + 2)] ; recv \a, ring }
+.endr
+    { st \a, [qtail + 11] ; recv \b, ring }
+    { st \b, [qtail + 12] ; addi qtail, qtail, QUEUE_ENTRY }
+    { li \a, QUEUE_END ; addi qcount, qcount, 1 }
+    bne qtail, \a, \next
+    { li qtail, QUEUE_BASE ; j \next }
+.endm
+
 .if SECONDARY
 # RAY from SC (t3 = its pixel word): start it in a free slot, or queue it
 on_ray:
@@ -327,35 +366,11 @@ on_ray:
     { ld slot, [nfree + free_stack] ; recv rinfo, ring }
     { slli sp, slot, SLOT_SHIFT ; recv rox, ring }
     { addi sp, sp, SLOT_TABLE ; recv roy, ring }
-    recv roz, ring
-    recv rdx, ring
-    recv rdy, ring
-    recv rdz, ring
-    recv rtmin, ring
-    recv rtmax, ring
-    recv rwr, ring
-    recv rwg, ring
+    RECV_RAY ring
     { recv rwb, ring ; lf one, 1.0 ; j setup }
 
 enqueue:
-    li t0, QUEUE_CAP
-    beq qcount, t0, queue_overflow
-    { st t3, [qtail + RAY_PIXEL] ; recv t0, ring }
-    { st t0, [qtail + 1] ; recv t1, ring }
-    { st t1, [qtail + 2] ; recv t0, ring }
-    { st t0, [qtail + 3] ; recv t1, ring }
-    { st t1, [qtail + 4] ; recv t0, ring }
-    { st t0, [qtail + 5] ; recv t1, ring }
-    { st t1, [qtail + 6] ; recv t0, ring }
-    { st t0, [qtail + 7] ; recv t1, ring }
-    { st t1, [qtail + 8] ; recv t0, ring }
-    { st t0, [qtail + 9] ; recv t1, ring }
-    { st t1, [qtail + 10] ; recv t0, ring }
-    { st t0, [qtail + 11] ; recv t1, ring }
-    { st t1, [qtail + 12] ; addi qtail, qtail, QUEUE_ENTRY }
-    { li t0, QUEUE_END ; addi qcount, qcount, 1 }
-    bne qtail, t0, main
-    { li qtail, QUEUE_BASE ; j main }
+    ENQUEUE t3, t0, t1, main
 
 queue_overflow:                 # more rays wait than OS memory holds: stop the run with a
     ld t0, [r0 - 1]             # memory fault whose report names this label
@@ -386,14 +401,7 @@ from_host:
     { slli sp, slot, SLOT_SHIFT ; recv rinfo, host }
     { addi sp, sp, SLOT_TABLE ; recv rox, host }
     recv roy, host
-    recv roz, host
-    recv rdx, host
-    recv rdy, host
-    recv rdz, host
-    recv rtmin, host
-    recv rtmax, host
-    recv rwr, host
-    recv rwg, host
+    RECV_RAY host
     { recv rwb, host ; lf one, 1.0 }
 
 # ---------------------------------------------------------------------------------------------
@@ -640,18 +648,24 @@ level_out:
 .endif
     j ray_end
 
-.if HAS_SUBGRIDS
-# Back to the top level, which was stepped past the divided voxel when the ray entered its
-# sub-grid; its t_enter is the divided voxel's T_exit (lexit).
-leave_sub:
-    { ld kbx, [sp + S_TOP_KB] ; ld kby, [sp + (S_TOP_KB + 1)] }
-    { ld kbz, [sp + (S_TOP_KB + 2)] ; ld addr, [sp + S_TOP_ADDR] }
+# The top level's traversal state into the level registers: its lo corner and cell size (the
+# voxel data's header) and the ray's res + up and voxel-address steps there (its slot).
+.macro TOP_LEVEL
     { ld llox, [VOXEL_BASE + VD_LO] ; ld lloy, [VOXEL_BASE + (VD_LO + 1)] }
     { ld lloz, [VOXEL_BASE + (VD_LO + 2)] ; ld lcx, [VOXEL_BASE + VD_CELL] }
     { ld lcy, [VOXEL_BASE + (VD_CELL + 1)] ; ld lcz, [VOXEL_BASE + (VD_CELL + 2)] }
     { ld lRx, [sp + S_TOP_R] ; ld lRy, [sp + (S_TOP_R + 1)] }
     { ld lRz, [sp + (S_TOP_R + 2)] ; ld dsx, [sp + S_TOP_DS] }
     { ld dsy, [sp + (S_TOP_DS + 1)] ; ld dsz, [sp + (S_TOP_DS + 2)] }
+.endm
+
+.if HAS_SUBGRIDS
+# Back to the top level, which was stepped past the divided voxel when the ray entered its
+# sub-grid; its t_enter is the divided voxel's T_exit (lexit).
+leave_sub:
+    { ld kbx, [sp + S_TOP_KB] ; ld kby, [sp + (S_TOP_KB + 1)] }
+    { ld kbz, [sp + (S_TOP_KB + 2)] ; ld addr, [sp + S_TOP_ADDR] }
+    TOP_LEVEL
     { fmov tprev, lexit ; li insub, 0 ; st r0, [sp + S_INSUB] }
     { fmov lexit, finf ; fmov lim, stmax ; j step_entry }
 .endif
@@ -693,18 +707,10 @@ first_send:
     { send ring, vw ; st addr, [sp + S_ADDR] }
     { send ring, m1 ; st tcur, [sp + S_TCUR] }
     { ld t1, [sp + 0] ; st r0, [sp + S_FIRST] }
-    { ld t2, [sp + 1] ; send ring, t1 }
-    { ld t1, [sp + 2] ; send ring, t2 }
-    { ld t2, [sp + 3] ; send ring, t1 }
-    { ld t1, [sp + 4] ; send ring, t2 }
-    { ld t2, [sp + 5] ; send ring, t1 }
-    { ld t1, [sp + 6] ; send ring, t2 }
-    { ld t2, [sp + 7] ; send ring, t1 }
-    { ld t1, [sp + 8] ; send ring, t2 }
-    { ld t2, [sp + 9] ; send ring, t1 }
-    { ld t1, [sp + 10] ; send ring, t2 }
-    { ld t2, [sp + 11] ; send ring, t1 }
-    { ld t1, [sp + 12] ; send ring, t2 }
+.rept 6                                             # the ray record, words 1..12: t1 and t2
+    { ld t2, [sp + (2 * \+ + 1)] ; send ring, t1 }   #   take turns, one loaded while the
+    { ld t1, [sp + (2 * \+ + 2)] ; send ring, t2 }   #   other is sent
+.endr
     { send ring, t1 ; j main }
 first_full:
     { li dneed, 1 + LEN_VISIT_FIRST ; li dret, first_send }
@@ -796,12 +802,7 @@ on_next:
 .if HAS_SUBGRIDS
     bnez insub, next_sub
 .endif
-    { ld llox, [VOXEL_BASE + VD_LO] ; ld lloy, [VOXEL_BASE + (VD_LO + 1)] }
-    { ld lloz, [VOXEL_BASE + (VD_LO + 2)] ; ld lcx, [VOXEL_BASE + VD_CELL] }
-    { ld lcy, [VOXEL_BASE + (VD_CELL + 1)] ; ld lcz, [VOXEL_BASE + (VD_CELL + 2)] }
-    { ld lRx, [sp + S_TOP_R] ; ld lRy, [sp + (S_TOP_R + 1)] }
-    { ld lRz, [sp + (S_TOP_R + 2)] ; ld dsx, [sp + S_TOP_DS] }
-    { ld dsy, [sp + (S_TOP_DS + 1)] ; ld dsz, [sp + (S_TOP_DS + 2)] }
+    TOP_LEVEL
     { fmov lexit, finf ; fmov lim, stmax ; j step }
 .if HAS_SUBGRIDS
 next_sub:
@@ -852,11 +853,7 @@ ray_end_full:
 drain:
     poll d0, ring
     beqz d0, drain_room
-    recv d0, ring                                   # header
-    { srli d0, d0, HDR_TAG_SHIFT ; recv d1, ring }  # tag; first payload word
-    { addi d2, d0, -TAG_NEXT ; addi d0, d0, -TAG_DONE }
-    beqz d2, drain_next
-    beqz d0, drain_done
+    RING_MSG d0, d1, d2, d0, drain_next, drain_done
 .if SERIAL_TREES
     addi d2, d0, TAG_DONE - TAG_SHADED
     beqz d2, drain_shaded
@@ -867,24 +864,7 @@ drain:
 .if SERIAL_TREES
     addi alive, alive, 1
 .endif
-    li d0, QUEUE_CAP
-    beq qcount, d0, queue_overflow
-    { st d1, [qtail + RAY_PIXEL] ; recv d0, ring }
-    { st d0, [qtail + 1] ; recv d1, ring }
-    { st d1, [qtail + 2] ; recv d0, ring }
-    { st d0, [qtail + 3] ; recv d1, ring }
-    { st d1, [qtail + 4] ; recv d0, ring }
-    { st d0, [qtail + 5] ; recv d1, ring }
-    { st d1, [qtail + 6] ; recv d0, ring }
-    { st d0, [qtail + 7] ; recv d1, ring }
-    { st d1, [qtail + 8] ; recv d0, ring }
-    { st d0, [qtail + 9] ; recv d1, ring }
-    { st d1, [qtail + 10] ; recv d0, ring }
-    { st d0, [qtail + 11] ; recv d1, ring }
-    { st d1, [qtail + 12] ; addi qtail, qtail, QUEUE_ENTRY }
-    { li d0, QUEUE_END ; addi qcount, qcount, 1 }
-    bne qtail, d0, drain_room
-    { li qtail, QUEUE_BASE ; j drain_room }
+    ENQUEUE d1, d0, d1, drain_room
 .else
     j drain_room                                    # (nothing else reaches OS here)
 .endif

@@ -21,6 +21,7 @@ from netsushisen.errors import NetsushisenError
 # name -> (module that implements it, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
     "asm": ("netsushisen.commands.asm", "assemble a stage kernel (OS, IC or SC)"),
+    "kernels": ("netsushisen.commands.kernels", "export the bundled stage kernels to edit, list them"),
     "disasm": ("netsushisen.commands.disasm", "disassemble an object file back to source"),
     "isa": ("netsushisen.commands.isa", "print the ISA reference generated from the opcode table"),
     "config": ("netsushisen.commands.config", "show or check the machine configuration"),

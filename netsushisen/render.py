@@ -184,14 +184,27 @@ class HostMemo:
         return self.items[key]
 
 
-def prepare(scene: Scene | str, config: MachineConfig, res: int = 32, corners: bool = False,
-            generic: bool = False, slots: int = DEFAULT_SLOTS, kernel_dir: str | Path | None = None,
-            kernels: dict[str, str | Path] | None = None,
-            defines: dict[str, int | float] | None = None,
-            memo: HostMemo | None = None) -> RenderSetup:
-    """Host work before a run: grid, pre-pass, images, kernels, eye rays. `defines` adds (or
-    overrides) kernel symbols, e.g. {"SERIAL_TREES": 1} for the serial mode. `memo` keeps the
-    scene, grid and kernels for later calls (only for a scene given by name)."""
+@dataclass
+class KernelInputs:
+    """What a scene's kernels are assembled for: the scene, the pre-pass that ranked its
+    records, the databases laid out in the machine's memories, and the `-D` symbols that follow
+    from them (`kernel_defines`)."""
+
+    scene: Scene
+    prepass: PrepassResult
+    images: MachineImages
+    defines: dict[str, int | float]
+
+
+def kernel_inputs(scene: Scene | str, config: MachineConfig, res: int = 32,
+                  corners: bool = False, generic: bool = False, slots: int = DEFAULT_SLOTS,
+                  defines: dict[str, int | float] | None = None,
+                  memo: HostMemo | None = None) -> KernelInputs:
+    """The host work the kernels' symbols depend on — grid, pre-pass (at `res`: it picks the
+    resident records), databases — and the symbols. The one place they are computed: `render`
+    (through `prepare`) and `asm --scene` / `kernels export --scene` call it, so an assembled
+    kernel is the one the render runs. `defines` adds or overrides symbols; `memo` keeps the
+    scene and grid for later calls (only for a scene given by name)."""
     name = scene if isinstance(scene, str) else None
 
     def cached(key: tuple, build):
@@ -205,9 +218,24 @@ def prepare(scene: Scene | str, config: MachineConfig, res: int = 32, corners: b
                   lambda: build_grid(scene, config))
     prepass = run_prepass(scene, config, res=res, corners=corners, grid=grid)
     images = build_images(scene, config, priorities=prepass.priorities, grid=grid)
-    defines = kernel_defines(images, generic, slots, defines)
-    programs = cached(("kernels", str(kernel_dir), repr(kernels), tuple(sorted(defines.items()))),
-                      lambda: assemble_kernels(defines, kernel_dir, kernels))
+    return KernelInputs(scene, prepass, images, kernel_defines(images, generic, slots, defines))
+
+
+def prepare(scene: Scene | str, config: MachineConfig, res: int = 32, corners: bool = False,
+            generic: bool = False, slots: int = DEFAULT_SLOTS, kernel_dir: str | Path | None = None,
+            kernels: dict[str, str | Path] | None = None,
+            defines: dict[str, int | float] | None = None,
+            memo: HostMemo | None = None) -> RenderSetup:
+    """Host work before a run: grid, pre-pass, images, kernels, eye rays. `defines` adds (or
+    overrides) kernel symbols, e.g. {"SERIAL_TREES": 1} for the serial mode. `memo` keeps the
+    scene, grid and kernels for later calls (only for a scene given by name)."""
+    name = scene if isinstance(scene, str) else None
+    inputs = kernel_inputs(scene, config, res, corners, generic, slots, defines, memo)
+    scene, prepass, images, defines = inputs.scene, inputs.prepass, inputs.images, inputs.defines
+    key = ("kernels", str(kernel_dir), repr(kernels), tuple(sorted(defines.items())))
+    programs = (memo.get((name, *key), lambda: assemble_kernels(defines, kernel_dir, kernels))
+                if memo is not None and name is not None
+                else assemble_kernels(defines, kernel_dir, kernels))
     images.check_programs(programs)
     wf = word_format(config.precision)
     return RenderSetup(scene, config, res, corners, generic, images, prepass, programs, defines,

@@ -39,6 +39,30 @@ CASES = [
     ("no_proc", "  halt\n", 1, 3, "which processor?"),
     ("immediate_range", ".proc os\n  li r1, 0x1ffffffff\n", 2, 10, "does not fit in 32 bits"),
     ("branch_to_data", ".proc os\n.data\nd: .word 1\n.text\n  j d\n", 5, 5, "is a data label"),
+    # .macro / .rept (more in test_macro_errors_name_the_body_line_and_the_invocation)
+    ("unterminated_macro", ".proc os\n.macro M a\n  halt\n", 2, 1, "unterminated .macro 'M'"),
+    ("unterminated_rept", ".proc os\n  halt\n  .rept 2\n  nop\n", 3, 3, "unterminated .rept"),
+    ("endm_without_macro", ".proc os\n  halt\n.endm\n", 3, 1, ".endm without a matching .macro"),
+    ("endr_without_rept", ".proc os\n  halt\n  .endr\n", 3, 3, ".endr without a matching .rept"),
+    ("unknown_macro", ".proc os\n.macro SAVE a\n  st \\a, [r0]\n.endm\n  SAVEE r1\n", 5, 3,
+     "unknown mnemonic or macro 'SAVEE' (did you mean macro 'SAVE'?)"),
+    ("macro_too_many_args", ".proc os\n.macro M a\n  halt\n.endm\n  M r1, r2\n", 5, 5,
+     "macro 'M' takes 1 argument (a), got 2"),
+    ("macro_missing_arg", ".proc os\n.macro M a, b=1\n  halt\n.endm\n  M b=2\n", 5, 5,
+     "macro 'M' needs argument 'a' (a, b=1)"),
+    ("macro_used_before_definition", ".proc os\n  M\n.macro M\n  halt\n.endm\n", 2, 3,
+     "macro 'M' is used before its definition"),
+    ("macro_named_like_opcode", ".proc os\n.macro add a\n.endm\n  halt\n", 2, 1,
+     "'add' is an instruction; a macro cannot take its name"),
+    ("macro_defined_twice", ".proc os\n.macro M\n.endm\n.macro M\n.endm\n  halt\n", 4, 1,
+     "macro 'M' is already defined (at"),
+    ("rept_bad_count", ".proc os\n.rept 1 - 2\n  nop\n.endr\n  halt\n", 2, 7,
+     ".rept needs a count from 0 to"),
+    ("macro_bad_header", ".proc os\n.macro 5M a\n.endm\n  halt\n", 2, 8, "bad .macro line"),
+    ("macro_param_twice", ".proc os\n.macro N a, a\n.endm\n  halt\n", 2, 13,
+     "macro 'N' names parameter 'a' twice"),
+    ("stray_backslash", ".proc os\n  addi r1, r1, \\+\n", 2, 16,
+     "'\\+' means something only inside a .rept body"),
 ]
 
 
@@ -138,3 +162,51 @@ def test_bad_define_and_proc_conflict(tmp_path, cli):
     assert code == 1 and ".proc ic contradicts --proc says os" in err
     code, _, err = cli("asm", path, "-D", "X=1+", "--stats")
     assert code == 1 and "-D" in err and "Traceback" not in err
+
+
+def test_macro_errors_name_the_body_line_and_the_invocation(tmp_path, cli):
+    """An error inside a macro body is reported at the body line (as substituted) with a note
+    per enclosing expansion, innermost first — as GNU as and compilers do — each located."""
+    path = tmp_path / "m.s"
+    path.write_text(".proc ic\n"
+                    ".macro INNER op\n"
+                    "    \\op r1, r2\n"               # 3: fadd with 2 operands
+                    ".endm\n"
+                    ".macro OUTER\n"
+                    "  .rept 2\n"                      # 6
+                    "    INNER fadd\n"                 # 7
+                    "  .endr\n"
+                    ".endm\n"
+                    "    OUTER\n"                      # 10
+                    "    halt\n")
+    code, _, err = cli("asm", path)
+    assert code == 1 and "Traceback" not in err
+    lines = err.splitlines()
+    heads = [l for l in lines if l.startswith(str(path))]
+    first = [f"{path}:3:5: error: 'fadd' takes 3 operands (fadd rd, rs, rs), got 2",
+             f"{path}:7:5: note: in expansion of macro 'INNER'",
+             f"{path}:6:3: note: in repetition 1 of 2 (.rept)",
+             f"{path}:10:5: note: in expansion of macro 'OUTER'"]
+    assert heads[:4] == first, err
+    assert heads[4].endswith("error: 'fadd' takes 3 operands (fadd rd, rs, rs), got 2")
+    assert heads[6] == f"{path}:6:3: note: in repetition 2 of 2 (.rept)"
+    # each shows its line, substituted, with a caret under the column
+    i = lines.index(first[0])
+    assert lines[i + 1].strip() == "fadd r1, r2" and lines[i + 2].index("^") - 4 == 4
+    i = lines.index(first[1])
+    assert lines[i + 1].strip() == "INNER fadd" and lines[i + 2].index("^") - 4 == 4
+
+
+def test_macro_recursion_and_unknown_parameter(tmp_path, cli):
+    path = tmp_path / "r.s"
+    path.write_text(".proc os\n.macro LOOP n\n    LOOP \\n\n.endm\n    LOOP 1\n"
+                    ".macro BAD a\n    addi \\a, \\b, 1\n.endm\n    BAD r1\n    halt\n")
+    code, _, err = cli("asm", path)
+    assert code == 1 and "Traceback" not in err
+    assert f"{path}:3:5: error: macro / .rept expansions nested deeper than 64" in err
+    # the runaway chain is cut short but still names the first invocation
+    assert "note: ... (more expansions)" in err and f"{path}:5:5: note: in expansion of macro 'LOOP'" in err
+    assert err.count("note: in expansion of macro 'LOOP'") == 4
+    assert (f"{path}:7:14: error: '\\b' is not a parameter of macro 'BAD' (its parameters: a)"
+            in err)
+    assert f"{path}:9:5: note: in expansion of macro 'BAD'" in err

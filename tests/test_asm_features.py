@@ -10,6 +10,7 @@ import pytest
 from netsushisen.asm.assembler import AssemblyError, assemble_file, assemble_text
 from netsushisen.asm.listing import listing, static_ilp
 from netsushisen.asm.objects import Op, Program
+from netsushisen.kernels import KERNELS as KERNELS_DIR
 
 
 def test_bundles_labels_aliases_constants():
@@ -156,3 +157,113 @@ def test_listing_and_stats(tmp_path, cli):
     assert not (tmp_path / "k.o").exists()
     code, out, _ = cli("asm", src, "--listing", "-", "-o", tmp_path / "k.o")
     assert code == 0 and "fmul r4, r2, r3" in out and (tmp_path / "k.o").exists()
+
+
+# ---- .macro / .rept (GNU as is the model) ---------------------------------------------------
+
+def test_macro_parameters_defaults_keywords_and_joins():
+    p = assemble_text("""
+.proc ic
+.macro LOAD3 ld, base, dst, off=0
+\\dst\\()_\\ld:
+    { \\ld r1, [\\base + \\off] }
+    { \\ld r2, [\\base + (\\off + 1)] ; fadd r3, r4, r5 }
+.endm
+    LOAD3 ldg, r7, x, off=4
+    LOAD3 ldr, r8, y
+    LOAD3 base=r9, ld=ldg, dst=z
+    halt
+""")
+    assert p.bundles[0] == (Op("ldg", (1, (7, 4))),)
+    assert p.bundles[1] == (Op("ldg", (2, (7, 5))), Op("fadd", (3, 4, 5)))
+    assert p.bundles[2] == (Op("ldr", (1, (8, 0))),)
+    assert p.bundles[4] == (Op("ldg", (1, (9, 0))),)
+    assert {k: v for k, v in p.labels.items() if "_" in k} == {
+        "x_ldg": ("text", 0), "y_ldr": ("text", 2), "z_ldg": ("text", 4)}
+
+
+def test_macro_body_conditionals_nesting_and_counter():
+    """.if inside a body is evaluated per expansion; a macro invokes another; \\@ counts
+    expansions (unique labels); a bundle's commas stay inside its argument."""
+    p = assemble_text("""
+.proc os
+.macro MAYBE n, what
+.if \\n > 1
+    \\what
+.else
+    nop
+.endif
+.endm
+.macro TWICE what
+again\\@:
+    MAYBE 2, \\what
+    MAYBE 0, \\what
+.endm
+    TWICE halt
+    TWICE { ld r1, [r2 + 3] }
+""")
+    assert [b[0].mnemonic for b in p.bundles] == ["halt", "nop", "ld", "nop"]
+    assert p.bundles[2] == (Op("ld", (1, (2, 3))),)
+    assert p.labels["again0"] == ("text", 0) and p.labels["again3"] == ("text", 2)
+
+
+def test_rept_with_iteration_counter_and_nesting():
+    p = assemble_text("""
+.proc os
+.rept 3
+    { st r1, [r2 + 2 * \\+] ; addi r3, r3, \\+ }
+.endr
+.rept 2
+.rept 2
+    addi r4, r4, \\+
+.endr
+    nop
+.endr
+.rept 0
+    this is never assembled
+.endr
+    halt
+""")
+    assert [b for b in p.bundles[:3]] == [
+        (Op("st", (1, (2, 2 * i))), Op("addi", (3, 3, i))) for i in range(3)]
+    assert [b[0].args[2] if b[0].mnemonic == "addi" else b[0].mnemonic
+            for b in p.bundles[3:9]] == [0, 1, "nop", 0, 1, "nop"]
+    assert len(p.bundles) == 10
+
+
+def test_listing_shows_macro_expansions(tmp_path):
+    src = tmp_path / "m.s"
+    src.write_text(".proc sc\n.macro TWO a\n    addi \\a, \\a, 1\n    addi \\a, \\a, 2\n.endm\n"
+                   "start:\n    TWO r5\n.rept 2\n    nop\n.endr\n    halt\n")
+    p = assemble_file(src)
+    text = listing(p)
+    lines = text.splitlines()
+    at = next(i for i, l in enumerate(lines) if "; expands" in l)
+    assert lines[at].endswith("m.s:7: TWO r5")
+    assert "m.s:3  addi r5, r5, 1" in lines[at + 1] and "m.s:4  addi r5, r5, 2" in lines[at + 2]
+    assert sum("expands" in l and ".rept 2  [" in l for l in lines) == 2  # one per repetition
+    # the expansion is kept in the object file; a plain bundle has none
+    q = Program.from_json(json.loads(json.dumps(p.to_json())))
+    assert q.source_map[0].via.endswith("m.s:7: TWO r5") and q.source_map[-1].via == ""
+    assert listing(q) == text
+
+
+def test_kernels_write_their_twins_once():
+    """The bundled kernels write a record-reading block once, as a macro of the load (`\\ld`),
+    and expand it per memory: no resident-memory load is written out in the IC sources, yet the
+    generic IC program has its resident twins (the same count of ldr and ldg in them)."""
+    import re
+
+    from netsushisen.render import assemble_kernels
+
+    sources = "".join(p.read_text() for p in KERNELS_DIR.glob("ic*"))
+    assert not re.search(r"\bldr\s+\w+,", sources)
+    os_src = (KERNELS_DIR / "os.s").read_text()
+    assert os_src.count("    ENQUEUE ") == 2 and ".rept 5" in os_src
+    from netsushisen.isa.config import MachineConfig
+    from netsushisen.render import kernel_inputs
+
+    ic = assemble_kernels(kernel_inputs("tetra:1", MachineConfig(), 4, generic=True).defines)["ic"]
+    loads = [op.mnemonic for bundle in ic.bundles for op in bundle if op.mnemonic in ("ldr", "ldg")]
+    # every twin in both memories; ldg twice more: the primitive list (never resident)
+    assert loads.count("ldr") > 40 and loads.count("ldg") == loads.count("ldr") + 2

@@ -1,9 +1,15 @@
 """Assemble a stage kernel: `netsushisen asm SOURCE.s --proc os|ic|sc [-D NAME[=VALUE]]... [-I DIR]...
-[-o OUT] [--listing PATH|-] [--stats]`.
+[-o OUT] [--listing PATH|-] [--stats]`, or the kernels `render` runs for a scene:
+`netsushisen asm --scene SCENE [--generic] [--proc os|ic|sc] [--stats] [--listing -] [--show-defines]`.
 
-Writes the object file (default: SOURCE's stem + .o in the current directory; with --stats or
---listing and no -o, nothing is written). Any error in the source: every error is printed as
-`file:line:col: error: message` with the line and a caret, and the exit code is 1.
+Writes the object file (default: SOURCE's stem + .o in the current directory; with --stats,
+--listing or --show-defines and no -o, nothing is written). With --scene the bundled kernels (or
+--kernels DIR's, or SOURCE) are assembled with exactly the symbols `render` gives them for that
+scene (`render.kernel_inputs`: the databases' layout, the pre-pass's resident records at --res,
+HAS_* needs, SLOTS, MAX_DEPTH), so --stats prints the static ILP `render`'s statistics report;
+--precision, --depth, --set and --config matter where they change those symbols; -D adds or
+overrides one. Any error in the source: every error is printed as `file:line:col: error:
+message` with the line and a caret, and the exit code is 1.
 """
 
 from __future__ import annotations
@@ -14,41 +20,115 @@ from pathlib import Path
 
 from netsushisen.asm.assembler import assemble_file
 from netsushisen.asm.listing import format_static_ilp, listing, static_ilp
+from netsushisen.asm.objects import Program
 from netsushisen.errors import NetsushisenError
-from netsushisen.options import add_defines, add_include_dirs, parse_defines
+from netsushisen.isa.processors import STAGES
+from netsushisen.options import (add_config_options, add_defines, add_include_dirs,
+                                 add_resolution, check_resolution, config_from_args, parse_defines)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("source", help="assembly source file (.s)")
-    parser.add_argument("--proc", choices=["os", "ic", "sc"],
-                        help="target processor (may be omitted when the source says .proc)")
+    parser.add_argument("source", nargs="?",
+                        help="assembly source file (.s); optional with --scene (the bundled kernels)")
+    parser.add_argument("--proc", choices=list(STAGES),
+                        help="target processor (may be omitted when the source says .proc; with "
+                             "--scene and no SOURCE: only this stage's kernel, else all three)")
     add_defines(parser)
     add_include_dirs(parser)
     parser.add_argument("-o", dest="output", help="object file to write (default: STEM.o)")
     parser.add_argument("--listing", metavar="PATH|-", help="write a listing (- for stdout)")
     parser.add_argument("--stats", action="store_true", help="print static ILP statistics")
     parser.add_argument("--json", action="store_true", help="with --stats: print them as JSON")
+    scene = parser.add_argument_group("kernels for a scene (the symbols `render` uses)")
+    scene.add_argument("--scene", metavar="SCENE",
+                       help="built-in scene name (tetra, balls, ...) or .nff file")
+    scene.add_argument("--generic", action="store_true",
+                       help="every feature (HAS_* = 1), as `render --generic`")
+    scene.add_argument("--kernels", metavar="DIR",
+                       help="assemble DIR's os.s, ic.s, sc.s instead of the bundled kernels")
+    scene.add_argument("--show-defines", action="store_true",
+                       help="print the symbols, one NAME=VALUE a line (-D syntax)")
+    scene.add_argument("--slots", type=int, default=None, metavar="N",
+                       help="rays OS keeps in flight, as `render --slots`")
+    scene.add_argument("--corners", action="store_true", help="as `render --corners`")
+    add_resolution(scene, 32, "the render's N×N size: its pre-pass picks the resident records "
+                              "(default 32, as `render`)")
+    add_config_options(scene, pes=True, precision=True, depth=True)
+
+
+def scene_defines(args: argparse.Namespace) -> dict[str, int | float]:
+    """The symbols `render` gives the kernels for `args.scene`, -D on top."""
+    from netsushisen import render as pipeline
+
+    check_resolution(args.res)
+    slots = pipeline.DEFAULT_SLOTS if args.slots is None else args.slots
+    return pipeline.kernel_inputs(args.scene, config_from_args(args), args.res, args.corners,
+                                  args.generic, slots, parse_defines(args.defines)).defines
+
+
+def format_defines(defines: dict[str, int | float]) -> str:
+    """One `NAME=VALUE` a line, sorted: what `-D` takes back."""
+    return "".join(f"{k}={v!r}\n" for k, v in sorted(defines.items()))
+
+
+def _sources(args: argparse.Namespace) -> list[tuple[str | None, Path]]:
+    """(processor, source) pairs to assemble."""
+    from netsushisen.kernels import KERNELS
+
+    if args.source:
+        if args.kernels:
+            raise NetsushisenError("give SOURCE or --kernels DIR, not both")
+        return [(args.proc, Path(args.source))]
+    if not args.scene:
+        raise NetsushisenError("asm: give a SOURCE.s, or --scene SCENE for the bundled kernels")
+    folder = Path(args.kernels) if args.kernels else KERNELS
+    if args.kernels and not folder.is_dir():
+        raise NetsushisenError(f"--kernels {args.kernels}: no such folder")
+    return [(stage, folder / f"{stage}.s") for stage in ([args.proc] if args.proc else STAGES)]
 
 
 def run(args: argparse.Namespace) -> int:
-    defines = parse_defines(args.defines)
-    program = assemble_file(args.source, proc=args.proc, defines=defines,
-                            include_dirs=args.include_dirs)
-    analysis_only = (args.stats or args.listing) and not args.output
+    if not args.scene:
+        for flag in ("generic", "kernels", "show_defines", "corners", "slots", "config", "sets",
+                     "pes", "precision", "depth"):
+            if getattr(args, flag) not in (None, False, []):
+                option = "--set" if flag == "sets" else f"--{flag.replace('_', '-')}"
+                raise NetsushisenError(f"{option} needs --scene SCENE (it changes the symbols "
+                                       "a scene's kernels are assembled with)")
+    sources = _sources(args)
+    defines = scene_defines(args) if args.scene else parse_defines(args.defines)
+    if args.show_defines:
+        print(format_defines(defines), end="")
+    from netsushisen.kernels import KERNELS
+
+    includes = list(args.include_dirs) + ([KERNELS] if args.scene else [])
+    programs: list[tuple[Path, Program]] = [
+        (path, assemble_file(path, proc=proc, defines=defines, include_dirs=includes))
+        for proc, path in sources]
+    analysis_only = (args.stats or args.listing or args.show_defines) and not args.output
     if not analysis_only:
-        out = Path(args.output or (Path(args.source).stem + ".o"))
-        try:
-            program.save(out)
-        except OSError as err:
-            raise NetsushisenError(f"{out}: cannot write object file: {err.strerror}") from None
+        if args.output and len(programs) > 1:
+            raise NetsushisenError("-o names one object file: add --proc os|ic|sc, or leave -o "
+                                   "out to write os.o, ic.o and sc.o")
+        for path, program in programs:
+            out = Path(args.output or (path.stem + ".o"))
+            try:
+                program.save(out)
+            except OSError as err:
+                raise NetsushisenError(f"{out}: cannot write object file: {err.strerror}") from None
     if args.listing:
-        text = listing(program)
+        text = "".join(listing(program) for _, program in programs)
         if args.listing == "-":
             print(text, end="")
         else:
             Path(args.listing).write_text(text)
     if args.stats:
-        s = static_ilp(program)
-        print(json.dumps(s.as_dict(), indent=2, sort_keys=True) if args.json
-              else format_static_ilp(s, args.source))
+        stats = {program.proc: static_ilp(program) for _, program in programs}
+        if args.json:
+            body = {p: s.as_dict() for p, s in stats.items()}
+            print(json.dumps(body[programs[0][1].proc] if args.source else body, indent=2,
+                             sort_keys=True))
+        else:
+            print("\n".join(format_static_ilp(stats[program.proc], str(path))
+                            for path, program in programs))
     return 0

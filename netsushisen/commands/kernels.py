@@ -1,0 +1,105 @@
+"""The bundled stage kernels as files to edit: `netsushisen kernels export DIR [--scene SCENE]
+[--generic] [--res N] [--config FILE] [--set k=v]... [--force]`, and `netsushisen kernels list`.
+
+`export` copies os.s, ic.s, sc.s and their includes (protocol.inc, ic_*.inc) into DIR, ready for
+`netsushisen render SCENE --kernels DIR` (the folder is searched first for includes, so an edited
+include wins over the bundled one). With --scene it also writes DIR/defines.inc: the symbols
+`render` gives the kernels for that scene (the same function computes them: render.kernel_inputs),
+one `.equ` a line, for reading or for `.include "defines.inc"` in a kernel you assemble on its own
+(`render` defines them itself; its -D values win over the file's `.equ`s). An existing DIR that is
+not empty is refused unless --force (which overwrites the kernel files, and leaves other files).
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+from pathlib import Path
+
+from netsushisen.errors import NetsushisenError
+from netsushisen.options import add_config_options, add_resolution, check_resolution, config_from_args
+
+KERNEL_PATTERNS = ("*.s", "*.inc")
+"""What a kernels folder holds: the stage programs and their includes (not examples/)."""
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+    export = sub.add_parser("export", help="copy the kernels and includes into a folder to edit",
+                            description=__doc__.strip())
+    export.add_argument("dir", metavar="DIR", help="folder to create (or an empty one)")
+    export.add_argument("--force", action="store_true",
+                        help="write into a folder that is not empty, overwriting kernel files")
+    export.add_argument("--scene", metavar="SCENE",
+                        help="also write defines.inc: the symbols render uses for SCENE")
+    export.add_argument("--generic", action="store_true", help="with --scene: every feature")
+    export.add_argument("--slots", type=int, default=None, metavar="N",
+                        help="with --scene: rays OS keeps in flight, as `render --slots`")
+    add_resolution(export, 32, "with --scene: the render's N×N size (its pre-pass picks the "
+                               "resident records; default 32, as `render`)")
+    add_config_options(export, pes=True, precision=True, depth=True)
+    sub.add_parser("list", help="the bundled kernel files and what each is")
+
+
+def kernel_files() -> list[Path]:
+    """The bundled kernels and includes, sorted by name."""
+    from netsushisen.kernels import KERNELS
+
+    return sorted({p for pattern in KERNEL_PATTERNS for p in KERNELS.glob(pattern)},
+                  key=lambda p: p.name)
+
+
+def defines_inc(defines: dict[str, int | float], what: str) -> str:
+    """The symbols as an include file of `.equ` lines."""
+    rows = [f"# The symbols `netsushisen render` gives the kernels for {what}",
+            "# (written by `netsushisen kernels export`; render defines them itself, and its",
+            "# values win over these, so including this file never changes a render).", ""]
+    rows += [f".equ {name}, {value!r}" for name, value in sorted(defines.items())]
+    return "\n".join(rows) + "\n"
+
+
+def export(args: argparse.Namespace) -> int:
+    out = Path(args.dir)
+    if out.exists() and not out.is_dir():
+        raise NetsushisenError(f"{out}: exists and is not a folder")
+    if out.is_dir() and any(out.iterdir()) and not args.force:
+        raise NetsushisenError(f"{out}: the folder is not empty (--force writes into it, "
+                               "overwriting the kernel files)")
+    defines = None
+    if args.scene:
+        from netsushisen import render as pipeline
+
+        check_resolution(args.res)
+        slots = pipeline.DEFAULT_SLOTS if args.slots is None else args.slots
+        defines = pipeline.kernel_inputs(args.scene, config_from_args(args), args.res, False,
+                                         args.generic, slots).defines
+    elif args.generic or args.sets or args.config or args.slots is not None:
+        raise NetsushisenError("--generic, --slots, --config and --set need --scene SCENE "
+                               "(they change the symbols written to defines.inc)")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        written = []
+        for src in kernel_files():
+            shutil.copyfile(src, out / src.name)
+            written.append(src.name)
+        if defines is not None:
+            what = f"{args.scene} at {args.res}x{args.res}" + (" (generic)" if args.generic else "")
+            (out / "defines.inc").write_text(defines_inc(defines, what))
+            written.append("defines.inc")
+    except OSError as err:
+        raise NetsushisenError(f"{out}: cannot write: {err.strerror}") from None
+    print(f"wrote {len(written)} files to {out}: {', '.join(written)}")
+    scene = args.scene or "SCENE"
+    print(f"run them:       netsushisen render {scene} --kernels {out}")
+    print(f"assemble one:   netsushisen asm --scene {scene} --kernels {out} --proc ic --stats")
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.action == "export":
+        return export(args)
+    for path in kernel_files():
+        first = next((line.lstrip("# ").strip() for line in path.read_text().splitlines()
+                      if line.startswith("#") and line.strip("# ")), "")
+        print(f"{path.name:18s} {first if len(first) <= 72 else first[:71] + '…'}")
+    return 0

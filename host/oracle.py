@@ -215,7 +215,8 @@ def shadow_truth(osc: OracleScene, p: np.ndarray, prim: np.ndarray, lights: np.n
     ambiguous). Blocked: some primitive's counting hit lies strictly between the point and the
     light, beyond the tolerance at both ends (the surface the point lies on is skipped near 0,
     not beyond). Ambiguous: the answer changes when the tolerance is applied either way (a hit
-    within it of the point, of the light or of a silhouette). The tolerance here also covers
+    within it of the point, of the light or of a silhouette: the origin is moved by it along
+    +-e1, +-e2 across the ray, +-n along the normal and the diagonals of those). The tolerance here also covers
     twice the offset the machine moves a secondary ray's origin by (`t_eye`: the eye ray's t), a
     deliberate displacement off the surface."""
     to = lights - p
@@ -232,8 +233,11 @@ def shadow_truth(osc: OracleScene, p: np.ndarray, prim: np.ndarray, lights: np.n
     near_start = (t_other <= tol)
     near_light = np.abs(t_hit - dist) <= tol
     e1, e2 = _across(d)
+    n = normals(osc, p, prim)
     amb = near_start | near_light
-    for e, s in ((e1, 1), (e1, -1), (e2, 1), (e2, -1)):
+    shifts = [e1, -e1, e2, -e2, n, -n]
+    shifts += [(a + b) / np.sqrt(2) for i, a in enumerate(shifts) for b in shifts[i + 2 - i % 2:]]
+    for e, s in ((e, 1) for e in shifts):
         q = p + (s * tol)[:, None] * e
         _, to2 = nearest(osc, q, d, 0.0, skip=prim)
         _, ts2 = _self_hits(osc, q, d, prim, tol)  # a ray within rounding of tangent to its own surface
@@ -252,3 +256,27 @@ def _self_hits(osc: OracleScene, p, d, prim, tol):
         # from a point on the surface the own roots near 0 are rounding; farther ones are real
         _, t_far[sel] = nearest(one, p[sel], d[sel], 8 * tol[sel])
     return prim, t_far
+
+
+def normals(osc: OracleScene, p: np.ndarray, prim: np.ndarray) -> np.ndarray:
+    """Unit surface normals (n, 3) at points `p` on primitives `prim` (outward / front side)."""
+    out = np.zeros_like(p)
+    for pid in np.unique(prim):
+        sel = np.flatnonzero(prim == pid)
+        k, j = osc.kind[pid], osc.local[pid]
+        if k == Kind.POLYGON:
+            out[sel] = osc.poly_n[j]
+        elif k == Kind.SPHERE:
+            v = p[sel] - osc.sph[j, :3]
+            out[sel] = v / np.linalg.norm(v, axis=1, keepdims=True)
+        else:
+            c = osc.cone[j]
+            axis = c[4:7] - c[:3]
+            length = np.linalg.norm(axis)
+            a = axis / length
+            w = p[sel] - c[:3]
+            radial = w - (w @ a)[:, None] * a
+            u = radial / np.linalg.norm(radial, axis=1, keepdims=True)
+            v = u - ((c[7] - c[3]) / length) * a
+            out[sel] = v / np.linalg.norm(v, axis=1, keepdims=True)
+    return out

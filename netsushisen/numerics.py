@@ -288,7 +288,7 @@ def _snell_bounds(scene: Scene, result: PathResult, res: int, precision: str) ->
 def judge_case(case: Case, path: str, reference: PathResult | None = None,
                untranslated: PathResult | None = None) -> Verdict:
     """The whole verdict of one case on one path. `reference`: golden fp32's result (the machine
-    must equal it); `untranslated`: the path's result on the untranslated scene."""
+    must equal it); `untranslated`: the path's result on the untranslated scene (same `res`)."""
     scene = case_scene(case)
     precision = "fp64" if path == GOLDEN64 else "fp32"
     result = run_path(scene, path, case.res, case.sets)
@@ -317,11 +317,15 @@ def judge_case(case: Case, path: str, reference: PathResult | None = None,
     return v
 
 
-def run_catalog(paths: list[str], cases: list[Case] | None = None) -> list[Verdict]:
+def run_catalog(paths: list[str], cases: list[Case] | None = None, res: int | None = None,
+                progress: Callable[[Verdict], None] | None = None) -> list[Verdict]:
     """Every case on every path (the machine is compared with golden fp32, translated cases with
-    their untranslated scene on the same path)."""
+    their untranslated scene on the same path). `res` caps each case's resolution (the machine
+    on the reference engine is slow); `progress` sees each verdict as it is made."""
     out = []
     for case in cases or CATALOG:
+        if res is not None and res < case.res:
+            case = replace(case, res=res)
         ref = None
         base = {}
         if case.translate:
@@ -331,4 +335,6 @@ def run_catalog(paths: list[str], cases: list[Case] | None = None) -> list[Verdi
             ref = run_path(case_scene(case), GOLDEN32, case.res, case.sets)
         for path in paths:
             out.append(judge_case(case, path, None if path.startswith("golden-") else ref, base.get(path)))
+            if progress:
+                progress(out[-1])
     return out

@@ -338,3 +338,114 @@ def run_catalog(paths: list[str], cases: list[Case] | None = None, res: int | No
             if progress:
                 progress(out[-1])
     return out
+
+
+# ------------------------------------------------------------------------------------------------
+# A stability report for any scene
+
+AGREEMENT = 0.999
+"""fp32 is called stable against fp64 when at least this share of pixels (and of shadow rays)
+agree: the share docs/golden.md holds the machine to against the golden model."""
+MAX_TRANSLATION_EXP = 7
+
+
+def translate_scene(scene: Scene, by: float) -> Scene:
+    """`scene` moved by (by, by, by) (float64; the precision rounds the moved coordinates)."""
+    if by == 0:
+        return scene
+    cam = replace(scene.camera, eye=scene.camera.eye + by, at=scene.camera.at + by)
+    pg, sp, cn = scene.polygons, scene.spheres, scene.cones
+    return replace(scene, camera=cam, light_position=np.asarray(scene.light_position) + by,
+                   polygons=replace(pg, vertices=pg.vertices + by),
+                   spheres=replace(sp, center=sp.center + by),
+                   cones=replace(cn, base=cn.base + by, apex=cn.apex + by))
+
+
+@dataclass
+class ScenePair:
+    """fp32 against fp64 on one scene."""
+
+    hit_differs: np.ndarray  # (rows, cols) bool
+    colour_differs: np.ndarray  # (rows, cols) bool: 8-bit colour differs (hit the same)
+    shadow_rays: int  # shadow rays of eye hits present on both paths
+    blocked_only_fp32: int  # of those: fp32 blocks, fp64 does not
+
+    @property
+    def pixels(self) -> int:
+        return self.hit_differs.size
+
+    def stable(self) -> bool:
+        return not self.reasons()
+
+    def reasons(self) -> list[str]:
+        out = []
+        if self.hit_differs.sum() > (1 - AGREEMENT) * self.pixels:
+            out.append(f"{int(self.hit_differs.sum())} of {self.pixels} pixels hit another primitive in fp32 than in fp64")
+        if self.blocked_only_fp32 > (1 - AGREEMENT) * max(self.shadow_rays, 1):
+            out.append(f"fp32 blocks {self.blocked_only_fp32} of {self.shadow_rays} shadow rays fp64 does not")
+        return out
+
+
+def compare_precisions(scene: Scene, res: int, sets: tuple[str, ...] = ()) -> ScenePair:
+    """Golden fp32 against golden fp64: pixels, and the shadow rays of eye hits matched by
+    (pixel, light)."""
+    a = run_path(scene, GOLDEN32, res, sets)
+    b = run_path(scene, GOLDEN64, res, sets)
+    shape = (int(np.sqrt(a.hit_ids.size)),) * 2
+    hit = (a.hit_ids != b.hit_ids).reshape(shape)
+    colour = np.any(a.image_u8 != b.image_u8, axis=2) & ~hit
+    n_l = max(len(scene.light_position), 1)
+    key = lambda s: s["sample"] * n_l + s["light"]  # noqa: E731
+    ka, kb = key(a.shadows), key(b.shadows)
+    common, ia, ib = np.intersect1d(ka, kb, return_indices=True)
+    only = a.shadows["blocked"][ia] & ~b.shadows["blocked"][ib]
+    return ScenePair(hit, colour, len(common), int(only.sum()))
+
+
+def difference_map(pair: ScenePair) -> np.ndarray:
+    """RGB map: white where the hit differs, red where only the colour does, black elsewhere."""
+    img = np.zeros((*pair.hit_differs.shape, 3), np.uint8)
+    img[pair.colour_differs] = (255, 0, 0)
+    img[pair.hit_differs] = (255, 255, 255)
+    return img
+
+
+@dataclass
+class SceneReport:
+    scene: str
+    res: int
+    pair: ScenePair
+    translations: list[tuple[float, bool, list[str]]]  # (by, stable, reasons)
+
+    @property
+    def largest_stable_translation(self) -> float | None:
+        """The largest power of ten the scene survives with every smaller one (None: not even 1)."""
+        best = None
+        for by, ok, _ in self.translations:
+            if not ok:
+                break
+            best = by
+        return best
+
+    def stable(self) -> bool:
+        return bool(self.pair.stable())
+
+    def reasons(self) -> list[str]:
+        return self.pair.reasons()
+
+
+def scene_report(scene: Scene, res: int, sets: tuple[str, ...] = (),
+                 progress: Callable[[str], None] | None = None) -> SceneReport:
+    """fp32 against fp64, then the scene moved by 1, 10, 100, ... until fp32 breaks (against fp64
+    at the same place: the agreement rule above) or 10^MAX_TRANSLATION_EXP."""
+    pair = compare_precisions(scene, res, sets)
+    moves = []
+    for k in range(MAX_TRANSLATION_EXP + 1):
+        by = 10.0 ** k
+        if progress:
+            progress(f"translated by {by:g}")
+        p = compare_precisions(translate_scene(scene, by), res, sets)
+        moves.append((by, p.stable(), p.reasons()))
+        if not p.stable():
+            break
+    return SceneReport(scene.name, res, pair, moves)

@@ -91,10 +91,10 @@ def _polygon(v: np.ndarray, n: np.ndarray, two: bool, o, d, t_min):
     normal's largest axis (a crossing count, exact enough in float64)."""
     if not np.any(n):
         return np.full(o.shape[0], np.inf)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore"):  # a ray in the plane: 0/0, no hit
         den = d @ n
         t = ((v[0] - o) @ n) / den
-    p = o + t[:, None] * d
+        p = o + t[:, None] * d
     drop = int(np.argmax(np.abs(n)))
     a, b = [k for k in range(3) if k != drop]
     px, py = p[:, a], p[:, b]
@@ -103,7 +103,8 @@ def _polygon(v: np.ndarray, n: np.ndarray, two: bool, o, d, t_min):
     for i in range(m):
         x0, y0 = v[i, a], v[i, b]
         x1, y1 = v[(i + 1) % m, a], v[(i + 1) % m, b]
-        side = (x1 - x0) * (py - y0) - (px - x0) * (y1 - y0)
+        with np.errstate(invalid="ignore"):
+            side = (x1 - x0) * (py - y0) - (px - x0) * (y1 - y0)
         up = (y0 <= py) & (y1 > py) & (side > 0)
         down = (y0 > py) & (y1 <= py) & (side < 0)
         wind += up.astype(np.int64) - down.astype(np.int64)

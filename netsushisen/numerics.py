@@ -135,7 +135,7 @@ CATALOG: list[Case] = [
          "p 4\n0 0 0\n2 0 0\n2 0 0\n2 2 0\np 5\n-2 0 0\n-2 1 0\n-2 2 0\n-1 2 0\n-1 0 0\n"
          "p 3\n1 -1 0\n1 -1 0\n1 -1 0\n" + WALL),
     Case("axis_parallel", "axis-parallel eye rays and -0.0 direction components through voxel faces",
-         _view("0 0 10", "0 0 0", 40, lights="l 0 0 10\n") + MATTE +
+         _view("0 0 10", "-0 -0 0", 40, lights="l 0 0 10\n") + MATTE +  # at -0: -0.0 components
          "".join(f"s {x} {y} 0 0.5\n" for y in (-2, 0, 2) for x in (-2, 0, 2)) +
          "p 4\n-3 -3 -3\n3 -3 -3\n3 3 -3\n-3 3 -3\n"),
     Case("origin_on_grid_face", "eye exactly on a voxel boundary of the grid",

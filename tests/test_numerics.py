@@ -393,3 +393,23 @@ def test_random_triangle_reintersection(c_exp, s_exp, cdir, v1, v2, v3, b, odir,
     o = target + w * size * 3
     hit, t2 = _reintersect(sc, o, target, out, precision)
     assert not hit or not np.isfinite(t2), (t2,)
+
+
+def test_catalog_scenes_are_what_they_claim():
+    """The eye of origin_on_grid_face lies exactly on fp32 voxel boundaries of its own grid;
+    axis_parallel's eye rays have exactly-zero and -0.0 components; the translated scenes' eye
+    rays are bit-identical to the untranslated ones."""
+    sc = CASES["origin_on_grid_face"].scene()
+    g = build_grid(sc, config("fp32"))
+    osg = OSGrid.of(g, np.float32)
+    for axis in (0, 1):
+        faces = osg.lo[axis] + np.arange(g.res[axis] + 1).astype(np.float32) * osg.cell[axis]
+        assert np.float32(sc.camera.eye[axis]) in faces
+    d = primary_rays(CASES["axis_parallel"].scene().camera, CASES["axis_parallel"].res, precision="fp32").direction
+    zero = d == 0
+    assert zero.any() and np.signbit(d[zero]).any() and (~np.signbit(d[zero])).any()
+    plain = primary_rays(numerics.Case("p", "", numerics.MIXED).scene().camera, 16, precision="fp32")
+    for t in numerics.TRANSLATIONS:
+        moved = primary_rays(numerics.Case("m", "", numerics.MIXED, translate=t).scene().camera, 16, precision="fp32")
+        assert np.array_equal(plain.direction, moved.direction)
+        assert np.array_equal(moved.origin.astype(np.float64) - t, plain.origin.astype(np.float64))

@@ -417,8 +417,8 @@ def difference_map(pair: ScenePair) -> np.ndarray:
 class SceneReport:
     scene: str
     res: int
-    pair: ScenePair
-    translations: list[tuple[float, bool, list[str]]]  # (by, stable, reasons)
+    pair: ScenePair | None = None  # None until fp32 and fp64 are compared
+    translations: list[tuple[float, bool, list[str]]] = field(default_factory=list)  # (by, stable, reasons)
 
     @property
     def largest_stable_translation(self) -> float | None:
@@ -438,17 +438,18 @@ class SceneReport:
 
 
 def scene_report(scene: Scene, res: int, sets: tuple[str, ...] = (),
-                 progress: Callable[[str], None] | None = None) -> SceneReport:
+                 progress: Callable[[str], None] | None = None, report: SceneReport | None = None) -> SceneReport:
     """fp32 against fp64, then the scene moved by 1, 10, 100, ... until fp32 breaks (against fp64
-    at the same place: the agreement rule above) or 10^MAX_TRANSLATION_EXP."""
-    pair = compare_precisions(scene, res, sets)
-    moves = []
+    at the same place: the agreement rule above) or 10^MAX_TRANSLATION_EXP. Fills `report` as it
+    goes (an interrupted run keeps what was measured)."""
+    rep = report if report is not None else SceneReport(scene.name, res)
+    rep.pair = compare_precisions(scene, res, sets)
     for k in range(MAX_TRANSLATION_EXP + 1):
         by = 10.0 ** k
         if progress:
             progress(f"translated by {by:g}")
         p = compare_precisions(translate_scene(scene, by), res, sets)
-        moves.append((by, p.stable(), p.reasons()))
+        rep.translations.append((by, p.stable(), p.reasons()))
         if not p.stable():
             break
-    return SceneReport(scene.name, res, pair, moves)
+    return rep

@@ -99,3 +99,35 @@ def test_catalog_exit_1_when_a_case_breaks(cli, tmp_path, monkeypatch):
 def test_bad_input_is_one_line_and_exit_1(cli, tmp_path, argv, message):
     code, out, err = cli("numerics", *argv, "--out", tmp_path / "x")
     assert code != 0 and message in err and "Traceback" not in err
+
+
+def test_spd_scene_report(cli, tmp_path):
+    """An SPD scene: the map and the largest stable translation are written."""
+    code, out, err = cli("numerics", "tetra:1", "--res", 6, "--out", tmp_path / "t")
+    assert code in (0, 1)
+    data = json.loads((tmp_path / "t" / "numerics.json").read_text())
+    assert data["scene"].startswith("tetra") and data["complete"] is True
+    assert data["translations"] and data["translations"][0]["by"] == 1.0
+    assert "largest stable translation:" in out
+    assert decode_png((tmp_path / "t" / "numerics_map.png").read_bytes()).shape == (6, 6, 3)
+
+
+def test_interrupt_keeps_what_was_measured(cli, tmp_path, monkeypatch):
+    """Ctrl-C during the translations: fp32 against fp64 and the translations done are written,
+    exit 130."""
+    path = tmp_path / "stable.nff"
+    path.write_text(STABLE)
+    real = numerics.compare_precisions
+    calls = []
+
+    def stop_on_third(*a, **kw):
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(*a, **kw)
+
+    monkeypatch.setattr(numerics, "compare_precisions", stop_on_third)
+    code, out, err = cli("numerics", path, "--res", 6, "--out", tmp_path / "o")
+    data = json.loads((tmp_path / "o" / "numerics.json").read_text())
+    assert code == 130 and data["complete"] is False and len(data["translations"]) == 1
+    assert "interrupted" in err

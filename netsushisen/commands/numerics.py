@@ -94,11 +94,15 @@ def _scene(args, out: Path) -> int:
     scene = load_scene(args.scene)
     res = args.res or 32
     sets = tuple(config_overrides(args))
+    rep = numerics.SceneReport(scene.name, res)
+    interrupted = False
     try:
-        rep = numerics.scene_report(scene, res, sets, progress=lambda m: print(f"  {m}", file=sys.stderr))
+        numerics.scene_report(scene, res, sets, progress=lambda m: print(f"  {m}", file=sys.stderr), report=rep)
     except KeyboardInterrupt:
-        print("interrupted: no report written", file=sys.stderr)
-        return 130
+        interrupted = True
+        if rep.pair is None:
+            print("interrupted before fp32 and fp64 were compared: nothing written", file=sys.stderr)
+            return 130
     pair = rep.pair
     _write(out / "numerics_map.png", lambda p: write_png(p, numerics.difference_map(pair)))
     largest = rep.largest_stable_translation
@@ -106,6 +110,7 @@ def _scene(args, out: Path) -> int:
             "hit_differs": int(pair.hit_differs.sum()), "colour_differs": int(pair.colour_differs.sum()),
             "shadow_rays": pair.shadow_rays, "blocked_only_fp32": pair.blocked_only_fp32,
             "stable": rep.stable(), "reasons": rep.reasons(), "largest_stable_translation": largest,
+            "complete": not interrupted,
             "translations": [{"by": by, "stable": ok, "reasons": why} for by, ok, why in rep.translations]}
     _write(out / "numerics.json", lambda p: p.write_text(json.dumps(data, indent=2) + "\n"))
     print(f"{scene.name}: {res}x{res}, fp32 against fp64")
@@ -115,6 +120,9 @@ def _scene(args, out: Path) -> int:
     for by, ok, why in rep.translations:
         print(f"  translated by {by:g}: {'stable' if ok else 'breaks: ' + '; '.join(why)}")
     print(f"  largest stable translation: {'none' if largest is None else f'{largest:g}'}")
+    if interrupted:
+        print(f"interrupted: the translations above are what was measured; written to {out}/", file=sys.stderr)
+        return 130
     for reason in rep.reasons():
         print(f"unstable: {scene.name}: {reason}", file=sys.stderr)
     return 0 if rep.stable() else 1

@@ -17,7 +17,7 @@ edge therefore may hit either neighbour (the shifted rays find both) but never w
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -53,10 +53,7 @@ class OracleScene:
         pg = scene.polygons
         v = r(pg.vertices.reshape(-1, 3))
         polys = [v[s:s + c] for s, c in zip(pg.start, pg.count)]
-        rounded = Scene.__new__(Scene)
-        rounded.__dict__.update(scene.__dict__)
-        rounded.polygons = type(pg)(start=pg.start, count=pg.count, vertices=v, normals=pg.normals,
-                                    is_patch=pg.is_patch)
+        rounded = replace(scene, polygons=replace(pg, vertices=v))
         normals = polygon_normals64(rounded) if len(polys) else np.zeros((0, 3))
         sp, cn = scene.spheres, scene.cones
         sph = np.column_stack([r(sp.center.reshape(-1, 3)), r(sp.radius)]) if len(sp) else np.zeros((0, 4))

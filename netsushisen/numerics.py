@@ -72,8 +72,12 @@ class Case:
     compare_fp64: bool = False  # also: fp32 and fp64 differ only where the oracle allows both
     tir: bool = False  # judge refraction spawning against Snell's law in float64
     place_eye: Callable[[Scene], Scene] | None = None  # moves the eye after the grid is known
+    spec: str = ""  # a built-in scene instead of `nff`
 
     def scene(self) -> Scene:
+        if self.spec:
+            from netsushisen.host.catalog import load_scene  # noqa: PLC0415 (SPD generators are heavy)
+            return load_scene(self.spec)
         text = translate_nff(self.nff, self.translate) if self.translate else self.nff
         sc = parse_nff(text, filename=f"{self.name}.nff")
         return self.place_eye(sc) if self.place_eye else sc
@@ -151,19 +155,12 @@ CATALOG: list[Case] = [
          GLASS + "s 0 0 0 1\n", res=9, sets=("render.max_depth=2",), shadows=False, tir=True),
     *[Case(f"translated_{t:.0e}".replace("+0", ""), f"the mixed scene moved by {t:g} on every axis",
            MIXED, res=16, translate=t) for t in TRANSLATIONS],
-    Case("fp32_vs_fp64_balls", "an ordinary scene: SPD balls, size 1", "balls:1", res=12, compare_fp64=True,
-         shadows=False),
-    Case("fp32_vs_fp64_tetra", "an ordinary scene: SPD tetra, size 2", "tetra:2", res=12, compare_fp64=True,
-         shadows=False),
+    Case("fp32_vs_fp64_balls", "an ordinary scene: SPD balls, size 1", "", res=12, compare_fp64=True,
+         shadows=False, spec="balls:1"),
+    Case("fp32_vs_fp64_tetra", "an ordinary scene: SPD tetra, size 2", "", res=12, compare_fp64=True,
+         shadows=False, spec="tetra:2"),
 ]
-"""The catalog, one small scene per hard case (the `nff` of the two SPD cases is a scene spec)."""
-
-
-def case_scene(case: Case) -> Scene:
-    if case.nff.endswith((":1", ":2")) and "\n" not in case.nff:
-        from netsushisen.host.catalog import load_scene  # noqa: PLC0415 (SPD generators are heavy)
-        return load_scene(case.nff)
-    return case.scene()
+"""The catalog, one small scene per hard case."""
 
 
 # ------------------------------------------------------------------------------------------------
@@ -289,7 +286,7 @@ def judge_case(case: Case, path: str, reference: PathResult | None = None,
                untranslated: PathResult | None = None) -> Verdict:
     """The whole verdict of one case on one path. `reference`: golden fp32's result (the machine
     must equal it); `untranslated`: the path's result on the untranslated scene (same `res`)."""
-    scene = case_scene(case)
+    scene = case.scene()
     precision = "fp64" if path == GOLDEN64 else "fp32"
     result = run_path(scene, path, case.res, case.sets)
     v = Verdict(case.name, path)
@@ -302,14 +299,16 @@ def judge_case(case: Case, path: str, reference: PathResult | None = None,
         if result.rays != reference.rays:
             v.notes.append("ray counts differ from golden fp32")
     if untranslated is not None and not np.array_equal(result.hit_ids, untranslated.hit_ids):
-        v.notes.append(f"{int((result.hit_ids != untranslated.hit_ids).sum())} hit ids differ from the untranslated scene")
+        n = int((result.hit_ids != untranslated.hit_ids).sum())
+        v.notes.append(f"{n} hit ids differ from the untranslated scene")
     if case.compare_fp64 and path == GOLDEN32:
         other = run_path(scene, GOLDEN64, case.res, case.sets)
         _, exact, allowed, *_ = eye_oracle(scene, case.res, "fp32")
         differ = result.hit_ids != other.hit_ids
         both = ~judge_hits(result.hit_ids, allowed) & ~judge_hits(other.hit_ids, allowed)
         if np.any(differ & ~both):
-            v.notes.append(f"{int((differ & ~both).sum())} pixels differ from fp64 where the oracle allows one answer")
+            n = int((differ & ~both).sum())
+            v.notes.append(f"{n} pixels differ from fp64 where the oracle allows one answer")
     if case.tir:
         lo, hi = _snell_bounds(scene, result, case.res, precision)
         if not lo <= result.rays["refraction"] <= hi:
@@ -335,7 +334,7 @@ def run_catalog(paths: list[str], cases: list[Case] | None = None, res: int | No
             runs = {p: run_path(plain.scene(), p, case.res, case.sets) for p in golden_paths}
             base = {p: runs[p if p.startswith("golden-") else GOLDEN32] for p in paths}
         if any(not p.startswith("golden-") for p in paths):
-            ref = run_path(case_scene(case), GOLDEN32, case.res, case.sets)
+            ref = run_path(case.scene(), GOLDEN32, case.res, case.sets)
         for path in paths:
             out.append(judge_case(case, path, None if path.startswith("golden-") else ref, base.get(path)))
             if progress:
@@ -383,7 +382,8 @@ class ScenePair:
     def reasons(self) -> list[str]:
         out = []
         if self.hit_differs.sum() > (1 - AGREEMENT) * self.pixels:
-            out.append(f"{int(self.hit_differs.sum())} of {self.pixels} pixels hit another primitive in fp32 than in fp64")
+            n = int(self.hit_differs.sum())
+            out.append(f"{n} of {self.pixels} pixels hit another primitive in fp32 than in fp64")
         if self.blocked_only_fp32 > (1 - AGREEMENT) * max(self.shadow_rays, 1):
             out.append(f"fp32 blocks {self.blocked_only_fp32} of {self.shadow_rays} shadow rays fp64 does not")
         return out

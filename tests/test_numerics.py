@@ -362,7 +362,8 @@ def test_random_cylinder_reintersection(c_exp, r_exp, l_exp, cdir, adir, s, ang,
     r = 10.0 ** r_exp
     a = _unit(adir)
     apex = base + a * r * 10.0 ** l_exp
-    sc = _one(f"c {float(base[0])!r} {float(base[1])!r} {float(base[2])!r} {r!r} {float(apex[0])!r} {float(apex[1])!r} {float(apex[2])!r} {r!r}\n")
+    ends = [repr(float(x)) for x in (*base, r, *apex, r)]
+    sc = _one("c " + " ".join(ends) + "\n")
     e1 = _unit(np.cross(a, [1.0, 0, 0] if abs(a[0]) < 0.9 else [0, 1.0, 0]))
     e2 = np.cross(a, e1)
     radial = np.cos(ang) * e1 + np.sin(ang) * e2

@@ -105,7 +105,6 @@ class GoldenResult:
     stats: dict[str, float] = field(default_factory=dict)
     shadows: dict[str, np.ndarray] | None = None  # keep_shadows: the shadow rays of eye-ray hits
 
-
     @property
     def total_references(self) -> int:
         return int(self.references.sum())
@@ -207,6 +206,16 @@ def offset_vectors(p: np.ndarray, t: np.ndarray, ng: np.ndarray, inside: np.ndar
     return p + off, p - off
 
 
+def _shadow_table(parts: list[dict], dt: type) -> dict[str, np.ndarray]:
+    """The kept shadow rays of eye hits as one table: sample, light, hit primitive, origin (3, n),
+    blocked."""
+    empty = {"sample": np.zeros(0, np.int64), "light": np.zeros(0, np.int64), "prim": np.zeros(0, np.int32),
+             "origin": np.zeros((3, 0), dt), "blocked": np.zeros(0, bool)}
+    if not parts:
+        return empty
+    return {k: np.concatenate([x[k] for x in parts], axis=-1) for k in empty}
+
+
 def _child_path(path: np.ndarray, level: int, slot: int) -> np.ndarray:
     out = path.copy()
     out[:, level] = slot
@@ -273,9 +282,7 @@ def render(scene: Scene, config: MachineConfig | None = None, res: int = 64, cor
                        references=rec.refs, seconds=0.0, precision=precision, corners=corners, grid=grid)
     rec.finish(out)
     if keep_shadows:
-        cat = lambda k, dt_=None: np.concatenate([x[k] for x in rec.shadows], axis=-1) if rec.shadows else \
-            np.zeros((3, 0) if k == "origin" else 0, dt_ or np.int64)  # noqa: E731
-        out.shadows = {k: cat(k) for k in ("sample", "light", "prim", "origin", "blocked")}
+        out.shadows = _shadow_table(rec.shadows, dt)
     out.seconds = time.perf_counter() - start
     total = sum(v for k, v in counts.items() if k != "eye_hits")
     out.stats = {"rays_total": total, "rays_per_second": total / max(out.seconds, 1e-9)}

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from netsushisen.errors import ConfigError, Diagnostic
-from netsushisen.host.golden import Luminance, scene_epsilon
+from netsushisen.host.golden import Luminance, offset_scale, scene_epsilon
 from netsushisen.host.grid import Grid, build_grid
 from netsushisen.host.records import (CELL_WORDS, LIGHT_WORDS, MATERIAL_WORDS, SCENE_HEADER_WORDS,
                                       SUB_HEADER_WORDS, TOP_HEADER_WORDS, access_offsets, float_words,
@@ -298,7 +298,7 @@ def build_images(scene: Scene, config: MachineConfig | None = None, priorities=N
     ic_resident = _gather(records, rec_off, res_ids)
     scene_words = scene_block(lay.luminance, len(lay.material_words) // MATERIAL_WORDS,
                               config.render.max_depth, scene_epsilon(lay.grid, config, wf.float_type),
-                              config.render.min_weight, wf)
+                              config.render.min_weight, wf, offset_scale(wf.float_type))
     resolved = copy.deepcopy(config)
     resolved.ic_memory.resident_bytes = lay.resident_capacity * wf.bytes
     resolved.ic_memory.cache_bytes = lay.cache_bytes

@@ -18,7 +18,7 @@ positional with intensity light_colour / sqrt(#lights) (NFF gives none). There i
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -103,6 +103,7 @@ class GoldenResult:
     trace_hit: np.ndarray | None = None  # (R,) int32 surface ray's hit primitive (-1 miss; shadow -1)
     trace_hit_fan: np.ndarray | None = None  # (R,) int32 fan triangle of a polygon hit (0 otherwise)
     stats: dict[str, float] = field(default_factory=dict)
+    shadows: dict[str, np.ndarray] | None = None  # keep_shadows: the shadow rays of eye-ray hits
 
     @property
     def total_references(self) -> int:
@@ -131,6 +132,7 @@ class _Recorder:
         self.ref_leaf: list[np.ndarray] = []
         self.hit: list[np.ndarray] = []
         self.hit_fan: list[np.ndarray] = []
+        self.shadows: list[dict] | None = None
 
     def new_ids(self, n: int) -> np.ndarray:
         ids = np.arange(self.next_gid, self.next_gid + n, dtype=np.int64)
@@ -172,10 +174,46 @@ class _Recorder:
         out.trace_hit_fan = np.concatenate(self.hit_fan)[order].astype(np.int32)
 
 
+OFFSET_ULPS = 4
+"""Secondary-ray origins move OFFSET_ULPS x unit roundoff x (|P|max + t) + SIZE_ULPS x unit
+roundoff x the largest primitive size off the surface (docs/golden.md, "Secondary-ray origins")."""
+SIZE_ULPS = 64
+
+
+def offset_scale(dt: type):
+    """k_rel = OFFSET_ULPS x the precision's unit roundoff (SC's scene block SCN_EPS_REL)."""
+    return dt(OFFSET_ULPS * float(np.finfo(dt).eps) / 2.0)
+
+
 def scene_epsilon(grid: Grid, config: MachineConfig, dt: type):
-    """t_min of secondary and shadow rays: render.epsilon x the grid's largest extent, rounded
-    once to the precision (SC's scene block holds this value)."""
-    return dt(config.render.epsilon * float(np.max(grid.hi - grid.lo)))
+    """k_abs of the secondary-ray offset (SC's scene block SCN_EPS): SIZE_ULPS x u x the largest
+    primitive's own size (the longest side of its bounding box), rounded once to the precision.
+    The intersection tests' error grows with the primitive's size and the hit point's magnitude,
+    not with the scene's extent; `config` is unused (render.epsilon no longer applies)."""
+    return dt(SIZE_ULPS * float(np.finfo(dt).eps) / 2.0 * grid.primitive_size)
+
+
+def offset_vectors(p: np.ndarray, t: np.ndarray, ng: np.ndarray, inside: np.ndarray, k_rel, k_abs):
+    """SC's secondary-ray origins: (front, back) = P +- delta*Nf with Nf the geometric normal
+    facing the incoming ray and delta = (max(max(|Px|, |Py|), |Pz|) + t)*k_rel + k_abs, one IEEE
+    operation at a time in this order. Shadow and reflection rays leave from the front, refraction
+    rays from the back; all with t_min = 0."""
+    a = np.abs(p)
+    m = np.maximum(np.maximum(a[0], a[1]), a[2])
+    delta = (m + t) * k_rel + k_abs
+    delta = np.where(inside, -delta, delta)
+    off = delta * ng
+    return p + off, p - off
+
+
+def _shadow_table(parts: list[dict], dt: type) -> dict[str, np.ndarray]:
+    """The kept shadow rays of eye hits as one table: sample, light, hit primitive, origin (3, n),
+    blocked."""
+    empty = {"sample": np.zeros(0, np.int64), "light": np.zeros(0, np.int64), "prim": np.zeros(0, np.int32),
+             "origin": np.zeros((3, 0), dt), "blocked": np.zeros(0, bool)}
+    if not parts:
+        return empty
+    return {k: np.concatenate([x[k] for x in parts], axis=-1) for k in empty}
 
 
 def _child_path(path: np.ndarray, level: int, slot: int) -> np.ndarray:
@@ -190,23 +228,28 @@ def _accumulate(acc: np.ndarray, sample: np.ndarray, value: np.ndarray) -> None:
 
 
 def render(scene: Scene, config: MachineConfig | None = None, res: int = 64, corners: bool = False,
-           precision: str | None = None, keep_trace: bool = False, grid: Grid | None = None) -> GoldenResult:
-    """Render `scene` at res x res (pixel centres, or SPD corners with `corners`)."""
+           precision: str | None = None, keep_trace: bool = False, grid: Grid | None = None,
+           keep_shadows: bool = False) -> GoldenResult:
+    """Render `scene` at res x res (pixel centres, or SPD corners with `corners`). `keep_shadows`
+    keeps every shadow ray of an eye ray's hit (sample, light, hit primitive, origin, blocked) for
+    the numerics checks."""
     start = time.perf_counter()
     config = config or MachineConfig()
     precision = precision or config.precision
     dt = dtype_of(precision)
-    grid = grid if grid is not None else build_grid(scene, config)
+    if grid is None:  # conservative in the precision it is traversed in
+        grid = build_grid(scene, config if config.precision == precision else replace(config, precision=precision))
     osg = OSGrid.of(grid, dt)
     sd = build_shape_data(scene, precision)
     lum = Luminance.of(scene, dt)
-    eps = scene_epsilon(grid, config, dt)
+    eps, k_rel = scene_epsilon(grid, config, dt), offset_scale(dt)
     max_depth = config.render.max_depth
     min_weight = dt(config.render.min_weight)
     eye: PrimaryRays = primary_rays(scene.camera, res, corners, precision)
     ns = eye.direction.shape[1]
     acc = np.zeros((3, ns), dt)
     rec = _Recorder(scene.n_primitives, keep_trace)
+    rec.shadows = [] if keep_shadows else None
     counts = {"eye": ns, "eye_hits": 0, "reflection": 0, "refraction": 0, "shadow": 0}
     path = np.full((ns, max_depth + 2), -1, np.int32)
     path[:, 0] = np.arange(ns)
@@ -225,7 +268,7 @@ def render(scene: Scene, config: MachineConfig | None = None, res: int = 64, cor
             miss = tr.prim < 0
             _accumulate(acc, batch.sample[miss], batch.weight[:, miss] * lum.background[:, None])
             h = np.flatnonzero(~miss)
-            batch = _shade(batch, h, tr, sd, lum, scene, osg, rec, acc, counts, eps, max_depth,
+            batch = _shade(batch, h, tr, sd, lum, scene, osg, rec, acc, counts, eps, k_rel, max_depth,
                            min_weight, keep_trace)
     if corners:
         m = res + 1
@@ -238,6 +281,8 @@ def render(scene: Scene, config: MachineConfig | None = None, res: int = 64, cor
                        visible_primitives=int(len(np.unique(hit_ids[hit_ids >= 0]))),
                        references=rec.refs, seconds=0.0, precision=precision, corners=corners, grid=grid)
     rec.finish(out)
+    if keep_shadows:
+        out.shadows = _shadow_table(rec.shadows, dt)
     out.seconds = time.perf_counter() - start
     total = sum(v for k, v in counts.items() if k != "eye_hits")
     out.stats = {"rays_total": total, "rays_per_second": total / max(out.seconds, 1e-9)}
@@ -245,7 +290,7 @@ def render(scene: Scene, config: MachineConfig | None = None, res: int = 64, cor
 
 
 def _shade(batch: RayBatch, h: np.ndarray, tr, sd: ShapeData, lum: Luminance, scene: Scene,
-           osg: OSGrid, rec: _Recorder, acc: np.ndarray, counts: dict[str, int], eps, max_depth: int,
+           osg: OSGrid, rec: _Recorder, acc: np.ndarray, counts: dict[str, int], eps, k_rel, max_depth: int,
            min_weight, keep_trace: bool) -> RayBatch:
     """SC for the hits `h` of `batch`: shadow rays (traced here), then the next depth's rays."""
     dt = sd.dtype
@@ -260,6 +305,8 @@ def _shade(batch: RayBatch, h: np.ndarray, tr, sd: ShapeData, lum: Luminance, sc
     ng, nsh = surface_normals(sd, prim, p, tr.fan[h], tr.b1[h], tr.b2[h])
     inside = dot(d, ng) > 0
     nsh = np.where(inside, -nsh, nsh)
+    p, p_back = offset_vectors(p, t, ng, inside, k_rel, eps)  # front: shadow, reflection; back: refraction
+    zero = np.zeros(len(h), dt)
     mat = scene.material[prim]
     cosi = -dot(d, nsh)
     refl = normalize(d + (cosi + cosi) * nsh)
@@ -285,12 +332,15 @@ def _shade(batch: RayBatch, h: np.ndarray, tr, sd: ShapeData, lum: Luminance, sc
         n = len(face)
         spath = path[face].copy()
         spath[np.arange(n), level] = sl
-        sb = RayBatch(o=p[:, face], d=ld, t_min=np.full(n, eps, dt), weight=contrib, sample=sample[face],
+        sb = RayBatch(o=p[:, face], d=ld, t_min=zero[face], weight=contrib, sample=sample[face],
                       depth=batch.depth, kind=np.full(n, SHADOW, np.int8), gid=rec.new_ids(n), path=spath)
         st = trace(osg, sd, ic_rays(sb.o, sb.d, sb.t_min), t_max=dist, ray_ids=sb.gid, keep_refs=keep_trace)
         rec.add(sb, np.full(n, batch.depth), st)
         counts["shadow"] += n
         lit = ~st.occluded
+        if rec.shadows is not None and batch.depth == 1:
+            rec.shadows.append({"sample": sb.sample, "light": sl, "prim": prim[face], "origin": sb.o,
+                                "blocked": st.occluded})
         _accumulate(acc, sb.sample[lit], contrib[:, lit])
     if batch.depth >= max_depth:
         return _empty(batch, dt)
@@ -300,7 +350,7 @@ def _shade(batch: RayBatch, h: np.ndarray, tr, sd: ShapeData, lum: Luminance, sc
     r_sel = np.flatnonzero((ks > 0) & ((min_weight <= 0) | (rw.max(axis=0) >= min_weight)))
     n_l = len(lum.light_pos)
     if len(r_sel):
-        new.append(RayBatch(o=p[:, r_sel], d=refl[:, r_sel], t_min=np.full(len(r_sel), eps, dt),
+        new.append(RayBatch(o=p[:, r_sel], d=refl[:, r_sel], t_min=zero[r_sel],
                             weight=rw[:, r_sel], sample=sample[r_sel], depth=batch.depth + 1,
                             kind=np.full(len(r_sel), REFLECTION, np.int8), gid=np.zeros(0, np.int64),
                             path=_child_path(path[r_sel], level, n_l)))
@@ -314,7 +364,7 @@ def _shade(batch: RayBatch, h: np.ndarray, tr, sd: ShapeData, lum: Luminance, sc
     if len(t_sel):
         e, c, kk = eta[t_sel], cosi[t_sel], k[t_sel]
         tdir = normalize(e * d[:, t_sel] + (e * c - np.sqrt(kk)) * nsh[:, t_sel])
-        new.append(RayBatch(o=p[:, t_sel], d=tdir, t_min=np.full(len(t_sel), eps, dt), weight=tw[:, t_sel],
+        new.append(RayBatch(o=p_back[:, t_sel], d=tdir, t_min=zero[t_sel], weight=tw[:, t_sel],
                             sample=sample[t_sel], depth=batch.depth + 1,
                             kind=np.full(len(t_sel), REFRACTION, np.int8), gid=np.zeros(0, np.int64),
                             path=_child_path(path[t_sel], level, n_l + 1)))

@@ -5,7 +5,7 @@ Top level: a uniform grid over the scene bounds. A top voxel listing more than
 *leaf* (an undivided top voxel or a sub-voxel) owns a primitive list in ascending primitive id.
 
 Membership uses exact (or tight conservative) primitive-box overlap tests on boxes padded by
-`PAD` x the largest scene extent, so that float32 rounding in traversal can never lose a hit:
+`pad` (below), so that rounding in traversal can never lose a hit:
 polygon-box by the separating-axis theorem on the polygon's fan triangles (exact for convex
 polygons, the union of the fan covers a concave polygon, so conservative there), sphere-box by the
 closest-point distance (and a box strictly inside the sphere does not touch its surface),
@@ -13,7 +13,16 @@ cylinder/cone-box by minimising dist(axis point, box) - radius along the axis (a
 the lateral surface lies in that union of balls, so conservative and tight) and dropping boxes
 strictly inside the solid.
 
-All geometry here is float64 host work; traversal rounds the few grid constants it reads.
+Conservative in the working precision at any magnitude (docs/golden.md, "Grid bounds and
+membership at any scale"): the origin is rounded down and the cell sizes up to values the
+precision holds exactly, so traversal reads exactly the grid built here; a voxel's box is taken
+between its boundaries *as traversal computes them* (`lo + float(i)*cell` in the precision), and
+every box grows by `pad = max(PAD x extent, PAD_ULPS x u x M)`, u the precision's unit roundoff and
+M the largest coordinate magnitude of the scene and its eye: the crossings and hit points
+traversal compares carry errors of a few u x M, so a face never lies within rounding of a
+primitive it should list.
+
+All geometry here is float64 host work on those exactly representable constants.
 """
 
 from __future__ import annotations
@@ -23,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from netsushisen.host.rays import dtype_of
 from netsushisen.host.scenes import Kind, Scene
 from netsushisen.isa.config import GridConfig, MachineConfig
 
@@ -32,14 +42,16 @@ TOP_DENSITY = 1.0  # top-level voxels per primitive, before the memory cap
 SUB_DENSITY = 1.0  # sub-voxels per primitive listed in the subdivided voxel
 MAX_TOP_PER_AXIS = 128
 MAX_SUB_PER_AXIS = 16
-PAD = 1e-5  # overlap boxes grow by PAD x the largest scene extent on every side
+PAD = 1e-5  # overlap boxes grow by at least PAD x the largest scene extent on every side
+PAD_ULPS = 64  # ... and by at least PAD_ULPS x unit roundoff x the largest coordinate magnitude
 
 
 @dataclass
 class Grid:
     """Everything traversal needs. Voxel (ix, iy, iz) of a level has flat index
     (iz*ny + iy)*nx + ix; its box is [lo + i*cell, lo + (i+1)*cell] (float64 here; traversal
-    rounds lo, cell and inv_cell to the precision and computes boundaries as lo + i*cell)."""
+    rounds lo, cell and inv_cell to `precision`, where lo and cell are exact, and computes
+    boundaries as lo + float(i)*cell in it: `boundaries` gives the same values)."""
 
     lo: np.ndarray  # (3,) float64 top-level origin
     res: np.ndarray  # (3,) int64 top-level voxels per axis
@@ -58,6 +70,9 @@ class Grid:
     words: int  # OS voxel data size by the sizing rule
     budget: int  # OS local memory words available
     pad: float
+    precision: str = "fp32"
+    primitive_size: float = 0.0  # the longest side of any primitive's bounding box
+
 
     @property
     def n_leaves(self) -> int:
@@ -276,17 +291,42 @@ def _expand(lo_idx: np.ndarray, hi_idx: np.ndarray) -> tuple[np.ndarray, np.ndar
     return rep, ijk
 
 
+def unit_roundoff(precision: str) -> float:
+    """u = half the machine epsilon of `precision` (2^-24 for fp32, 2^-53 for fp64)."""
+    return float(np.finfo(dtype_of(precision)).eps) / 2.0
+
+
+def round_outward(x: np.ndarray, precision: str, up: bool) -> np.ndarray:
+    """float64 values of `x` rounded to `precision` toward +inf (`up`) or -inf, as float64."""
+    x = np.asarray(x, dtype=np.float64)
+    dt = dtype_of(precision)
+    v = x.astype(dt)
+    wrong = v.astype(np.float64) < x if up else v.astype(np.float64) > x
+    v = np.where(wrong, np.nextafter(v, dt(np.inf if up else -np.inf)), v)
+    return v.astype(np.float64)
+
+
+def boundaries(lo: np.ndarray, cell: np.ndarray, i: np.ndarray, precision: str) -> np.ndarray:
+    """Boundary planes lo + float(i)*cell computed in `precision`, exactly as traversal computes
+    them (lo and cell must be exact in it), returned as float64."""
+    dt = dtype_of(precision)
+    with np.errstate(over="ignore"):
+        return (np.asarray(lo).astype(dt) + np.asarray(i).astype(dt) * np.asarray(cell).astype(dt)).astype(np.float64)
+
+
 def _members(units: _Units, u: np.ndarray, origin: np.ndarray, cell: np.ndarray, res: np.ndarray,
-             pad: float) -> tuple[np.ndarray, np.ndarray]:
+             pad: float, precision: str) -> tuple[np.ndarray, np.ndarray]:
     """(unit, cell index) pairs of units `u` overlapping the padded cells of grids given per row
-    (origin, cell, res: (K, 3) each)."""
-    ilo = np.floor((units.lo[u] - pad - origin) / cell).astype(np.int64)
-    ihi = np.floor((units.hi[u] + pad - origin) / cell).astype(np.int64)
+    (origin, cell, res: (K, 3) each). A cell's box runs between its boundaries as the precision
+    computes them, grown by `pad`; the candidate index range is widened by one cell each way so
+    that rounding of those boundaries cannot drop a cell before the exact test."""
+    ilo = np.floor((units.lo[u] - pad - origin) / cell).astype(np.int64) - 1
+    ihi = np.floor((units.hi[u] + pad - origin) / cell).astype(np.int64) + 1
     ilo = np.clip(ilo, 0, res - 1)
     ihi = np.clip(ihi, 0, res - 1)
     rep, ijk = _expand(ilo, ihi)
-    box_lo = origin[rep] + ijk * cell[rep] - pad
-    box_hi = origin[rep] + (ijk + 1) * cell[rep] + pad
+    box_lo = boundaries(origin[rep], cell[rep], ijk, precision) - pad
+    box_hi = boundaries(origin[rep], cell[rep], ijk + 1, precision) + pad
     keep = _overlap(units, u[rep], box_lo, box_hi)
     return rep[keep], ijk[keep]
 
@@ -306,19 +346,28 @@ def build_grid(scene: Scene, config: MachineConfig | None = None) -> Grid:
         slo, shi = np.zeros(3), np.ones(3)
     big = float(np.max(shi - slo))
     big = big if big > 0 else max(float(np.max(np.abs(slo))), 1.0)
-    pad = PAD * big
-    lo = slo - 2 * pad
+    precision = config.precision
+    magnitude = float(np.max(np.abs(np.concatenate([slo, shi, np.asarray(scene.camera.eye, np.float64)]))))
+    pad = max(PAD * big, PAD_ULPS * unit_roundoff(precision) * magnitude)
+    lo = round_outward(slo - 2 * pad, precision, up=False)
     extent = (shi + 2 * pad) - lo
     all_u = np.arange(len(units.prim))
+    size = 0.0
+    if len(units.prim):
+        plo = np.full((scene.n_primitives, 3), np.inf)
+        phi = np.full((scene.n_primitives, 3), -np.inf)
+        np.minimum.at(plo, units.prim, units.lo)
+        np.maximum.at(phi, units.prim, units.hi)
+        size = float(np.max(phi - plo, initial=0.0, where=np.isfinite(phi - plo)))
     cache: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray]] = {}
 
     def top_members(res: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         key = tuple(int(x) for x in res)
         if key not in cache:
-            cell = extent / res
+            cell = round_outward(extent / res, precision, up=True)
             k = len(all_u)
             rep, ijk = _members(units, all_u, np.tile(lo, (k, 1)), np.tile(cell, (k, 1)),
-                                np.tile(res, (k, 1)), pad)
+                                np.tile(res, (k, 1)), pad, precision)
             flat = (ijk[:, 2] * res[1] + ijk[:, 1]) * res[0] + ijk[:, 0]
             cache.clear()
             cache[key] = (all_u[rep], flat)
@@ -330,7 +379,7 @@ def build_grid(scene: Scene, config: MachineConfig | None = None) -> Grid:
         return np.bincount(key // (scene.n_primitives + 1), minlength=int(np.prod(res)))
 
     top, sub_res_all = choose_resolutions(extent, scene.n_primitives, cfg, config.os.local_words, count_top)
-    cell = extent / top
+    cell = round_outward(extent / top, precision, up=True)
     u_top, flat_top = top_members(top)
     ntop = int(np.prod(top))
     divided = np.flatnonzero(sub_res_all.prod(axis=1) > 0)
@@ -338,15 +387,15 @@ def build_grid(scene: Scene, config: MachineConfig | None = None) -> Grid:
     top_sub[divided] = np.arange(len(divided), dtype=np.int32)
     sub_res = sub_res_all[divided]
     dix = np.stack([divided % top[0], (divided // top[0]) % top[1], divided // (top[0] * top[1])], axis=1)
-    sub_lo = lo + dix * cell
-    sub_cell = cell / sub_res
+    sub_lo = boundaries(lo, cell, dix, precision).reshape(-1, 3)  # the top voxel's corner, as OS has it
+    sub_cell = round_outward(cell / sub_res, precision, up=True).reshape(-1, 3)
     sub_size = sub_res.prod(axis=1)
     sub_offset = np.concatenate([[0], np.cumsum(sub_size)[:-1]]).astype(np.int64)
     # sub-level membership of units listed in divided voxels
     in_sub = top_sub[flat_top] >= 0
     su, sflat_top = u_top[in_sub], flat_top[in_sub]
     sid = top_sub[sflat_top]
-    rep, ijk = _members(units, su, sub_lo[sid], sub_cell[sid], sub_res[sid], pad)
+    rep, ijk = _members(units, su, sub_lo[sid], sub_cell[sid], sub_res[sid], pad, precision)
     s_of = sid[rep]
     sflat = (ijk[:, 2] * sub_res[s_of, 1] + ijk[:, 1]) * sub_res[s_of, 0] + ijk[:, 0]
     # leaves in (top voxel, sub voxel) order, primitives ascending
@@ -374,4 +423,4 @@ def build_grid(scene: Scene, config: MachineConfig | None = None) -> Grid:
                 top_sub=top_sub, sub_res=sub_res.astype(np.int64), sub_lo=sub_lo, sub_cell=sub_cell,
                 sub_inv_cell=1.0 / sub_cell, sub_offset=sub_offset, sub_leaf=sub_leaf,
                 leaf_offsets=leaf_offsets, leaf_prims=prim, words=words,
-                budget=config.os.local_words, pad=pad)
+                budget=config.os.local_words, pad=pad, precision=precision, primitive_size=size)

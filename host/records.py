@@ -121,8 +121,8 @@ for _kind, _prefix in _PREFIX.items():
 MATERIAL = {"MAT_KDC": 0, "MAT_KS": 3, "MAT_SHINE": 4, "MAT_T": 5, "MAT_IOR": 6, "MAT_INV_IOR": 7}
 MATERIAL_WORDS = 8
 SCENE = {"SCN_NLIGHTS": 0, "SCN_NMATERIALS": 1, "SCN_MAX_DEPTH": 2, "SCN_EPS": 3,
-         "SCN_MIN_WEIGHT": 4, "SCN_BACKGROUND": 5, "SCN_LIGHTS": 8}
-SCENE_HEADER_WORDS = 8
+         "SCN_MIN_WEIGHT": 4, "SCN_BACKGROUND": 5, "SCN_EPS_REL": 8, "SCN_LIGHTS": 9}
+SCENE_HEADER_WORDS = 9
 LIGHT = {"LIGHT_POS": 0, "LIGHT_INT": 3}
 LIGHT_WORDS = 6
 
@@ -302,11 +302,14 @@ def material_records(lum, wf: WordFormat) -> tuple[np.ndarray, np.ndarray]:
     return words[np.sort(first)].ravel(), rank[inverse.ravel()]
 
 
-def scene_block(lum, n_materials: int, max_depth: int, eps, min_weight, wf: WordFormat) -> np.ndarray:
-    """SC's scene constants: counts, max depth, eps, min weight, background, then per light its
-    position and intensity (colour / sqrt(#lights), from the golden model)."""
+def scene_block(lum, n_materials: int, max_depth: int, eps, min_weight, wf: WordFormat,
+                eps_rel=0.0) -> np.ndarray:
+    """SC's scene constants: counts, max depth, eps (k_abs of the secondary-ray offset), min
+    weight, background, eps_rel (its k_rel), then per light its position and intensity
+    (colour / sqrt(#lights), from the golden model)."""
     dt = wf.float_type
     head = np.concatenate([int_words([len(lum.light_pos), n_materials, max_depth], wf),
-                           float_words([dt(eps), dt(min_weight)], wf), float_words(lum.background, wf)])
+                           float_words([dt(eps), dt(min_weight)], wf), float_words(lum.background, wf),
+                           float_words([dt(eps_rel)], wf)])
     lights = np.column_stack([lum.light_pos.reshape(-1, 3), lum.light_int.reshape(-1, 3)])
     return np.concatenate([head, float_words(lights, wf)])

@@ -109,8 +109,9 @@ class RenderConfig:
     min_weight: float = 0.0
     """Contribution cut-off: rays whose weight falls below this are not spawned (0 = none)."""
     epsilon: float = 1e-4
-    """Self-intersection guard: reflection, refraction and shadow rays start at t_min = epsilon x
-    the largest extent of the scene's grid (rounded to the precision once)."""
+    """Unused since secondary rays leave from an origin offset along the normal that scales with
+    the hit point and the primitive's size (docs/golden.md, "Secondary-ray origins"); kept so
+    that older configuration files still load."""
 
 
 @dataclass

@@ -15,7 +15,7 @@
 #   COLOR (from OS)  an unoccluded shadow ray's contribution: forwarded to COL as a pixel message.
 #   MISS  (from OS)  a surface ray that left the scene: COL gets w x background (per component).
 #
-# Data: the scene block (lights, background, eps, max depth, min weight) in SC local memory at
+# Data: the scene block (lights, background, offset constants, max depth, min weight) in SC local memory at
 # SCENE_BASE, the material records in SCGM at the HIT's luminance pointer (`ldg`, through SC's
 # cache), both laid out by host/databases.py (docs/databases.md, "luminance_data").
 # Ray counters at the data labels count_* (render reads them after the run).
@@ -73,7 +73,7 @@
 .reg k_hdr_ray   = r1    # RAY header (SC -> OS)
 .reg k_hdr_pix   = r2    # pixel message header (SC -> COL)
 .reg k_hdr_id    = r3    # ID message header (SC -> COL)
-.reg k_eps       = r4    # scene epsilon: t_min of every spawned ray
+.reg k_eps       = r4    # k_abs of the secondary-ray offset (SCN_EPS)
 .reg k_inf       = r5    # +inf: t_max of reflection and refraction rays
 .reg k_bg_r      = r6    # background colour
 .reg k_bg_g      = r7
@@ -199,6 +199,7 @@ count_eye_hits:   .word 0
 count_reflection: .word 0
 count_refraction: .word 0
 count_shadow:     .word 0
+p_back:           .space 3        # the refraction ray's origin P - delta*Ng
 
 .text
 start:
@@ -314,6 +315,36 @@ hit:
     fneg nsy, nsy
     fneg nsz, nsz
 outside:
+# Secondary-ray origins (docs/golden.md, "Secondary-ray origins"): delta = (max|P_a| + t)*k_rel
+# + k_abs, negated when the ray is inside, so delta*Ng points to the side the ray came from.
+# Shadow and reflection rays leave from P + delta*Ng (it replaces P in px..pz), the refraction
+# ray from P - delta*Ng (kept at p_back); all with t_min = 0. Ng is still in ngx..ngz here.
+    fabs ox, px                       # (o is dead once P is known)
+    fabs oy, py
+    fabs oz, pz
+    ld g1, [SCENE_BASE + SCN_EPS_REL] # k_rel
+    fmax ox, ox, oy
+    fmax ox, ox, oz                   # max(max(|Px|, |Py|), |Pz|)
+    fadd ox, ox, t
+    fmul ox, ox, g1
+    fadd ox, ox, k_eps                # delta
+    beqz inside, offset_out
+    fneg ox, ox
+offset_out:
+    fmul oy, ox, ngx                  # delta*Ng
+    fmul oz, ox, ngy
+    fmul g1, ox, ngz
+.if HAS_REFRACTION
+    fsub g0, px, oy                   # P - delta*Ng: the refraction ray's origin
+    st g0, [p_back]
+    fsub g0, py, oz
+    st g0, [p_back + 1]
+    fsub g0, pz, g1
+    st g0, [p_back + 2]
+.endif
+    fadd px, px, oy                   # P + delta*Ng
+    fadd py, py, oz
+    fadd pz, pz, g1
 # cosi = -dot(d, Ns); R = normalize(d + (cosi + cosi)*Ns), computed for every hit (the lights'
 # highlights and the reflection ray use it). The eye ray's ID message and the material loads
 # (a cache hit holds issue 2 cycles) sit in the slots the dependency chain leaves.
@@ -417,7 +448,7 @@ light:
     send ring, Ldx
     send ring, Ldy
     send ring, Ldz
-    send ring, k_eps
+    send ring, r0                     #      t_min = 0: the origin is off the surface
     send ring, dist
     send ring, kr
     send ring, kg
@@ -451,7 +482,7 @@ reflection_send:
     send ring, rx
     send ring, ry
     send ring, rz
-    send ring, k_eps
+    send ring, r0                     #      t_min = 0: the origin is off the surface
     send ring, k_inf
     send ring, rwr
     send ring, rwg
@@ -496,6 +527,9 @@ refraction_keep:
     fmul cnz, vz, vz
     fadd cnx, cnx, cny                # c49
     fadd cnx, cnx, cnz                # c51
+    ld px, [p_back]                   #      the refraction ray leaves from P - delta*Ng
+    ld py, [p_back + 1]
+    ld pz, [p_back + 2]
     fsqrt vlen, cnx                   # c53
     fdiv vx, vx, vlen
     fdiv vy, vy, vlen
@@ -509,7 +543,7 @@ refraction_keep:
     send ring, vx
     send ring, vy
     send ring, vz
-    send ring, k_eps
+    send ring, r0                     #      t_min = 0: the origin is off the surface
     send ring, k_inf
     send ring, twr
     send ring, twg

@@ -32,6 +32,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "report": ("netsushisen.commands.report", "ILP, stall and memory reports from a statistics file"),
     "paper": ("netsushisen.commands.paper", "reproduce the paper's tables and figures"),
     "accuracy": ("netsushisen.commands.accuracy", "what accuracy costs: error against time per knob"),
+    "numerics": ("netsushisen.commands.numerics", "numerical stability: the hard-case catalog or one scene"),
     "sweep": ("netsushisen.commands.sweep", "design-space sweeps on Dask: render every point of a spec"),
     "debug": ("netsushisen.commands.debug", "step through the machine in the terminal"),
 }

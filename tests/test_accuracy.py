@@ -216,14 +216,15 @@ def test_sampled_with_every_tile_is_the_full_run_up_to_the_warm_up_residue(engin
     """All tiles sampled: the estimate is the sum of the tiles' marginal cycles (T(warm-up + tile)
     − T(warm-up)) with a zero-width interval, and that sum is the full run's cycles up to the
     residue of a one-tile warm-up (cache content and round-robin phase from one tile instead of
-    the whole history: 0.65 % here at 8x8, 0.1–0.25 % at 32x32; `sample_tiles`)."""
+    the whole history: 1.3 % here at 8x8 (0.65 % before issue 13 re-rounded the grid and moved
+    tetra's voxelisation; 0.46 % at 16x16), 0.1–0.25 % at 32x32; `sample_tiles`)."""
     rows = fidelity_rows(load_scene("tetra"), 8, MachineConfig(), engine_name, shares=(0.5, 1.0),
                          n_tiles=8, reference_budget=0)
     truth = next(r for r in rows if r.truth).values["cycles"]
     half, every = [r for r in rows if r.ci_low is not None]
     assert every.values["tiles"] == 8 and every.ci_low == every.values["cycles"] == every.ci_high
-    assert every.error["cycles"] < 0.01
-    assert every.values["cycles"] - truth == 344  # the residue, pinned: any change is a finding
+    assert every.error["cycles"] < 0.015
+    assert every.values["cycles"] - truth == 684  # the residue, pinned: any change is a finding
     # half the tiles: 2 in each of 2 strata of consecutive tiles, the interval around the estimate
     assert half.values["tiles"] == 4 and half.values["strata"] == 2
     assert half.ci_low <= half.values["cycles"] <= half.ci_high

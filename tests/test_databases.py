@@ -14,7 +14,7 @@ from netsushisen.emulator.memories import RegionMap
 from netsushisen.errors import ConfigError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.databases import RESIDENT, build_images, database_bytes, resident_fill
-from netsushisen.host.golden import Luminance, render, scene_epsilon
+from netsushisen.host.golden import Luminance, offset_scale, render, scene_epsilon
 from netsushisen.host.ic_access import golden_stream, golden_stream_chunks, ic_address_stream
 from netsushisen.host.nff import parse_nff
 from netsushisen.host.records import CELL_WORDS
@@ -200,7 +200,8 @@ def test_images_decode_to_grid_shapes_and_luminance(name, precision):
     nl = len(lum.light_pos)
     assert (sb.i(c), sb.i(c + 1), sb.i(c + 2)) == (nl, len(img.scgm) // 8, cfg.render.max_depth)
     assert sb.f(c + 3)[0] == scene_epsilon(g, cfg, dt) and np.array_equal(sb.f(c + 5, 3), lum.background)
-    lights = sb.f(c + 8, 6 * nl).reshape(nl, 6)
+    assert sb.f(c + 8)[0] == offset_scale(dt)
+    lights = sb.f(c + 9, 6 * nl).reshape(nl, 6)
     assert np.array_equal(lights[:, :3], lum.light_pos) and np.array_equal(lights[:, 3:], lum.light_int)
 
 
@@ -374,8 +375,8 @@ def test_symbols_select_kernel_code():
                                 "SG_RES", "CELL_SHAPE", "CELL_WORDS", "MAT_INV_IOR", "SCN_LIGHTS", "LIGHT_INT")} == \
         dict(REC_PRIMITIVE=2, POLY_NORMAL=3, POLY_VERTICES=6, SPH_R2=6, CYL_R2=10, CONE_SLOPE=11,
              SPHERE_WORDS=8, CYLINDER_WORDS=12, CONE_WORDS=13, VD_HI=12, SG_RES=9, CELL_SHAPE=1, CELL_WORDS=2,
-             MAT_INV_IOR=7, SCN_LIGHTS=8, LIGHT_INT=3)
-    assert (sym["VOXEL_BASE"], sym["TOP_VOXELS"], sym["SCENE_BASE"], sym["LIGHTS_BASE"]) == (256, 272, 256, 264)
+             MAT_INV_IOR=7, SCN_LIGHTS=9, LIGHT_INT=3)
+    assert (sym["VOXEL_BASE"], sym["TOP_VOXELS"], sym["SCENE_BASE"], sym["LIGHTS_BASE"]) == (256, 272, 256, 265)
     tetra = build_images(load_scene("tetra:2"), config()).symbols
     assert (tetra["HAS_SPHERES"], tetra["HAS_REFLECTION"], tetra["HAS_PATCHES"]) == (0, 0, 0)
     # the symbols select and fill kernel code: mixed has spheres, tetra has none

@@ -226,8 +226,11 @@ def build_case(spec: str, precision: str = "fp32", res: int = 8, min_weight: flo
         t = tr.t[h]
         p = b.o[:, h] + t * d  # golden's P, bit for bit
         ng, ns = surface_normals(sd, tr.prim[h], p, tr.fan[h], tr.b1[h], tr.b2[h])
-        which = {(int(b.sample[i]), p[:, j].tobytes()): j for j, i in enumerate(h)}
-        assert len(which) == len(h), "two hits of one wavefront share a pixel and a point"
+        # spawned rays leave from P +- delta*Ng (docs/golden.md, "Secondary-ray origins")
+        front, back = golden.offset_vectors(p, t, ng, golden.dot(d, ng) > 0, golden.offset_scale(dt),
+                                            golden.scene_epsilon(images.layout.grid, config, dt))
+        which = {(int(b.sample[i]), q[:, j].tobytes()): j for q in (front, back) for j, i in enumerate(h)}
+        assert len(which) == 2 * len(h), "two hits of one wavefront share a pixel and a point"
         spawned: list[list[list[int]]] = [[] for _ in h]
         if wv.shadow is not None:  # by light, then by hit: appending keeps each hit's light order
             s = wv.shadow

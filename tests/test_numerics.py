@@ -1,7 +1,11 @@
 """The hard numerical cases, each in fp32 and fp64, on the tiny scenes in tests/scenes/ (kept for
 the kernel writers): grazing tangent rays, shared edges and vertices, a far tiny sphere,
 axis-parallel rays on voxel boundaries, self-intersection of secondary rays, total internal
-reflection. Also: fp32 stays fp32 (no silent float64 promotion)."""
+reflection. Also: fp32 stays fp32 (no silent float64 promotion).
+
+Then issue 13's catalog (netsushisen/numerics.py): every case on golden fp32, golden fp64 and
+the machine (both engines), judged against the brute-force float64 oracle; the translated scenes
+(1e3..1e6); randomised re-intersection from points on spheres, cylinders and triangles."""
 
 from __future__ import annotations
 
@@ -9,12 +13,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+from netsushisen import numerics
+from netsushisen.host import golden
 from netsushisen.host.golden import render
 from netsushisen.host.grid import build_grid
 from netsushisen.host.nff import parse_nff, read_nff
 from netsushisen.host.rays import primary_rays
-from netsushisen.host.shapes import build_shape_data, ic_rays, intersect
+from netsushisen.host.shapes import build_shape_data, ic_rays, intersect, surface_normals
 from netsushisen.host.traversal import OSGrid, trace
 from netsushisen.isa.config import load_config
 
@@ -204,3 +212,205 @@ def test_precision_is_kept_end_to_end(precision):
     assert sd.sph_r2.dtype == dt and sd.poly_vertices.dtype == dt
     r = render(sc, config(precision), res=4, corners=True)
     assert r.image.dtype == dt and r.hit_ids.shape == (5, 5)
+
+
+# ------------------------------------------------------------------------------------------------
+# The catalog (issue 13): every hard case on golden fp32, golden fp64 and the machine, judged
+# against the brute-force float64 oracle (host/oracle.py) with its tolerance rule.
+
+CASES = {c.name: c for c in numerics.CATALOG}
+
+
+def _verdict(case, path, res=None):
+    (v,) = numerics.run_catalog([path], [case], res=res)
+    return v
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
+@pytest.mark.parametrize("name", list(CASES))
+def test_catalog_on_the_golden_model(name, precision):
+    v = _verdict(CASES[name], f"golden-{precision}")
+    assert v.rays > 0
+    assert v.stable, f"{name} golden {precision}: {v.reason()}"
+    if CASES[name].shadows and name not in ("tiny_triangle_far",):
+        assert v.shadow_rays > 0  # the shadow-ray judgement is not vacuous
+
+
+MACHINE_RES = {"reference": 3}
+"""The machine renders each case at this size on the slow engines (6 or the case's own on the rest)."""
+LIGHT = ("far_tiny_sphere", "grazing_sphere", "shared_edge_fan", "axis_parallel", "origin_on_grid_face")
+"""Cases whose [reference] run stays in the default suite; the others are `heavy` (their [reference]
+run is under -m slow by tests/conftest.py's rule, [compiled] runs every case by default, and
+tests/test_engine_identity.py holds the two engines to identical outputs)."""
+
+
+def _machine_case(name, engine_name):
+    """The machine equals golden fp32 bit for bit (hit ids, 8-bit image, ray counts) and its hits
+    pass the oracle; translated cases keep the untranslated scene's hit ids."""
+    v = _verdict(CASES[name], f"emulator-{engine_name}", res=MACHINE_RES.get(engine_name, 6))
+    assert v.rays > 0
+    assert v.stable, f"{name} on {engine_name}: {v.reason()}"
+
+
+@pytest.mark.parametrize("name", LIGHT)
+def test_catalog_on_the_machine(name, engine_name):
+    _machine_case(name, engine_name)
+
+
+@pytest.mark.heavy
+@pytest.mark.parametrize("name", [n for n in CASES if n not in LIGHT])
+def test_catalog_on_the_machine_heavy(name, engine_name):
+    _machine_case(name, engine_name)
+
+
+@pytest.mark.parametrize("translation", numerics.TRANSLATIONS)
+def test_translated_scenes_keep_hit_ids_and_no_shadow_acne(translation):
+    """The issue's scene moved by 1e3..1e6: hit ids equal the untranslated scene's, and no shadow
+    ray the oracle calls free is blocked, in golden fp32 (the machine: test above)."""
+    case = CASES[f"translated_{translation:.0e}".replace("+0", "")]
+    plain = numerics.run_path(numerics.Case("plain", "", numerics.MIXED).scene(), "golden-fp32", case.res)
+    moved = numerics.run_path(case.scene(), "golden-fp32", case.res)
+    assert np.array_equal(plain.hit_ids, moved.hit_ids)
+    v = numerics.judge(case.scene(), moved, case.res, "fp32")
+    assert v.shadow_rays > 100 and v.wrongly_blocked == 0 and v.wrongly_lit == 0, v.reason()
+
+
+def test_the_judge_catches_a_crack_and_acne():
+    """The verdicts can fail: a hit id turned into background on a shared edge is a wrong hit;
+    a shadow ray of a lit floor pixel marked blocked is a wrongly blocked shadow ray."""
+    case = CASES["shared_edge_fan"]
+    sc = case.scene()
+    r = numerics.run_path(sc, "golden-fp32", case.res)
+    centre = (case.res * case.res) // 2  # the ray through the shared vertex
+    assert r.hit_ids[centre] >= 0
+    r.hit_ids[centre] = -1
+    assert numerics.judge(sc, r, case.res, "fp32", shadows=False).wrong_hits == 1
+    case = CASES["self_intersection"]
+    sc = case.scene()
+    r = numerics.run_path(sc, "golden-fp32", case.res)
+    v0 = numerics.judge(sc, r, case.res, "fp32")
+    lit = np.flatnonzero(~r.shadows["blocked"] & (r.shadows["prim"] == 0))[:3]
+    r.shadows["blocked"][lit] = True
+    v1 = numerics.judge(sc, r, case.res, "fp32")
+    assert v0.wrongly_blocked == 0 and 1 <= v1.wrongly_blocked <= 3
+
+
+# ------------------------------------------------------------------------------------------------
+# Randomised re-intersection (pbrt-v4's manner): random magnitudes for positions and sizes; a ray
+# leaving a surface point from the offset origin never hits that surface again.
+
+def _one(nff_body):
+    return parse_nff("v\nfrom 0 0 -1\nat 0 0 0\nup 0 1 0\nangle 30\nhither 0\nresolution 1 1\n"
+                     "f 1 1 1 1 0 1 0.5 1.5\n" + nff_body, filename="one.nff")
+
+
+def _unit(v):
+    v = np.asarray(v, np.float64)
+    return v / np.linalg.norm(v)
+
+
+def _reintersect(sc, o, target, out_dir, precision):
+    """Shoot from o at `target` on the surface; from the hit, leave along out_dir (flipped to the
+    side the ray came from) from the front offset origin; return (hit?, t of the re-hit)."""
+    dt = np.float32 if precision == "fp32" else np.float64
+    grid = build_grid(sc, config(precision))
+    sd = build_shape_data(sc, precision)
+    o32 = np.asarray(o, np.float64).astype(dt)[:, None]
+    d32 = _unit(np.asarray(target, np.float64) - o).astype(dt)[:, None]
+    h = intersect(sd, ic_rays(o32, d32, np.zeros(1, dt)), np.zeros(1, int), np.zeros(1, int))
+    if not np.isfinite(h.t[0]):
+        return False, None
+    t = h.t
+    p = o32 + t * d32
+    ng, _ = surface_normals(sd, np.zeros(1, int), p, h.fan, h.b1, h.b2)
+    inside = golden.dot(d32, ng) > 0
+    front, _ = golden.offset_vectors(p, t, ng, inside, golden.offset_scale(dt),
+                                     golden.scene_epsilon(grid, None, dt))
+    facing = np.where(inside, -ng, ng)[:, 0].astype(np.float64)
+    w = _unit(out_dir)
+    if w @ facing < 0:
+        w = w - 2 * (w @ facing) * facing  # mirror into the hemisphere the ray came from
+    w32 = _unit(w).astype(dt)[:, None]
+    h2 = intersect(sd, ic_rays(front, w32, np.zeros(1, dt)), np.zeros(1, int), np.zeros(1, int))
+    return True, h2.t[0]
+
+
+_exp = st.floats(-3, 5)
+_vec = st.tuples(st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1)).filter(lambda v: np.linalg.norm(v) > 0.1)
+
+
+@settings(max_examples=60, deadline=None)
+@given(c_exp=_exp, r_exp=st.floats(-2, 3), cdir=_vec, pdir=_vec, odir=_vec, o_exp=st.floats(0, 1),
+       out=_vec, precision=st.sampled_from(PRECISIONS))
+def test_random_sphere_reintersection(c_exp, r_exp, cdir, pdir, odir, o_exp, out, precision):
+    centre = _unit(cdir) * 10.0 ** c_exp
+    r = 10.0 ** r_exp
+    sc = _one(f"s {float(centre[0])!r} {float(centre[1])!r} {float(centre[2])!r} {r!r}\n")
+    target = centre + r * _unit(pdir)
+    o = target + _unit(odir) * r * 10.0 ** (o_exp + 0.5)  # an outside eye
+    if np.linalg.norm(o - centre) <= r * 1.01 or _unit(odir) @ _unit(pdir) < 0.2:
+        return
+    hit, t2 = _reintersect(sc, o, target, out, precision)
+    assert not hit or not np.isfinite(t2), (t2,)
+
+
+@settings(max_examples=60, deadline=None)
+@given(c_exp=_exp, r_exp=st.floats(-2, 3), l_exp=st.floats(-1, 1), cdir=_vec, adir=_vec, s=st.floats(0.05, 0.95),
+       ang=st.floats(0, 6.28), odir=_vec, out=_vec, precision=st.sampled_from(PRECISIONS))
+def test_random_cylinder_reintersection(c_exp, r_exp, l_exp, cdir, adir, s, ang, odir, out, precision):
+    base = _unit(cdir) * 10.0 ** c_exp
+    r = 10.0 ** r_exp
+    a = _unit(adir)
+    apex = base + a * r * 10.0 ** l_exp
+    ends = [repr(float(x)) for x in (*base, r, *apex, r)]
+    sc = _one("c " + " ".join(ends) + "\n")
+    e1 = _unit(np.cross(a, [1.0, 0, 0] if abs(a[0]) < 0.9 else [0, 1.0, 0]))
+    e2 = np.cross(a, e1)
+    radial = np.cos(ang) * e1 + np.sin(ang) * e2
+    target = base + s * (apex - base) + r * radial
+    o = target + (radial + 0.5 * _unit(odir)) * r * 3  # outside, looking at the outer wall
+    if (o - target) @ radial < 0.5 * r:
+        return
+    hit, t2 = _reintersect(sc, o, target, out, precision)
+    assert not hit or not np.isfinite(t2), (t2,)
+
+
+@settings(max_examples=60, deadline=None)
+@given(c_exp=_exp, s_exp=st.floats(-3, 3), cdir=_vec, v1=_vec, v2=_vec, v3=_vec, b=st.tuples(
+    st.floats(0.05, 0.9), st.floats(0.05, 0.9)), odir=_vec, out=_vec, precision=st.sampled_from(PRECISIONS))
+def test_random_triangle_reintersection(c_exp, s_exp, cdir, v1, v2, v3, b, odir, out, precision):
+    centre = _unit(cdir) * 10.0 ** c_exp
+    size = 10.0 ** s_exp
+    vs = [centre + size * np.asarray(v) for v in (v1, v2, v3)]
+    n = np.cross(vs[1] - vs[0], vs[2] - vs[1])
+    if np.linalg.norm(n) < 1e-2 * size * size or b[0] + b[1] > 0.95:
+        return
+    n = _unit(n)
+    sc = _one("p 3\n" + "".join(f"{float(v[0])!r} {float(v[1])!r} {float(v[2])!r}\n" for v in vs))
+    target = vs[0] + b[0] * (vs[1] - vs[0]) + b[1] * (vs[2] - vs[0])
+    w = _unit(odir)
+    if abs(w @ n) < 0.05:
+        return
+    o = target + w * size * 3
+    hit, t2 = _reintersect(sc, o, target, out, precision)
+    assert not hit or not np.isfinite(t2), (t2,)
+
+
+def test_catalog_scenes_are_what_they_claim():
+    """The eye of origin_on_grid_face lies exactly on fp32 voxel boundaries of its own grid;
+    axis_parallel's eye rays have exactly-zero and -0.0 components; the translated scenes' eye
+    rays are bit-identical to the untranslated ones."""
+    sc = CASES["origin_on_grid_face"].scene()
+    g = build_grid(sc, config("fp32"))
+    osg = OSGrid.of(g, np.float32)
+    for axis in (0, 1):
+        faces = osg.lo[axis] + np.arange(g.res[axis] + 1).astype(np.float32) * osg.cell[axis]
+        assert np.float32(sc.camera.eye[axis]) in faces
+    d = primary_rays(CASES["axis_parallel"].scene().camera, CASES["axis_parallel"].res, precision="fp32").direction
+    zero = d == 0
+    assert zero.any() and np.signbit(d[zero]).any() and (~np.signbit(d[zero])).any()
+    plain = primary_rays(numerics.Case("p", "", numerics.MIXED).scene().camera, 16, precision="fp32")
+    for t in numerics.TRANSLATIONS:
+        moved = primary_rays(numerics.Case("m", "", numerics.MIXED, translate=t).scene().camera, 16, precision="fp32")
+        assert np.array_equal(plain.direction, moved.direction)
+        assert np.array_equal(moved.origin.astype(np.float64) - t, plain.origin.astype(np.float64))

@@ -10,8 +10,9 @@ image) come from `netsushisen/options.py`, so they mean and check the same every
     config   show or check the configuration      render   render a scene on the machine
     debug    the step debugger                    report   ILP, stall, memory reports
     paper    the paper's tables and figures       accuracy what accuracy costs, per knob
+    numerics numerical stability report
 
 A command only parses, checks and prints: the work is done by the layers below it (asm/, isa/,
 host/, emulator/ through its engine interface, debugger/, reports/, netsushisen/render.py,
-netsushisen/accuracy.py).
+netsushisen/accuracy.py, netsushisen/numerics.py).
 """

@@ -1,0 +1,137 @@
+"""Is a scene numerically stable? fp32 against fp64, shadow acne, and how far it can be moved.
+
+    netsushisen numerics [SCENE] [--res N] [--out DIR] [--engine NAME] [--config FILE] [--set k=v]...
+
+With a SCENE (built-in SPD name or .nff file): renders it with the golden model in fp32 and in
+fp64 and counts the pixels whose hit primitive or 8-bit colour differs (a map in
+DIR/numerics_map.png: white = another primitive, red = another colour), the shadow rays of eye
+hits that fp32 blocks and fp64 does not, and moves the scene by 1, 10, 100, ... until fp32 stops
+agreeing with fp64 there: the largest translation it survives. Writes DIR/numerics.json.
+
+Without a SCENE: the built-in catalog of hard cases (docs/golden.md, "The numerical catalog"),
+one row per case and path (golden fp32, golden fp64, the machine on --engine), each judged
+against the brute-force float64 oracle. Writes DIR/catalog.json and DIR/catalog.md.
+
+Exit 0 when everything is stable; 1 with the reasons on standard error when something is not.
+--res defaults to 32 with a SCENE (the catalog uses each case's own size, capped by --res).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from dataclasses import asdict
+from pathlib import Path
+
+from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.host.catalog import load_scene
+from netsushisen.host.images import write_png
+from netsushisen.options import add_config_options, add_engine, add_resolution, check_resolution, \
+    config_overrides, engine_from_args
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scene", nargs="?", metavar="SCENE",
+                        help="built-in SPD name or .nff file (default: the built-in catalog of hard cases)")
+    add_resolution(parser, None, "N×N eye rays (default 32 with a SCENE; the catalog: each case's own)")
+    parser.add_argument("--out", default="numerics", help="output folder (default numerics/)")
+    add_engine(parser)
+    add_config_options(parser)
+
+
+def _write(path: Path, write) -> None:
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write(path)
+    except OSError as err:
+        raise NetsushisenError(Diagnostic(f"cannot write: {err.strerror}", file=str(path))) from None
+
+
+def catalog_table(verdicts) -> list[str]:
+    """The catalog as Markdown rows (the README quotes this table)."""
+    rows = ["| case | path | eye rays | wrong hits | shadow rays judged | wrongly blocked | verdict |",
+            "| --- | --- | --- | --- | --- | --- | --- |"]
+    for v in verdicts:
+        rows.append(f"| {v.case} | {v.path} | {v.rays} | {v.wrong_hits} | {v.shadow_rays} | "
+                    f"{v.wrongly_blocked} | {'stable' if v.stable else 'UNSTABLE: ' + v.reason()} |")
+    return rows
+
+
+def _catalog(args, out: Path, engine: str) -> int:
+    from netsushisen import numerics  # noqa: PLC0415 (heavy: the oracle and the machine)
+    paths = [numerics.GOLDEN32, numerics.GOLDEN64, f"emulator-{engine}"]
+    print(f"{'case':<28} {'path':<20} {'rays':>5} {'wrong':>5} {'shadow':>6} {'blocked':>7}  verdict")
+    verdicts = []
+
+    def show(v):
+        verdicts.append(v)
+        print(f"{v.case:<28} {v.path:<20} {v.rays:>5} {v.wrong_hits:>5} {v.shadow_rays:>6} "
+              f"{v.wrongly_blocked:>7}  {'stable' if v.stable else 'UNSTABLE'}", flush=True)
+
+    try:
+        numerics.run_catalog(paths, res=args.res, progress=show)
+    except KeyboardInterrupt:
+        print("interrupted: the rows above are what was judged", file=sys.stderr)
+        _save_catalog(out, verdicts)
+        return 130
+    _save_catalog(out, verdicts)
+    bad = [v for v in verdicts if not v.stable]
+    for v in bad:
+        print(f"unstable: {v.case} on {v.path}: {v.reason()}", file=sys.stderr)
+    print(f"{len(verdicts) - len(bad)} of {len(verdicts)} case×path rows stable; written to {out}/")
+    return 1 if bad else 0
+
+
+def _save_catalog(out: Path, verdicts) -> None:
+    rows = [{**asdict(v), "stable": v.stable, "reason": v.reason()} for v in verdicts]
+    _write(out / "catalog.json", lambda p: p.write_text(json.dumps(rows, indent=2) + "\n"))
+    _write(out / "catalog.md", lambda p: p.write_text("\n".join(catalog_table(verdicts)) + "\n"))
+
+
+def _scene(args, out: Path) -> int:
+    from netsushisen import numerics  # noqa: PLC0415
+    scene = load_scene(args.scene)
+    res = args.res or 32
+    sets = tuple(config_overrides(args))
+    rep = numerics.SceneReport(scene.name, res)
+    interrupted = False
+    try:
+        numerics.scene_report(scene, res, sets, progress=lambda m: print(f"  {m}", file=sys.stderr), report=rep)
+    except KeyboardInterrupt:
+        interrupted = True
+        if rep.pair is None:
+            print("interrupted before fp32 and fp64 were compared: nothing written", file=sys.stderr)
+            return 130
+    pair = rep.pair
+    _write(out / "numerics_map.png", lambda p: write_png(p, numerics.difference_map(pair)))
+    largest = rep.largest_stable_translation
+    data = {"scene": scene.name, "res": res, "pixels": pair.pixels,
+            "hit_differs": int(pair.hit_differs.sum()), "colour_differs": int(pair.colour_differs.sum()),
+            "shadow_rays": pair.shadow_rays, "blocked_only_fp32": pair.blocked_only_fp32,
+            "stable": rep.stable(), "reasons": rep.reasons(), "largest_stable_translation": largest,
+            "complete": not interrupted,
+            "translations": [{"by": by, "stable": ok, "reasons": why} for by, ok, why in rep.translations]}
+    _write(out / "numerics.json", lambda p: p.write_text(json.dumps(data, indent=2) + "\n"))
+    print(f"{scene.name}: {res}x{res}, fp32 against fp64")
+    print(f"  pixels: {int(pair.hit_differs.sum())} hit another primitive, "
+          f"{int(pair.colour_differs.sum())} another colour, of {pair.pixels} (map: {out}/numerics_map.png)")
+    print(f"  shadow rays of eye hits: {pair.shadow_rays}, blocked by fp32 only: {pair.blocked_only_fp32}")
+    for by, ok, why in rep.translations:
+        print(f"  translated by {by:g}: {'stable' if ok else 'breaks: ' + '; '.join(why)}")
+    print(f"  largest stable translation: {'none' if largest is None else f'{largest:g}'}")
+    if interrupted:
+        print(f"interrupted: the translations above are what was measured; written to {out}/", file=sys.stderr)
+        return 130
+    for reason in rep.reasons():
+        print(f"unstable: {scene.name}: {reason}", file=sys.stderr)
+    return 0 if rep.stable() else 1
+
+
+def run(args: argparse.Namespace) -> int:
+    check_resolution(args.res)
+    engine = engine_from_args(args)
+    out = Path(args.out)
+    if not args.scene and (args.config or config_overrides(args)):
+        raise NetsushisenError("--config / --set apply to a SCENE; the catalog's cases carry their own settings")
+    return _scene(args, out) if args.scene else _catalog(args, out, engine)

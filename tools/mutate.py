@@ -255,6 +255,17 @@ def classify(group: Group, item, result, seconds: float, equivalents: dict) -> O
     return outcome
 
 
+def earlier(path: Path) -> tuple[list[Outcome], list[str]]:
+    """An earlier run's killed mutants (kept) and the names of the rest (to run again)."""
+    try:
+        rows = json.loads(path.read_text())["mutants"]
+    except (OSError, ValueError, KeyError) as err:
+        raise MutateError(f"--retest {path}: not a results.json of tools/mutate.py ({err})") from None
+    kept = [Outcome(**r) for r in rows if r["status"] == "killed"]
+    again = [f"{r['module']}:{r['operator']}:{r['occurrence']}" for r in rows if r["status"] != "killed"]
+    return kept, again
+
+
 def summary(outcomes: list[Outcome]) -> dict:
     counts = {s: sum(o.status == s for o in outcomes)
               for s in ("killed", "survived", "equivalent", "incompetent", "no-mutation")}
@@ -292,6 +303,9 @@ def parse_args(argv: list[str] | None, settings: Settings) -> argparse.Namespace
     parser.add_argument("--group", action="append", default=[], help="only this group (repeatable)")
     parser.add_argument("--mutant", action="append", default=[], metavar="MODULE:OPERATOR:OCCURRENCE",
                         help="run just this mutant (repeatable; ignores the sample)")
+    parser.add_argument("--retest", type=Path, metavar="RESULTS_JSON",
+                        help="the mutants of an earlier run: rerun its survivors (and equivalents), "
+                             "keep its killed ones (tests only get added, so a kill stands)")
     parser.add_argument("--workdir", type=Path,
                         default=Path(tempfile.gettempdir()) / f"netsushisen-mutation-{os.getuid()}",
                         help="copies, session and report (default %(default)s)")
@@ -319,7 +333,12 @@ def main(argv: list[str] | None = None) -> int:
         spans = {m: annotation_spans(PROJECT / m) for g in settings.groups for m in g.modules}
         typed = [(g, w) for g, w in mutants if in_annotation(w, spans)]
         mutants = [(g, w) for g, w in mutants if not in_annotation(w, spans)]
-        chosen = choose(mutants, 0 if args.all else args.sample, args.seed, set(args.group), args.mutant)
+        kept: list[Outcome] = []
+        if args.retest:
+            kept, wanted = earlier(args.retest)
+            args.mutant = wanted
+        chosen = ([] if args.retest and not args.mutant else
+                  choose(mutants, 0 if args.all else args.sample, args.seed, set(args.group), args.mutant))
         groups = sorted({g for g, _ in chosen}, key=lambda g: g.name)
         print(f"{len(mutants)} mutants in {sum(len(g.modules) for g in settings.groups)} modules "
               f"({len(typed)} more inside annotations set aside as equivalent); "
@@ -354,12 +373,17 @@ def main(argv: list[str] | None = None) -> int:
         finally:
             free.put(tree)
 
-    outcomes: list[Outcome] = []
+    outcomes: list[Outcome] = list(kept)
     start = time.monotonic()
     info = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "seed": args.seed,
             "jobs": args.jobs, "total_mutants": len(mutants), "in_annotations": len(typed),
             "what": f"{len(chosen)} of {len(mutants)} mutants"
                     + ("" if args.mutant or len(chosen) == len(mutants) else f" (seeded sample, seed {args.seed})")}
+    if args.retest:
+        before = json.loads(args.retest.read_text())["info"]
+        info["what"] = (f"{before['what']}: {len(kept)} killed kept from the run of {before['date']}, "
+                        f"{len(chosen)} survivors and equivalents run again")
+        info["earlier_wall_seconds"] = before["wall_seconds"] + before.get("earlier_wall_seconds", 0)
     pool = ThreadPoolExecutor(args.jobs)
     futures = [pool.submit(run, g, w) for g, w in chosen]
     interrupted = False

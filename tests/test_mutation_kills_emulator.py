@@ -4,9 +4,15 @@ tests/test_emulator_timing.py; every test runs on every engine."""
 
 from __future__ import annotations
 
+import dataclasses
+
+import pytest
+
 from netsushisen.asm.assembler import assemble_text
 from netsushisen.emulator.harness import ProcessorView, run_machine
+from netsushisen.errors import NetsushisenError
 from netsushisen.isa.config import load_config
+from netsushisen.isa.images import image_from_json
 from netsushisen.isa.ring import DEST_SHIFT, DESTS
 
 
@@ -64,3 +70,40 @@ def test_col_header_on_the_ring_fault_names_the_header_not_a_later_word(engine_n
     """)
     assert r.status == "fault"
     assert f"message header {header:#x} for COL sent on the ring" in r.error.format()
+
+
+def test_a_hand_edited_program_is_rejected_before_the_run(engine_name):
+    # an object file edited by hand: li's destination register set to r99 (IC has fewer)
+    program = assemble_text("li r1, 1\nhalt\n", proc="ic")
+    (op,) = program.bundles[0]
+    bad = dataclasses.replace(program, bundles=[(dataclasses.replace(op, args=(99, 1)),),
+                                                *program.bundles[1:]])
+    with pytest.raises(NetsushisenError) as err:
+        run_machine(engine_name, load_config(None, []), {"ic": bad}, max_cycles=100).result()
+    assert "bundle 0: li: no register r99" in err.value.format()
+
+
+def test_sc_reads_its_own_global_and_resident_memory(engine_name):
+    # SC, like IC, has a global memory behind a cache and a resident memory (OS has neither)
+    programs = {"sc": assemble_text("ldg r1, [r0 + 2]\nldr r2, [r0 + 1]\nhalt\n", proc="sc")}
+    image = image_from_json({"scgm": [0.5, 1.5, 2.5, 3.5], "sc.resident": [7.0, 7.25]})
+    m = run_machine(engine_name, load_config(None, []), programs, image, max_cycles=1_000)
+    sc = ProcessorView(m, "pe0.sc")
+    assert m.result().status == "halted"
+    assert (sc.float(1), sc.float(2)) == (2.5, 7.25)
+
+
+ONE_MESSAGE = {"os": "li r1, (DEST_IC << HDR_DEST_SHIFT) | 1\nsend ring, r1\nsend ring, r1\nhalt\n",
+               "ic": "recv r1, ring\nrecv r2, ring\nhalt\n"}
+
+
+def test_statistics_list_only_the_pool_channels_a_run_used(engine_name):
+    # with the buffer pool each link has one channel per class; a 2-word OS -> IC message uses
+    # class 0 of link os-ic only: that channel is listed, no unused channel is
+    m, r = run(engine_name, **ONE_MESSAGE)
+    links = {k: v["words"] for k, v in m.statistics()["fifos"].items() if ".link." in k}
+    assert r.status == "halted" and links == {"pe0.link.os-ic.0": 2}
+    # without the pool every link is listed, used or not
+    m, _ = run(engine_name, ["ring.buffer_pool=false"], **ONE_MESSAGE)
+    links = {k: v["words"] for k, v in m.statistics()["fifos"].items() if ".link." in k}
+    assert sorted(links.values()) == [0, 0, 2]

@@ -78,3 +78,20 @@ def test_only_the_crowded_top_voxel_is_subdivided():
     assert g.res.tolist() == [2, 2, 2]
     assert np.flatnonzero(g.top_sub >= 0).tolist() == [7]
     assert g.top_leaf[0] >= 0 and (g.top_leaf[1:7] == -1).all()  # voxel 0 one leaf, 1..6 empty
+
+
+def test_a_cone_without_axis_gets_a_defined_axis_and_no_slope():
+    # the NFF reader rejects base == apex, but the scene builder (SPD generators) does not: such
+    # a cone must still get finite shape data, +z axis, length 0 and slope 0 (never 0/0 = NaN)
+    from netsushisen.host.nff_builder import SceneBuilder
+    from netsushisen.host.shapes import build_shape_data
+
+    b = SceneBuilder()
+    b.set_camera((0, 0, -10), (0, 0, 0), (0, 1, 0), 45, 1, (4, 4))
+    b.set_material(1, 1, 1, 1, 0, 0, 0, 0)
+    b.add_cone(0, 0, 2, 1.0, 0, 3, 2, 0.5)   # axis (0, 3, 0): unit (0, 1, 0), slope -0.5/3
+    b.add_cone(1, 2, 3, 1.0, 1, 2, 3, 0.5)   # no axis
+    sd = build_shape_data(b.build("degenerate"), "fp64")
+    assert sd.cone_axis.tolist() == [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+    assert sd.cone_length.tolist() == [3.0, 0.0]
+    assert sd.cone_slope.tolist() == [-0.5 / 3, 0.0]

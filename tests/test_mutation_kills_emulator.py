@@ -107,3 +107,42 @@ def test_statistics_list_only_the_pool_channels_a_run_used(engine_name):
     m, _ = run(engine_name, ["ring.buffer_pool=false"], **ONE_MESSAGE)
     links = {k: v["words"] for k, v in m.statistics()["fifos"].items() if ".link." in k}
     assert sorted(links.values()) == [0, 0, 2]
+
+
+def test_unsent_report_quotes_the_header_still_in_the_send_fifo(engine_name):
+    # OS sends a whole 2-word message (length 2, dest ic), then the header and one of the two
+    # payload words of a second one, and halts. A 1-word link with latency 8 holds the first
+    # message's tail, so the second header (1 << 8 | 2 = 0x102) is still in OS's send FIFO.
+    src = """
+        li r1, (DEST_IC << HDR_DEST_SHIFT) | 2
+        send ring, r1
+        send ring, r0
+        send ring, r0
+        send ring, r1
+        send ring, r0
+        halt
+    """
+    _, r = run(engine_name, ["ring.link_buffer_words=1", "ring.link_latency=8"], os=src)
+    assert r.status == "deadlock"
+    assert ("pe0.os: halted at pc 6, with 1 word of its message on `ring` never sent; "
+            "header 0x102 (dest ic, length 2) still in FIFO pe0.send.os") in r.error.format()
+
+
+def _race(engine, ic_nops: int, sc_nops: int) -> int:
+    """IC (through SC's CMU) and SC both send a 1-word message to OS; the payload OS gets first."""
+    def sender(nops: int, payload: int) -> str:
+        return ("nop\n" * nops + "li r1, (DEST_OS << HDR_DEST_SHIFT) | 1\n"
+                f"li r2, {payload}\nsend ring, r1\nsend ring, r2\nhalt\n")
+    m, r = run(engine, ["ring.buffer_pool=false"], ic=sender(ic_nops, 11), sc=sender(sc_nops, 22),
+               os="recv r1, ring\nrecv r2, ring\nrecv r3, ring\nrecv r4, ring\nhalt\n")
+    assert r.status == "halted"
+    return ProcessorView(m, "pe0.os").raw(2)
+
+
+def test_cmu_round_robin_starts_at_input_cycle_mod_n(engine_name):
+    # SC's CMU has two inputs: 0 = SC's send FIFO, 1 = the link from IC. IC's header, sent at
+    # c(2 + ic_nops), reaches SC's CMU at c(4 + ic_nops); SC's own, sent at c(2 + sc_nops), is
+    # poppable at c(3 + sc_nops). When both wait in the same cycle c, input c mod 2 goes first.
+    assert _race(engine_name, 0, 1) == 22   # both at c4: input 0 (SC's own message) first
+    assert _race(engine_name, 1, 2) == 11   # both at c5: input 1 (IC's, on the link) first
+    assert _race(engine_name, 1, 3) == 11   # IC's alone at c5, SC's at c6

@@ -95,3 +95,63 @@ def test_a_cone_without_axis_gets_a_defined_axis_and_no_slope():
     assert sd.cone_axis.tolist() == [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
     assert sd.cone_length.tolist() == [3.0, 0.0]
     assert sd.cone_slope.tolist() == [-0.5 / 3, 0.0]
+
+
+# --- host/shapes.py: expected values worked out by hand (fp64) --------------------------------
+
+def _shapes(body: str):
+    from test_shapes import OPAQUE, scene  # noqa: F401  (the shape tests' view and helpers)
+    return scene(body)
+
+
+def test_newell_normal_when_the_first_corner_is_degenerate():
+    # polygon 1 starts at vertex 4 and its first three vertices are collinear: (v1-v0) x (v2-v1)
+    # = 0, so the normal is Newell's: for the square (0,0) (2,0) (2,2) (0,2) with a vertex in the
+    # middle of its first edge, n_z = sum (x_i - x_j)(y_i + y_j) = (2 - 0)(2 + 2) = 8 -> +z
+    from test_shapes import GLASS, polygon_text
+
+    from netsushisen.host.shapes import build_shape_data
+
+    square = [(0.0, 5.0, 0.0), (1.0, 5.0, 0.0), (1.0, 6.0, 0.0), (0.0, 6.0, 0.0)]
+    degenerate = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (2.0, 0.0, 0.0), (2.0, 2.0, 0.0), (0.0, 2.0, 0.0)]
+    sd = build_shape_data(_shapes(GLASS + polygon_text(square) + polygon_text(degenerate)), "fp64")
+    assert sd.poly_normal.reshape(-1, 3).tolist() == [[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]]
+
+
+def test_triangle_barycentrics_and_patch_shading_normal_in_the_second_fan_triangle():
+    from test_shapes import GLASS, hits, polygon_text
+
+    from netsushisen.host.rays import normalize
+    from netsushisen.host.shapes import build_shape_data, surface_normals
+
+    # triangle (0,0) (1,0) (0,1) at z = 0, hit at (0.25, 0.5): b1 = 0.25 (weight of v1), b2 = 0.5
+    sc = _shapes(GLASS + polygon_text([(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)]))
+    h, _ = hits(sc, "fp64", [[0.25, 0.5, -5.0]], [[0.0, 0.0, 1.0]], [0])
+    assert h.t.tolist() == [5.0] and h.fan.tolist() == [0]
+    assert np.allclose([h.b1[0], h.b2[0]], [0.25, 0.5], rtol=0, atol=1e-12)
+    # patch square v0..v3 = (0,0) (1,0) (1,1) (0,1), vertex normals n0..n3; the point (0.25, 0.75)
+    # lies in fan triangle 1 = (v0, v2, v3) with weights b0 = 0.25, b1 = x = 0.25 (v2),
+    # b2 = y - x = 0.5 (v3): shading normal = normalise(0.25 n0 + 0.25 n2 + 0.5 n3)
+    n = [(0.0, 0.0, -1.0), (1.0, 0.0, -1.0), (0.0, 1.0, -1.0), (-1.0, 0.0, -1.0)]
+    corners = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
+    text = "pp 4\n" + "".join(f"{x} {y} 0 {a} {b} {c}\n" for (x, y), (a, b, c) in zip(corners, n))
+    sc = _shapes(GLASS + text)
+    h, d = hits(sc, "fp64", [[0.25, 0.75, -5.0]], [[0.0, 0.0, 1.0]], [0])
+    assert h.fan.tolist() == [1] and h.t.tolist() == [5.0]
+    sd = build_shape_data(sc, "fp64")
+    p = np.array([[0.25], [0.75], [0.0]])
+    _, ns = surface_normals(sd, np.array([0]), p, h.fan, h.b1, h.b2)
+    want = 0.25 * np.array(n[0]) + 0.25 * np.array(n[2]) + 0.5 * np.array(n[3])
+    assert np.allclose(ns[:, 0], want / np.linalg.norm(want), rtol=0, atol=1e-12)
+
+
+def test_a_two_sided_cone_is_hit_from_inside_by_its_second_root():
+    # cone from (0,0,0) radius 1 to (0,0,1) radius 0.5: r(z) = 1 - 0.5 z. A ray from (0,0,0.5)
+    # along +x leaves it at x = r(0.5) = 0.75: the roots are -0.75 (behind) and 0.75. Two-sided
+    # (glass): hit at 0.75; one-sided: that root is a back face, no hit.
+    from test_shapes import GLASS, OPAQUE, hits
+
+    for material, want in ((GLASS, 0.75), (OPAQUE, np.inf)):
+        h, _ = hits(_shapes(material + "c 0 0 0 1 0 0 1 0.5\n"), "fp64", [[0.0, 0.0, 0.5]],
+                    [[1.0, 0.0, 0.0]], [0])
+        assert np.allclose(h.t, [want], rtol=1e-12), material

@@ -155,3 +155,57 @@ def test_a_two_sided_cone_is_hit_from_inside_by_its_second_root():
         h, _ = hits(_shapes(material + "c 0 0 0 1 0 0 1 0.5\n"), "fp64", [[0.0, 0.0, 0.5]],
                     [[1.0, 0.0, 0.0]], [0])
         assert np.allclose(h.t, [want], rtol=1e-12), material
+
+
+# --- host/traversal.py ---------------------------------------------------------------------------
+
+def test_grid_traversal_finds_the_brute_force_closest_hit_through_sub_grids():
+    # rings:2 gets 8 x 5 x 8 top voxels (so a y/z or x/y mix-up in a voxel index shows) and
+    # sub-grids wherever a voxel holds more than 2 primitives; the truth is every ray tested
+    # against every primitive, the closest hit kept
+    from netsushisen.host.catalog import load_scene
+    from netsushisen.host.grid import build_grid
+    from netsushisen.host.shapes import build_shape_data, ic_rays, intersect
+    from netsushisen.host.traversal import OSGrid, trace
+    from netsushisen.isa.config import load_config
+
+    sc = load_scene("rings:2")
+    grid = build_grid(sc, load_config(None, ["grid.subdivide_threshold=2"]))
+    assert grid.res[1] not in (grid.res[0], grid.res[2]) and len(grid.sub_res) > 0
+    sd = build_shape_data(sc, "fp64")
+    rng = np.random.default_rng(18)
+    n = 300
+    o = grid.lo + rng.uniform(-0.2, 1.2, size=(n, 3)) * (grid.hi - grid.lo)
+    aim = grid.lo + rng.uniform(0.2, 0.8, size=(n, 3)) * (grid.hi - grid.lo)
+    d = (aim - o) / np.linalg.norm(aim - o, axis=1, keepdims=True)
+    rays = ic_rays(np.ascontiguousarray(o.T), np.ascontiguousarray(d.T), np.zeros(n))
+    tr = trace(OSGrid.of(grid, np.float64), sd, rays)
+    pairs_r = np.repeat(np.arange(n), sc.n_primitives)
+    pairs_p = np.tile(np.arange(sc.n_primitives), n)
+    t = intersect(sd, rays, pairs_r, pairs_p).t.reshape(n, sc.n_primitives)
+    best = t.min(axis=1)
+    hit = np.isfinite(best)
+    assert hit.sum() > n // 4                 # the test sees many hits, not just misses
+    assert np.array_equal(tr.t, best)
+    assert np.array_equal(tr.prim[hit], t.argmin(axis=1)[hit]) and (tr.prim[~hit] == -1).all()
+
+
+def test_a_shadow_ray_tests_a_leaf_only_up_to_its_first_occluder():
+    # one voxel holding spheres 0 and 1 (listed in that order); a shadow ray through sphere 0
+    # only: IC tests sphere 0, finds the occluder and stops (refs [1, 0]); a shadow ray crossing
+    # the voxel between them (x = 2.5, along y) tests both (refs [1, 1])
+    from netsushisen.host.grid import build_grid
+    from netsushisen.host.shapes import build_shape_data, ic_rays
+    from netsushisen.host.traversal import OSGrid, trace
+    from netsushisen.isa.config import load_config
+
+    sc = _shapes("f 1 1 1 1 0 1 0 1\ns 0 0 0 1\ns 5 0 0 1\n")
+    grid = build_grid(sc, load_config(None, ["grid.top_resolution=1",
+                                             "grid.subdivide_threshold=10"]))
+    sd = build_shape_data(sc, "fp64")
+    for o, d, occluded, refs in (((-3.0, 0.0, 0.0), (1.0, 0.0, 0.0), True, [1, 0]),
+                                 ((2.5, -3.0, 0.0), (0.0, 1.0, 0.0), False, [1, 1])):
+        rays = ic_rays(np.array(o)[:, None], np.array(d)[:, None], np.zeros(1))
+        tr = trace(OSGrid.of(grid, np.float64), sd, rays, t_max=np.array([100.0]), keep_refs=True)
+        assert tr.occluded.tolist() == [occluded]
+        assert tr.ref_counts.tolist() == refs, o

@@ -209,3 +209,31 @@ def test_a_shadow_ray_tests_a_leaf_only_up_to_its_first_occluder():
         tr = trace(OSGrid.of(grid, np.float64), sd, rays, t_max=np.array([100.0]), keep_refs=True)
         assert tr.occluded.tolist() == [occluded]
         assert tr.ref_counts.tolist() == refs, o
+
+
+def test_a_shadow_ray_stops_walking_at_the_light():
+    # spheres at x = 0 and x = 5 (radius 1), 2 x 2 x 2 top voxels split at x = 2.5. A shadow ray
+    # from (1.5, 0.5, 0.5) along +x to a light 0.5 away (x = 2.0) tests sphere 0 in its first
+    # voxel and ends there: sphere 1, in the next voxel, is never tested. To a light 5 away the
+    # ray goes on into that voxel and sphere 1 (entered at x = 5 - sqrt(0.5)) occludes it.
+    from netsushisen.host.grid import build_grid
+    from netsushisen.host.shapes import build_shape_data, ic_rays
+    from netsushisen.host.traversal import OSGrid, trace
+    from netsushisen.isa.config import load_config
+
+    sc = _shapes("f 1 1 1 1 0 1 0 1\ns 0 0 0 1\ns 5 0 0 1\n")
+    grid = build_grid(sc, load_config(None, ["grid.top_resolution=2",
+                                             "grid.subdivide_threshold=10"]))
+    sd = build_shape_data(sc, "fp64")
+    rays = ic_rays(np.array([[1.5], [0.5], [0.5]]), np.array([[1.0], [0.0], [0.0]]), np.zeros(1))
+    for t_max, occluded, refs in ((0.5, False, [1, 0]), (5.0, True, [1, 1])):
+        tr = trace(OSGrid.of(grid, np.float64), sd, rays, t_max=np.array([t_max]), keep_refs=True)
+        assert tr.occluded.tolist() == [occluded]
+        assert tr.ref_counts.tolist() == refs, t_max
+
+
+def test_an_optional_share_takes_none_and_a_number():
+    from netsushisen.isa.config import load_config
+
+    assert load_config(None, ["ic_memory.cache_share=none"]).ic_memory.cache_share is None
+    assert load_config(None, ["ic_memory.cache_share=0.25"]).ic_memory.cache_share == 0.25

@@ -231,9 +231,3 @@ def test_a_shadow_ray_stops_walking_at_the_light():
         assert tr.occluded.tolist() == [occluded]
         assert tr.ref_counts.tolist() == refs, t_max
 
-
-def test_an_optional_share_takes_none_and_a_number():
-    from netsushisen.isa.config import load_config
-
-    assert load_config(None, ["ic_memory.cache_share=none"]).ic_memory.cache_share is None
-    assert load_config(None, ["ic_memory.cache_share=0.25"]).ic_memory.cache_share == 0.25

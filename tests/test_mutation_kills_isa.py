@@ -45,3 +45,38 @@ def test_a_cache_block_of_exactly_one_word_is_allowed():
 def test_an_optional_share_takes_none_and_a_number():
     assert load_config(None, ["ic_memory.cache_share=none"]).ic_memory.cache_share is None
     assert load_config(None, ["ic_memory.cache_share=0.25"]).ic_memory.cache_share == 0.25
+
+
+# --- isa/images.py ---------------------------------------------------------------------------
+
+def test_a_global_memory_without_a_size_ends_at_its_highest_word():
+    from netsushisen.isa.images import image_from_json
+    from netsushisen.isa.words import WordFormat
+
+    wf = WordFormat("fp32")
+    img = image_from_json({"icgm": [{"at": 5, "words": [1, 2, 3]}]})   # words 5, 6, 7
+    assert img.global_memory("icgm", wf).tolist() == [0, 0, 0, 0, 0, 1, 2, 3]
+    img = image_from_json({"icgm": [1], "sizes": {"icgm": 16}})
+    assert len(img.global_memory("icgm", wf)) == 16
+
+
+def test_raw_words_up_to_64_bits_load_and_wider_ones_are_refused():
+    from netsushisen.errors import NetsushisenError
+    from netsushisen.isa.images import image_from_json
+    from netsushisen.isa.words import WordFormat
+
+    img = image_from_json({"scgm": ["0x3ff0000000000000", "0xffffffffffffffff"]})
+    assert img.global_memory("scgm", WordFormat("fp64")).tolist() == [0x3FF0000000000000, 2**64 - 1]
+    with pytest.raises(NetsushisenError) as err:
+        image_from_json({"scgm": ["0x10000000000000000"]})
+    assert "wider than 64 bits" in err.value.format()
+
+
+def test_an_npz_image_keeps_its_frame(tmp_path):
+    import numpy as np
+
+    from netsushisen.isa.images import load_image
+
+    path = tmp_path / "image.npz"
+    np.savez(path, frame=np.array([64, 48]), icgm=np.array([1.5], np.float32))
+    assert load_image(path).frame == (64, 48)

@@ -1,17 +1,13 @@
 """Tests written to kill mutants that survived tools/mutate.py in host/ (docs/mutation.md):
-each checks a fact worked out from the layout's definition, not the code's own table."""
+databases, grid, shapes and traversal. Each checks a value worked out by hand from the rule it
+pins (comments show the working) or against brute force, never the code's own tables."""
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
+from test_databases import config, mixed, shuffled  # tests/ is on sys.path (conftest.py)
 
 from netsushisen.host.databases import build_images
-
-sys.path.insert(0, str(Path(__file__).parent))
-from test_databases import config, mixed, shuffled  # noqa: E402
 
 
 def _extent(regions) -> tuple[int, int]:
@@ -100,7 +96,8 @@ def test_a_cone_without_axis_gets_a_defined_axis_and_no_slope():
 # --- host/shapes.py: expected values worked out by hand (fp64) --------------------------------
 
 def _shapes(body: str):
-    from test_shapes import OPAQUE, scene  # noqa: F401  (the shape tests' view and helpers)
+    """A scene of `body` records under tests/test_shapes.py's view."""
+    from test_shapes import scene
     return scene(body)
 
 

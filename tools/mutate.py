@@ -399,7 +399,7 @@ def main(argv: list[str] | None = None) -> int:
     else:
         pool.shutdown()
     info["wall_seconds"] = time.monotonic() - start
-    per = info["wall_seconds"] / max(len(outcomes), 1)
+    per = info["wall_seconds"] / max(len(outcomes) - len(kept), 1)  # mutants run in this call
     info["full_run_estimate_seconds"] = round(per * len(mutants))
     write_report(args.workdir, outcomes, info)
     counts = summary(outcomes)

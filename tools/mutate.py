@@ -203,12 +203,14 @@ def in_annotation(mutant, spans: dict) -> bool:
 def choose(mutants: list, sample: int, seed: int, groups: set[str], wanted: list[str]) -> list:
     """The mutants to run: the named ones, else a seeded sample (0 = all) of the chosen groups."""
     if wanted:
-        keys = {tuple(w.rsplit(":", 2)) for w in wanted}
-        chosen = [(g, w) for g, w in mutants if (str(w.mutations[0].module_path),
-                  w.mutations[0].operator_name, str(w.mutations[0].occurrence)) in keys]
-        if len(chosen) != len(keys):
-            raise MutateError(f"--mutant: {len(keys) - len(chosen)} of the named mutants do not exist "
-                              "(MODULE:OPERATOR:OCCURRENCE, as results.json names them)")
+        def name(w) -> str:
+            spec = w.mutations[0]
+            return f"{spec.module_path}:{spec.operator_name}:{spec.occurrence}"
+        chosen = [(g, w) for g, w in mutants if name(w) in set(wanted)]
+        missing = sorted(set(wanted) - {name(w) for _, w in chosen})
+        if missing:
+            raise MutateError(f"--mutant: no mutant {', '.join(missing)} (MODULE:OPERATOR:OCCURRENCE, "
+                              "as results.json names them)")
         return chosen
     pool = [(g, w) for g, w in mutants if not groups or g.name in groups]
     if sample and sample < len(pool):

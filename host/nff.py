@@ -382,7 +382,7 @@ class _Parser(GeometryChecks):
             raise self.error(f"{what}: both radii are zero (a line, never hit)", record)
         self.check_round(v[0:3], max(v[3], v[7]), record, what)
         axis = math.dist(v[0:3], v[4:7])
-        if axis <= max(map(abs, v[0:3] + v[4:7])) * 4 * FP32_EPS:
+        if axis < max(map(abs, v[0:3] + v[4:7])) * FP32_EPS / 2:
             raise self.error(f"{what}: its axis ({axis:g} long) is lost beside its position in "
                              "fp32 (the machine's precision)", record)
         self.builder.add_cone(*v)

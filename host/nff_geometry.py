@@ -7,7 +7,7 @@ as meant:
   cone radius that is negative, or both zero; a coordinate or radius of magnitude beyond
   MAX_COORD (1e18: the machine computes in fp32, where the squares and dot products every
   intersection test takes overflow to infinity past about 1.8e19); a sphere or cylinder so
-  small beside its position that fp32 cannot tell its two sides apart (it would vanish, and a
+  small beside its position that fp32 rounds both its sides back to its centre (it would vanish, and a
   scene of only such objects has no extent to build a grid on).
 * **Warnings** (`file:line:col: warning: ...` on standard error, the scene is used): a polygon
   with zero area (collinear or repeated vertices: it is never hit; tessellators emit these at
@@ -32,7 +32,10 @@ MAX_COORD = 1e18
 squares and dot products) must stay finite in fp32 (max 3.4e38)."""
 
 FP32_EPS = 2.0 ** -23
-"""fp32's relative spacing: an extent below |position| × 4·FP32_EPS is lost beside it."""
+"""fp32's relative spacing (the gap between 1 and the next fp32 number). An extent below half
+the spacing at its position, |position| × FP32_EPS / 2, is lost beside it: position ± extent
+rounds back to the position. Anything larger is still a (tiny) object that the robust tests
+handle — the numerics catalog's far tiny sphere, r = 1e-3 at 1e4, is hit correctly in fp32."""
 
 MAX_WARNINGS = 5
 """Warnings shown per kind of problem; the rest are counted."""
@@ -107,7 +110,7 @@ class GeometryChecks:
     def check_round(self, centre: list[float], radius: float, record: int, what: str) -> None:
         """A sphere's or cone end's radius against fp32's resolution at its position."""
         scale = max(abs(c) for c in centre)
-        if 0.0 < radius <= scale * 4 * FP32_EPS:
+        if 0.0 < radius < scale * FP32_EPS / 2:
             raise self.error(f"{what}: radius {radius:g} is lost beside its position "
                              f"{scale:g} in fp32 (the machine's precision): the object would "
                              "vanish", record)

@@ -26,15 +26,16 @@ def run(argv, capsys):
     return code, out, err
 
 
+# luminance data: the material records, then the scene block of 9 + 6·L words (docs/databases.md)
 @pytest.mark.parametrize("spec, expected, shape_lum", [
     ("tetra", dict(primitives=4096, polygons=4096, spheres=0, cones=0, cylinders=0, lights=1,
-                   reflective=False, transparent=False), (245760, 88)),
+                   reflective=False, transparent=False), (245760, 92)),
     ("balls", dict(primitives=7382, polygons=1, spheres=7381, cones=0, cylinders=0, lights=3,
-                   reflective=True, transparent=False), (236264, 168)),
+                   reflective=True, transparent=False), (236264, 172)),
     ("mount", dict(primitives=8196, polygons=8192, spheres=4, cones=0, cylinders=0, lights=1,
-                   reflective=True, transparent=True), (491648, 120)),
+                   reflective=True, transparent=True), (491648, 124)),
     ("rings", dict(primitives=8401, polygons=1, spheres=4200, cones=0, cylinders=4200, lights=3,
-                   reflective=True, transparent=False), (336072, 328)),
+                   reflective=True, transparent=False), (336072, 332)),
 ])
 def test_info_json_table1(capsys, spec, expected, shape_lum):
     code, out, err = run(["scene", "info", spec, "--json"], capsys)

@@ -4,6 +4,7 @@ files."""
 
 from __future__ import annotations
 
+import copy
 import csv
 from pathlib import Path
 
@@ -18,8 +19,9 @@ from netsushisen.host.prepass import run_prepass
 from netsushisen.isa.config import load_config
 from netsushisen.kernels import KERNELS
 from netsushisen.reports import paper as paper_mod
-from netsushisen.reports.paper import findings, table2
-from netsushisen.reports.paper_data import analyse_scene
+from netsushisen.reports.paper import table2
+from netsushisen.reports.paper_data import PaperOptions, analyse_scene
+from netsushisen.reports.paper_machine import compare_counters
 from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
 
 # ------------------------------------------------------------------------------------------------
@@ -110,8 +112,10 @@ def test_trace_driven_path_equals_the_emulator_32(scene):
 
 @pytest.fixture(scope="module")
 def small():
+    """The machine's reading: lists + records sized, list cells through the cache (what the
+    IC kernel does), so every sweep point is a machine configuration."""
     config = load_config()
-    return analyse_scene("mount:3", 16, config), config
+    return analyse_scene("mount:3", 16, config, options=PaperOptions("records+lists", "cache")), config
 
 
 def test_sweep_points_equal_the_full_model(small):
@@ -162,27 +166,26 @@ def test_table2_and_locality_from_the_golden_model(small):
             assert r["all"]["t_measured"] == fig4[r["local_share"]]
 
 
-def _fake(name: str, refs: np.ndarray, base=None):
-    data, _ = base
-    import copy
-    d = copy.copy(data)
-    d.name = name
-    d.references = refs
-    d.visible = np.arange(len(refs) // 2)
-    return d
-
-
-def test_findings_can_disagree(small):
-    """A scene whose references are spread evenly must not 'agree' that they are skewed."""
-    uniform = _fake("mount", np.full(1000, 7, np.int64), small)
-    skewed = _fake("mount", np.r_[np.full(200, 1000), np.full(600, 1), np.zeros(200)].astype(np.int64), small)
-    v = {f.paper: f.verdict for f in findings([uniform])}
-    assert v["references are skewed in every scene"] == "differ"
-    assert v["primitives never referenced: 20 % in mount, 67 % in rings"] == "differ"
-    v = {f.paper: f.verdict for f in findings([skewed])}
-    assert v["references are skewed in every scene"] == "agree"
-    assert v["primitives never referenced: 20 % in mount, 67 % in rings"] == "agree"
-    assert all(f.verdict in ("agree", "partly", "differ", "not evaluated") for f in findings([skewed]))
+def test_paper_defaults_count_per_reference_against_the_records(small):
+    """The paper's reading (default options): local memory sized against the shape records,
+    list cells outside the cache; one reference per intersection test."""
+    _, config = small
+    d = analyse_scene("mount:3", 16, config)
+    assert d.options == PaperOptions()
+    assert d.primitive_database_bytes == d.database_bytes["shape_data"]
+    tests = int(d.references.sum())
+    for r in d.fig4 + d.fig5:
+        assert r["ref"]["loads"] == tests
+        assert r["all"]["loads"] > tests  # several words per test
+    cache_only = d.fig4[-1]
+    assert cache_only["ref"]["miss_rate"] > cache_only["all"]["miss_rate"]  # a reference misses if any word does
+    # no cache at a 100 % resident split: with the lists local, every cache access is a
+    # non-resident record's, and each costs t_g
+    full = [r for r in d.fig5 if r["resident_split"] == 1.0 and r["local_share"] == 0.5][0]
+    f = full["ref"]
+    assert full["cache_bytes"] == 0 and f["cache_hits"] == 0 and 0 < f["resident"] < tests
+    assert f["t_measured"] == pytest.approx((f["resident"] + 8 * f["cache_accesses"]) / tests)
+    assert full["all"]["cache_accesses"] == full["shape"]["cache_accesses"]  # no list read is cached
 
 
 # ------------------------------------------------------------------------------------------------
@@ -193,7 +196,8 @@ def test_paper_command_writes_report_figures_and_csvs(tmp_path, cli):
     out = tmp_path / "p"
     code, stdout, err = cli("paper", "--res", "8", "--scenes", "tetra:1", "mount:2", "--out", out, "--quiet")
     assert code == 0, err
-    for name in ("fig3_locality.png", "fig4_miss_rate.png", "fig5_access_time.png"):
+    for name in ("fig3_locality.png", "fig4_miss_rate.png", "fig5_access_time.png",
+                 "fig5_access_time_per_word.png"):
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with (out / "fig4_miss_rate.csv").open() as f:
         rows = list(csv.DictReader(f))
@@ -206,6 +210,34 @@ def test_paper_command_writes_report_figures_and_csvs(tmp_path, cli):
     assert "## Table 1" in md and "## Table 2" in md and "![Figure 5](fig5_access_time.png)" in md
     assert "Figure 5: for 10 % local memory t rises with the resident share" in md
     assert "tetra 4096 polygons" in md and "tetra | 4 (paper 2121)" not in md
+    assert "per primitive reference (the paper's counting):" in md and "- per word:" in md
+    assert md.count("*Test:*") == 13 and "Why these defaults are the paper's" in md
+    assert "--sizing records --lists local" in md
+
+
+def test_paper_on_machine_checks_the_counters(tmp_path, cli, engine_name):
+    """--on-machine renders each scene on the machine (serial mode) in worker processes and
+    finds IC's counters equal to the trace-driven path's."""
+    _needs_kernels()
+    out = tmp_path / "p"
+    code, stdout, err = cli("paper", "--res", "6", "--scenes", "mount:2", "tetra:1", "--out", out,
+                            "--on-machine", "--engine", engine_name, "--jobs", "2")
+    assert code == 0, err
+    assert "counters equal the trace-driven path's for mount, tetra" in stdout
+    md = (out / "report.md").read_text()
+    assert "## On the machine" in md and "**All counters equal**" in md and f"{engine_name} engine" in md
+    assert md.count("| equal |") == 2
+
+
+def test_counter_comparison_names_the_first_difference():
+    a = {"resident": {"accesses": 5}, "cache": {"hits": 3, "misses": 1}, "regions": {"global.shape_data": {"accesses": 4}}}
+    b = copy.deepcopy(a)
+    assert compare_counters(a, b) == ""
+    b["regions"]["global.shape_data"]["accesses"] = 5
+    assert compare_counters(a, b) == "regions.global.shape_data.accesses: trace-driven 4, machine 5"
+    b = copy.deepcopy(a)
+    del b["cache"]
+    assert compare_counters(a, b).startswith("cache:")
 
 
 def test_paper_interrupted_writes_what_finished(tmp_path, cli, monkeypatch):
@@ -222,7 +254,8 @@ def test_paper_interrupted_writes_what_finished(tmp_path, cli, monkeypatch):
 
     monkeypatch.setattr(paper_command, "analyse_scene", fake)
     out = tmp_path / "p"
-    code, _, err = cli("paper", "--res", "6", "--scenes", "tetra:1", "balls:1", "--out", out, "--quiet")
+    code, _, err = cli("paper", "--res", "6", "--scenes", "tetra:1", "balls:1", "--out", out, "--quiet",
+                       "--jobs", "1")
     assert code == 130
     assert "interrupted; finished tetra, not balls" in err
     md = (out / "report.md").read_text()
@@ -234,6 +267,7 @@ def test_paper_interrupted_writes_what_finished(tmp_path, cli, monkeypatch):
     (["--scenes", "nosuchscene"], "cannot load scene"),
     (["--res", "0"], "--res 0"),
     (["--set", "ic_memory.block_bytes=48"], "block_bytes must be a power of two"),
+    (["--jobs", "0"], "--jobs 0"),
 ])
 def test_paper_bad_input_is_one_located_line(tmp_path, cli, argv, message):
     code, _, err = cli("paper", "--out", tmp_path / "p", "--quiet", *argv)

@@ -1,10 +1,9 @@
-"""`netsushisen paper --on-machine` and the scenes-in-parallel runner.
+"""`netsushisen paper --on-machine`'s comparison and the scenes-in-parallel runner.
 
-`machine_check` renders one scene on the emulated machine in the serial ray-tree mode
-(SLOTS=1, SERIAL_TREES=1: one ray tree in flight, so IC sees the golden trace's rays in
-`tracesim.machine_order`) and replays the golden trace through the trace-driven memory for the
-same images; the two sets of IC counters — accesses by memory and by region, loads per
-primitive, hence ρ and μ — must be equal, and the result says where they are not.
+The on-machine check (`commands/paper.py: machine_check`, which renders on an engine: reports
+never import engine objects) compares IC's counters from the machine with the trace-driven
+path's: accesses by memory and by region, loads per primitive, hence ρ and μ; they must be
+equal, and `compare_counters` says where they are not.
 
 `run_parallel` runs such tasks (and `analyse_scene`) in worker processes, one scene per worker:
 scenes are independent, and a 512×512 scene takes minutes. Workers ignore Ctrl-C; the parent
@@ -39,41 +38,6 @@ def compare_counters(trace: dict, machine: dict) -> str:
     """'' when IC's counters agree on every COMPARED key, else the first difference."""
     return _first_difference({k: trace[k] for k in COMPARED if k in trace},
                              {k: machine[k] for k in COMPARED if k in machine})
-
-
-def machine_check(scene: str, res: int, config, engine: str, corners: bool = False) -> dict:
-    """Render `scene` on the machine (serial mode) and compare IC's counters with the
-    trace-driven path's for the same images."""
-    from netsushisen.host.golden import render as golden_render
-    from netsushisen.render import render
-    from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
-
-    t0 = time.perf_counter()
-    r = render(scene, config, res=res, corners=corners, slots=1, defines={"SERIAL_TREES": 1}, engine=engine)
-    t_machine = time.perf_counter() - t0
-    setup = r.setup
-    machine = r.stats["memory"]["pe0.ic"]
-    out = {"scene": setup.scene.name, "cycles": int(r.run.cycles), "status": r.run.status,
-           "machine_seconds": t_machine}
-    if r.run.status not in ("halted", "finished"):
-        out.update(equal=False, difference=f"the machine stopped: {r.run.status}"
-                   + (f" ({r.run.error})" if r.run.error else ""), rho="–", mu="–",
-                   seconds=time.perf_counter() - t0)
-        return out
-    golden = golden_render(setup.scene, setup.config, res=res, corners=corners, keep_trace=True,
-                           grid=setup.images.layout.grid)
-    model = TraceMemory.for_images(setup.images)
-    for space, address in ordered_stream_chunks(setup.images.layout, golden, machine_order(golden)):
-        model.replay(space, address)
-    trace = model.stats()
-    diff = compare_counters(trace, machine)
-    res_acc, cache = machine["resident"]["accesses"], machine["cache"]
-    total = res_acc + cache["accesses"]
-    out.update(equal=not diff, difference=diff,
-               rho=f"{res_acc / total:.4f}" if total else "–",
-               mu=f"{cache['hits'] / cache['accesses']:.4f}" if cache["accesses"] else "–",
-               loads=total, seconds=time.perf_counter() - t0)
-    return out
 
 
 def _ignore_sigint() -> None:

@@ -36,9 +36,46 @@ from netsushisen.options import (add_config_options, add_engine, add_resolution,
 from netsushisen.reports.paper import findings
 from netsushisen.reports.paper_data import (LIST_PLACEMENTS, PAPER_SCENES, SIZINGS, PaperOptions,
                                             SceneData, analyse_scene)
-from netsushisen.reports.paper_machine import machine_check, run_parallel
+from netsushisen.reports.paper_machine import compare_counters, run_parallel
 from netsushisen.reports.paper_report import report_markdown, verdict_counts
 from netsushisen.reports.paper_plots import write_csvs, write_figures
+
+
+def machine_check(scene: str, res: int, config, engine: str, corners: bool = False) -> dict:
+    """Render `scene` on the machine in the serial ray-tree mode (SLOTS=1, SERIAL_TREES=1: one
+    ray tree in flight, so IC sees the golden trace's rays in `tracesim.machine_order`) and
+    compare IC's counters with the trace-driven path's for the same images. Runs in a worker
+    process: module-level, picklable arguments."""
+    from netsushisen.host.golden import render as golden_render
+    from netsushisen.render import render
+    from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
+
+    t0 = time.perf_counter()
+    r = render(scene, config, res=res, corners=corners, slots=1, defines={"SERIAL_TREES": 1}, engine=engine)
+    t_machine = time.perf_counter() - t0
+    setup = r.setup
+    machine = r.stats["memory"]["pe0.ic"]
+    out = {"scene": setup.scene.name, "cycles": int(r.run.cycles), "status": r.run.status,
+           "machine_seconds": t_machine}
+    if r.run.status not in ("halted", "finished"):
+        out.update(equal=False, difference=f"the machine stopped: {r.run.status}"
+                   + (f" ({r.run.error})" if r.run.error else ""), rho="–", mu="–",
+                   seconds=time.perf_counter() - t0)
+        return out
+    golden = golden_render(setup.scene, setup.config, res=res, corners=corners, keep_trace=True,
+                           grid=setup.images.layout.grid)
+    model = TraceMemory.for_images(setup.images)
+    for space, address in ordered_stream_chunks(setup.images.layout, golden, machine_order(golden)):
+        model.replay(space, address)
+    trace = model.stats()
+    diff = compare_counters(trace, machine)
+    res_acc, cache = machine["resident"]["accesses"], machine["cache"]
+    total = res_acc + cache["accesses"]
+    out.update(equal=not diff, difference=diff,
+               rho=f"{res_acc / total:.4f}" if total else "–",
+               mu=f"{cache['hits'] / cache['accesses']:.4f}" if cache["accesses"] else "–",
+               loads=total, seconds=time.perf_counter() - t0)
+    return out
 
 
 def configure(parser: argparse.ArgumentParser) -> None:

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from typing import Iterable, Iterator
 
 import numpy as np
+from numba import njit
 
 from netsushisen.host.databases import GLOBAL, RESIDENT, DatabaseLayout
 from netsushisen.host.golden import SHADOW
@@ -255,6 +256,52 @@ def ordered_stream_chunks(layout: DatabaseLayout, result, order: np.ndarray | No
 # Many configurations at once: the run-collapsed stream
 
 
+@njit(cache=True, nogil=True)
+def _replay_point(first, span, loads, prim, segment, fetch_is_reference, fetch_prim, resident, shift,
+                  tags, word_bytes, block_bytes, lists_cached):  # pragma: no cover - compiled
+    """One configuration's cache over one chunk of runs, in stream order: (hits of record
+    loads, hits of list loads, references through the cache whose every block hit). A run's
+    first load of each block is a real access; its other loads of that block hit. A direct-mapped
+    cache is one tag per set: a loop is exact and linear (the vectorised `replay_blocks` sorts)."""
+    sets = len(tags)
+    missed = np.zeros(len(fetch_is_reference), np.bool_)
+    h_shape = 0
+    h_list = 0
+    for i in range(len(first)):
+        p = prim[i]
+        if p < 0:
+            if not lists_cached:
+                continue
+            f = first[i]
+        else:
+            if resident[p]:
+                continue
+            f = first[i] + shift[p]
+        b1 = (f * word_bytes) // block_bytes
+        b2 = ((f + span[i]) * word_bytes) // block_bytes
+        hits = loads[i] - (b2 - b1 + 1)
+        miss = False
+        for b in range(b1, b2 + 1):
+            st = b % sets
+            tag = b // sets
+            if tags[st] == tag:
+                hits += 1
+            else:
+                tags[st] = tag
+                miss = True
+        if p < 0:
+            h_list += hits
+        else:
+            h_shape += hits
+            if miss:
+                missed[segment[i]] = True
+    ref_hits = 0
+    for k in range(len(fetch_is_reference)):
+        if fetch_is_reference[k] and not resident[fetch_prim[k]] and not missed[k]:
+            ref_hits += 1
+    return h_shape, h_list, ref_hits
+
+
 @dataclass
 class SweepPoint:
     """One memory configuration of a sweep (a layout decides resident vs ICGM and addresses).
@@ -373,8 +420,6 @@ class SweepStream:
         ref_count = np.bincount(fetch_prim[refs], minlength=n)
         list_loads = int(loads[~is_rec].sum())
         all_rec_loads, all_refs = int(rec_loads.sum()), int(ref_count.sum())
-        run_fetch_is_ref = np.zeros(len(prim), bool)
-        run_fetch_is_ref[is_rec] = refs[seg[is_rec]]
         for pt in self.points:
             c = pt.counts
             res_loads = int(rec_loads[pt.resident].sum())
@@ -389,29 +434,12 @@ class SweepStream:
                 c["local.primitive_list"] += list_loads
             if not len(pt.tags):
                 continue
-            rec_in_cache = is_rec & ~pt.resident[p]
-            in_cache = (rec_in_cache | ~is_rec) if self.lists_cached else rec_in_cache
-            g = np.flatnonzero(in_cache)
-            rec_g = is_rec[g]
-            f = first[g] + np.where(rec_g, pt.shift[p[g]], 0)
-            b1 = (f * self.wb) // pt.block_bytes
-            nb = ((f + span[g]) * self.wb) // pt.block_bytes - b1 + 1
-            hits = replay_blocks(ranges(b1, nb), pt.tags)
-            # hits per run (loads after the first of their block hit too)
-            ends = np.cumsum(nb)
-            cs = np.concatenate([[0], np.cumsum(hits)])
-            run_hits = cs[ends] - cs[ends - nb] + loads[g] - nb
-            rec_hits = int(run_hits[rec_g].sum())
-            c["hits.shape_data"] += rec_hits
-            c["hits.primitive_list"] += int(run_hits.sum()) - rec_hits
-            # a reference hits when none of its blocks misses
-            missed_run = g[run_hits < loads[g]]
-            missed = np.zeros(len(refs), bool)
-            missed[seg[missed_run[is_rec[missed_run]]]] = True
-            cached_refs = run_fetch_is_ref[g] & rec_g
-            fetch_g = np.zeros(len(refs), bool)
-            fetch_g[seg[g[cached_refs]]] = True
-            c["ref.hits"] += int(np.count_nonzero(fetch_g & ~missed))
+            h_shape, h_list, ref_hits = _replay_point(
+                first, span, loads, prim, seg, refs, fetch_prim, pt.resident, pt.shift, pt.tags,
+                self.wb, pt.block_bytes, self.lists_cached)
+            c["hits.shape_data"] += int(h_shape)
+            c["hits.primitive_list"] += int(h_list)
+            c["ref.hits"] += int(ref_hits)
 
     @staticmethod
     def figures(pt: SweepPoint, t_r: float = 1, t_c: float = 2, t_g: float = 8) -> dict:

@@ -163,7 +163,8 @@ def figure5(scenes: list[SceneData], path: Path, what: str = "ref") -> None:
     n = len(scenes)
     cols = 2 if n > 1 else 1
     rows = (n + cols - 1) // cols
-    fig, axes = plt.subplots(rows, cols, figsize=(5.4 * cols, 4.1 * rows), dpi=110, squeeze=False)
+    fig, axes = plt.subplots(rows, cols, figsize=(max(5.4 * cols, 8.0), 4.1 * rows + 0.6), dpi=110,
+                             squeeze=False)
     for ax, d in zip(axes.ravel(), scenes):
         body = []
         curves = []
@@ -180,7 +181,7 @@ def figure5(scenes: list[SceneData], path: Path, what: str = "ref") -> None:
                             markersize=4, label=f"local {100 * local:.0f} %")
             for xx, v in zip(x, t):
                 if v > hi:  # clipped: an arrow on the top edge with the value
-                    ax.annotate(f"{v:.1f}", (xx, hi), xytext=(xx - 9, hi - 0.06 * (hi - lo)), fontsize=7,
+                    ax.annotate(f"{v:.1f}", (xx, hi), xytext=(xx - 12, hi - (0.07 + 0.07 * i) * (hi - lo)), fontsize=7,
                                 color=line.get_color(), arrowprops={"arrowstyle": "->", "color": line.get_color()})
         ax.axvline(70, **PAPER_STYLE, label="paper: best near 70 % (3 : 1)")
         ax.set_title(d.name)

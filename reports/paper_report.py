@@ -18,7 +18,7 @@ DEFAULTS_ARGUED = [
     "charges one access time per reference. Per word, one test reads 2 list words and 5–13 record "
     "words that share 64-byte blocks, so most words hit because their neighbour missed; that "
     "counting is shown beside, never as the paper's.",
-    "- **Sizing against the shape records.** §4 lists the primitive list and the primitive shape "
+    "- **Sizing against the shape records.** The paper lists the primitive list and the primitive shape "
     "data as separate databases; resident memory receives \"primitive data\" in priority order "
     "(§4.4, the pre-pass). Figures 4–5 size local memory as a share of the scene's primitive "
     "database; we read that as the data the pre-pass ranks — one record per primitive — not our "

@@ -272,3 +272,24 @@ def test_paper_tables_hold_the_papers_numbers():
     assert paper_mod.PAPER_TABLE2["mount"] == (1903, 0.23, 0.57)
     assert paper_mod.PAPER_TABLE1["rings"][4] == 4200
     assert Path(paper_mod.__file__).stat().st_size > 0
+
+
+def test_trace_experiments_are_variants_of_the_main_pass():
+    """Mailboxing tests each primitive at most once per ray; eye-only, no-shadow and depth-1
+    variants keep a subset of the rays; all are counted from the reference trace."""
+    from netsushisen.host.golden import SHADOW
+    from netsushisen.reports.paper_data import trace_experiments
+
+    config = load_config()
+    g = golden_render(load_scene("mount:2"), config, res=8, keep_trace=True)
+    ex = trace_experiments(g)
+    full = ex["as rendered"]
+    assert np.array_equal(full, g.references)
+    mail = ex["mailboxing (each primitive tested once per ray)"]
+    assert np.all(mail <= full) and np.array_equal(mail > 0, full > 0) and mail.sum() < full.sum()
+    off = g.trace_ray_offsets
+    per_ray = np.diff(off)
+    shadow_tests = int(per_ray[g.trace_kind == SHADOW].sum())
+    assert int(ex["no shadow rays"].sum()) == int(full.sum()) - shadow_tests
+    assert np.all(ex["eye rays only"] <= ex["ray-tree depth 1 (eye rays and their shadow rays)"])
+    assert np.all(ex["ray-tree depth 1 (eye rays and their shadow rays)"] <= full)

@@ -9,8 +9,17 @@ order (`tracesim.machine_order`) and as the IC access protocol's load stream
 address are the ones the machine would get for that split.
 
 Figure 4: cache-only local memory (resident 0) of 10 %, 20 %, ..., 100 % of the primitive
-database (primitive_list + shape_data). Figure 5: local memory of 10 %, 30 %, 50 % of it, split
-resident : cache from 0 : 100 to 100 : 0 in steps of 10 %.
+database. Figure 5: local memory of 10 %, 30 %, 50 % of it, split resident : cache from
+0 : 100 to 100 : 0 in steps of 10 %.
+
+`PaperOptions` says what "the primitive database" is and where the list cells live
+(docs/databases.md, "The paper's evaluation"): `sizing="records"` (default) sizes local memory
+against the shape records alone, `"records+lists"` against lists + records (the machine's
+`cache_share` rule); `lists="local"` (default) keeps list cells in local memory beside the
+resident data (t_r, never cached, not charged to the shares), `lists="cache"` reads them from
+ICGM through the cache, as the machine's IC kernel does. Every configuration is counted both
+per primitive reference (`row["ref"]`, the paper's counting) and per word (`row["all"]`,
+`row["shape"]`).
 """
 
 from __future__ import annotations
@@ -35,6 +44,32 @@ CACHE_SHARES = tuple(round(0.1 * i, 2) for i in range(1, 11))  # Figure 4
 LOCAL_SHARES = (0.1, 0.3, 0.5)  # Figure 5
 RESIDENT_SPLITS = tuple(round(0.1 * i, 2) for i in range(0, 11))  # resident share of local memory
 
+SIZINGS = ("records", "records+lists")
+LIST_PLACEMENTS = ("local", "cache")
+COUNTINGS = {"ref": "per primitive reference", "all": "per word"}
+
+
+@dataclass(frozen=True)
+class PaperOptions:
+    """How the evaluation counts and sizes (the defaults are the paper's reading; report.md
+    argues them)."""
+
+    sizing: str = "records"
+    lists: str = "local"
+
+    def __post_init__(self) -> None:
+        if self.sizing not in SIZINGS:
+            raise ValueError(f"sizing {self.sizing!r}: choose one of {', '.join(SIZINGS)}")
+        if self.lists not in LIST_PLACEMENTS:
+            raise ValueError(f"lists {self.lists!r}: choose one of {', '.join(LIST_PLACEMENTS)}")
+
+    def describe(self) -> str:
+        size = ("shape records only" if self.sizing == "records" else "list cells + shape records")
+        where = ("list cells in local memory, outside the cache and the shares" if self.lists == "local"
+                 else "list cells in ICGM, read through the cache")
+        return f"database = {size}; {where}"
+
+
 Progress = Callable[[str, float, float], None]
 """progress(description, done, total)"""
 
@@ -58,6 +93,8 @@ class SceneData:
     t_r: int = 1
     block_bytes: int = 64
     seconds: dict[str, float] = field(default_factory=dict)
+    options: PaperOptions = field(default_factory=PaperOptions)
+    experiments: dict[str, np.ndarray] = field(default_factory=dict)  # variant -> tests per primitive
 
     # Table 2 ------------------------------------------------------------------------------
     @property
@@ -90,6 +127,19 @@ class SceneData:
     def unreferenced_share(self) -> float:
         return float(np.count_nonzero(self.references == 0)) / self.n if self.n else 0.0
 
+    def f_reaching(self, c: float) -> float:
+        """Smallest f(k) with C(k) ≥ c (the paper reads "C = 1" off its plot; 0.99 and 0.999
+        say how close to 1 "reaches" is)."""
+        fk, ck = self.locality()
+        i = int(np.searchsorted(ck, c - 1e-12))
+        return float(fk[min(i, self.n)])
+
+    def with_references(self, refs: np.ndarray) -> "SceneData":
+        """A copy counting `refs` as the tests per primitive (an experiment's variant)."""
+        d = copy.copy(self)
+        d.references = np.asarray(refs, np.int64)
+        return d
+
 
 def scene_counts(scene) -> dict:
     from netsushisen.host.scenes import Kind
@@ -99,10 +149,16 @@ def scene_counts(scene) -> dict:
             "reflective": scene.reflective, "transparent": scene.transparent}
 
 
-def _shares(config: MachineConfig, resident: float, cache: float) -> MachineConfig:
+def _sized(config: MachineConfig, base_words: int, resident: float, cache: float) -> MachineConfig:
+    """`config` with IC's resident and cache sizes set to shares of `base_words` (the sized
+    database), rounded as the machine rounds shares (resident: whole words, cache: whole blocks)."""
     c = copy.deepcopy(config)
-    c.ic_memory.resident_share = resident
-    c.ic_memory.cache_share = cache
+    mc = c.ic_memory
+    wb = config.word_bytes
+    mc.resident_share = mc.cache_share = None
+    mc.resident_bytes = int(resident * base_words) * wb
+    size = int(cache * base_words * wb)
+    mc.cache_bytes = size - size % mc.block_bytes
     return c
 
 
@@ -113,8 +169,31 @@ def sweep_points(config: MachineConfig) -> list[tuple[str, float, float]]:
     return out
 
 
+def trace_experiments(golden) -> dict[str, np.ndarray]:
+    """Tests per primitive under variants of the main pass that the reference trace alone can
+    answer (no new render): the experiments report.md's explanations cite."""
+    from netsushisen.host.golden import EYE, SHADOW
+
+    n = len(golden.references)
+    off = golden.trace_ray_offsets
+    ray = np.repeat(np.arange(len(off) - 1), np.diff(off))
+    prims = golden.trace_prims.astype(np.int64)
+    kind = golden.trace_kind[ray]
+    depth = golden.trace_depth[ray]
+    pairs = np.sort(ray * n + prims)  # np.sort + neighbours: np.unique hashes, slower on 10⁸ keys
+    pairs = pairs[np.concatenate([[True], pairs[1:] != pairs[:-1]])] if len(pairs) else pairs
+    return {
+        "as rendered": golden.references.astype(np.int64),
+        "mailboxing (each primitive tested once per ray)": np.bincount(pairs % n, minlength=n),
+        "eye rays only": np.bincount(prims[kind == EYE], minlength=n),
+        "no shadow rays": np.bincount(prims[kind != SHADOW], minlength=n),
+        "ray-tree depth 1 (eye rays and their shadow rays)": np.bincount(prims[depth <= 1], minlength=n),
+    }
+
+
 def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
-                  progress: Progress | None = None, rays_per_chunk: int = 16384) -> SceneData:
+                  progress: Progress | None = None, rays_per_chunk: int = 16384,
+                  options: PaperOptions = PaperOptions()) -> SceneData:
     """Everything the paper's tables and figures need for one scene (`spec`: a name for
     `load_scene`, or a Scene)."""
     progress = progress or (lambda *a: None)
@@ -130,21 +209,22 @@ def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
     t1 = time.perf_counter()
     pre = run_prepass(scene, config, res=res, corners=corners, grid=grid)
     seconds["prepass"] = time.perf_counter() - t1
-    reference = plan_layout(scene, _shares(config, 0.0, 0.0), pre.priorities, grid)
+    reference = plan_layout(scene, _sized(config, 1, 0.0, 0.0), pre.priorities, grid)
+    base = reference.shape_words if options.sizing == "records" else reference.primitive_database_words
     wb = config.word_bytes
     points: dict[tuple[int, int], SweepPoint] = {}
     chosen = []
     for fig, share, split in sweep_points(config):
         if fig == "fig4":
-            cfg = _shares(config, 0.0, share)
+            cfg = _sized(config, base, 0.0, share)
         else:
-            cfg = _shares(config, share * split, share * (1 - split))
+            cfg = _sized(config, base, share * split, share * (1 - split))
         lay = plan_layout(scene, cfg, pre.priorities, grid)
         key = (lay.resident_count, lay.cache_bytes)
         if key not in points:
             points[key] = SweepPoint(lay, lay.cache_bytes, config.ic_memory.block_bytes)
         chosen.append((fig, share, split, lay.resident_capacity * wb, key))
-    sweep = SweepStream(reference, list(points.values()), wb)
+    sweep = SweepStream(reference, list(points.values()), wb, lists_cached=options.lists == "cache")
     order = machine_order(golden)
     n_chunks = max(1, -(-len(order) // rays_per_chunk))
     t2 = time.perf_counter()
@@ -156,19 +236,19 @@ def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
     progress(f"{spec}: replay {len(points)} memory configurations", n_chunks, n_chunks)
     seconds["replay"] = time.perf_counter() - t2
     mc = config.ic_memory
-    db_bytes = reference.primitive_database_words * wb
     data = SceneData(name=scene.name, res=res, corners=corners, precision=config.precision,
                      counts=scene_counts(scene), database_bytes=reference.sizes(),
-                     primitive_database_bytes=db_bytes, rays=dict(golden.rays),
+                     primitive_database_bytes=base * wb, rays=dict(golden.rays),
                      references=golden.references.copy(),
                      visible=np.unique(golden.hit_ids[golden.hit_ids >= 0]).astype(np.int64),
                      prepass=pre.summary(), loads=loads, t_r=mc.t_r,
-                     block_bytes=mc.block_bytes, seconds=seconds)
+                     block_bytes=mc.block_bytes, seconds=seconds, options=options,
+                     experiments=trace_experiments(golden))
     for fig, share, split, resident_bytes, key in chosen:
         pt = points[key]
         f = SweepStream.figures(pt, mc.t_r, mc.t_c, mc.t_g)
         row = {"resident_bytes": resident_bytes, "resident_count": key[0], "cache_bytes": key[1],
-               "all": f["all"], "shape": f["shape"]}
+               "all": f["all"], "shape": f["shape"], "ref": f["ref"]}
         if fig == "fig4":
             data.fig4.append({"cache_share": share} | row)
         else:

@@ -3,10 +3,15 @@
     table1.csv        scene, column, paper, ours
     table2.csv        scene, primitives, visible (paper, ours), shares (paper, ours)
     fig3_locality.csv scene, f, C (f = k/N at every 1 %; the plot uses every k)
-    fig4_miss_rate.csv   scene, cache share, cache bytes, accesses, hits, miss rate (all IC loads
-                      and shape data alone)
-    fig5_access_time.csv scene, local share, resident split, resident / cache bytes, M, ρ, μ,
-                      t measured, t model (all IC loads and shape data alone)
+    fig4_miss_rate.csv   scene, cache share, cache bytes, references through the cache, their hits,
+                      miss rate (per primitive reference), then the same per word (all IC
+                      loads, and shape data alone)
+    fig5_access_time.csv scene, local share, resident split, resident / cache bytes, M, ρ, μ, t
+                      per primitive reference, then per word (all IC loads, shape data alone)
+
+The figures draw the paper's stated claims over our curves (Figure 3: the 70–80 % band at
+f = 20 % and where C reaches 1; Figure 4: a line at 30 %; Figure 5: a line at 70 % resident),
+and Figure 5 is drawn per reference (fig5_access_time.png) and per word (…_per_word.png).
 """
 
 from __future__ import annotations
@@ -15,9 +20,9 @@ import csv
 from pathlib import Path
 
 from netsushisen.reports.paper import table1, table2
-from netsushisen.reports.paper_data import LOCAL_SHARES, SceneData
+from netsushisen.reports.paper_data import COUNTINGS, LOCAL_SHARES, SceneData
 
-FIGURES = ("fig3_locality.png", "fig4_miss_rate.png", "fig5_access_time.png")
+FIGURES = ("fig3_locality.png", "fig4_miss_rate.png", "fig5_access_time.png", "fig5_access_time_per_word.png")
 
 
 def _plt():
@@ -61,39 +66,62 @@ def write_csvs(scenes: list[SceneData], out: Path) -> list[Path]:
     for d in scenes:
         for r in d.fig4:
             a, s = r["all"], r["shape"]
-            rows.append([d.name, r["cache_share"], r["cache_bytes"], a["cache_accesses"], a["cache_hits"],
-                         f"{a['miss_rate']:.6f}", s["cache_accesses"], s["cache_hits"], f"{s['miss_rate']:.6f}"])
-    write("fig4_miss_rate.csv", ["scene", "cache_share", "cache_bytes", "accesses", "hits", "miss_rate",
+            f = r["ref"]
+            rows.append([d.name, r["cache_share"], r["cache_bytes"], f["cache_accesses"], f["cache_hits"],
+                         f"{f['miss_rate']:.6f}", a["cache_accesses"], a["cache_hits"], f"{a['miss_rate']:.6f}",
+                         s["cache_accesses"], s["cache_hits"], f"{s['miss_rate']:.6f}"])
+    write("fig4_miss_rate.csv", ["scene", "cache_share", "cache_bytes", "references", "reference_hits",
+                                 "miss_rate", "word_accesses", "word_hits", "word_miss_rate",
                                  "shape_accesses", "shape_hits", "shape_miss_rate"], rows)
     rows = []
     for d in scenes:
         for r in d.fig5:
             a, s = r["all"], r["shape"]
+            f = r["ref"]
             rows.append([d.name, r["local_share"], r["resident_split"], r["resident_bytes"], r["cache_bytes"],
-                         r["resident_count"], a["loads"], f"{a['rho']:.6f}", f"{a['mu']:.6f}",
-                         f"{a['t_measured']:.6f}", f"{a['t_model']:.6f}", f"{s['rho']:.6f}", f"{s['mu']:.6f}",
-                         f"{s['t_measured']:.6f}", f"{s['t_model']:.6f}"])
+                         r["resident_count"], f["loads"], f"{f['rho']:.6f}", f"{f['mu']:.6f}",
+                         f"{f['t_measured']:.6f}", a["loads"], f"{a['rho']:.6f}", f"{a['mu']:.6f}",
+                         f"{a['t_measured']:.6f}", f"{s['rho']:.6f}", f"{s['mu']:.6f}", f"{s['t_measured']:.6f}"])
     write("fig5_access_time.csv", ["scene", "local_share", "resident_split", "resident_bytes", "cache_bytes",
-                                   "resident_count", "loads", "rho", "mu", "t", "t_model", "shape_rho",
-                                   "shape_mu", "shape_t", "shape_t_model"], rows)
+                                   "resident_count", "references", "rho", "mu", "t", "word_loads", "word_rho",
+                                   "word_mu", "word_t", "shape_rho", "shape_mu", "shape_t"], rows)
     return paths
+
+
+LINESTYLES = ("-", "--", "-.", (0, (1, 1)), (0, (5, 1, 1, 1, 1, 1)))
+MARKERS = ("o", "s", "^", "D", "v")
+PAPER_STYLE = {"color": "black", "linewidth": 1.2, "linestyle": (0, (2, 2))}
+"""The paper's claims are drawn in black, dashed or as hatched bands; our curves in colour *and*
+each scene its own line style and marker, so the figures read in grey print too."""
+
+
+def _style(i: int) -> dict:
+    return {"linestyle": LINESTYLES[i % len(LINESTYLES)], "marker": MARKERS[i % len(MARKERS)]}
 
 
 def figure3(scenes: list[SceneData], path: Path) -> None:
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6.4, 4.8), dpi=110)
-    for d in scenes:
+    for i, d in enumerate(scenes):
         f, c = d.locality()
-        ax.plot(100 * f, 100 * c, label=f"{d.name} (N = {d.n})")
+        st = _style(i)
+        ax.plot(100 * f, 100 * c, linestyle=st["linestyle"], label=f"{d.name} (N = {d.n})")
     ax.plot([0, 100], [0, 100], color="0.6", linestyle=":", linewidth=1, label="uniform")
-    ax.axvline(20, color="0.8", linewidth=0.8)
+    # the paper: in mount and rings 20 % of the primitives take 70–80 % of the references
+    ax.fill_between([18.5, 21.5], 70, 80, facecolor="none", edgecolor="black", hatch="////",
+                    linewidth=0.8, label="paper: 70–80 % at f = 20 % (mount, rings)")
+    names = {d.name for d in scenes}
+    for name, f1, m in (("mount", 80, "X"), ("rings", 33, "P")):
+        if name in names:
+            ax.plot([f1], [100], marker=m, markersize=10, color="black", linestyle="none",
+                    markerfacecolor="white", label=f"paper: {name} reaches C = 1 at f = {f1} %")
     ax.set_xlabel("f(k) = k/N: share of primitives, most referenced first (%)")
     ax.set_ylabel("C(k): cumulative share of references (%)")
-    ax.set_title(f"Figure 3: locality of primitive references\n({_suffix(scenes)})")
+    ax.set_title(f"Figure 3: locality of primitive references (tests per primitive)\n({_suffix(scenes)})")
     ax.set_xlim(0, 100)
-    ax.set_ylim(0, 101)
+    ax.set_ylim(0, 103)
     ax.grid(alpha=0.3)
-    ax.legend(title="scene", loc="lower right")
+    ax.legend(loc="lower right", fontsize=7)
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
@@ -101,56 +129,87 @@ def figure3(scenes: list[SceneData], path: Path) -> None:
 
 def figure4(scenes: list[SceneData], path: Path) -> None:
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(6.4, 4.8), dpi=110)
-    for d in scenes:
-        x = [100 * r["cache_share"] for r in d.fig4]
-        y = [100 * r["all"]["miss_rate"] for r in d.fig4]
-        ax.plot(x, y, marker="o", label=f"{d.name} ({d.primitive_database_bytes / 1024:.0f} KiB)")
-    ax.set_xlabel("cache size (% of the primitive database: lists + shape data)")
-    ax.set_ylabel("cache miss rate (% of cache accesses)")
-    ax.set_title(f"Figure 4: cache miss rate, cache-only local memory\n({_suffix(scenes)}, "
-                 f"direct-mapped, {scenes[0].block_bytes}-byte blocks)")
-    ax.set_xlim(0, 105)
-    ax.set_ylim(bottom=0)
-    ax.grid(alpha=0.3)
-    ax.legend(title="scene (database)")
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), dpi=110)
+    for ax, what in zip(axes, ("ref", "all")):
+        for i, d in enumerate(scenes):
+            x = [100 * r["cache_share"] for r in d.fig4]
+            y = [100 * r[what]["miss_rate"] for r in d.fig4]
+            ax.plot(x, y, **_style(i), markersize=4,
+                    label=f"{d.name} ({d.primitive_database_bytes / 1024:.0f} KiB)")
+        ax.axvline(30, **PAPER_STYLE, label="paper: saturates above 30 %")
+        ax.set_xlabel(f"cache size (% of the database: {_sizing(scenes)})")
+        ax.set_ylabel("cache miss rate (%)")
+        ax.set_title(COUNTINGS[what] + (" (the paper's counting)" if what == "ref" else ""), fontsize=10)
+        ax.set_xlim(0, 105)
+        ax.set_ylim(bottom=0)
+        ax.grid(alpha=0.3)
+        ax.legend(title="scene (database)", fontsize=7, title_fontsize=7)
+    fig.suptitle(f"Figure 4: cache miss rate, cache-only local memory ({_suffix(scenes)}, direct-mapped, "
+                 f"{scenes[0].block_bytes}-byte blocks)\n{scenes[0].options.describe()}", fontsize=10)
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
 
 
-def figure5(scenes: list[SceneData], path: Path) -> None:
+def fig5_ylim(values: list[float]) -> tuple[float, float]:
+    """Clip Figure 5's axis to the curves without their 100 %-resident points (no cache left: a
+    jump that would flatten everything else); points above are drawn on the top edge."""
+    top = max(values) if values else 2.0
+    return 0.9, top + 0.08 * (top - 0.9) + 0.05
+
+
+def figure5(scenes: list[SceneData], path: Path, what: str = "ref") -> None:
     plt = _plt()
     n = len(scenes)
     cols = 2 if n > 1 else 1
     rows = (n + cols - 1) // cols
-    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 3.9 * rows), dpi=110, squeeze=False)
+    fig, axes = plt.subplots(rows, cols, figsize=(max(5.4 * cols, 8.0), 4.1 * rows + 0.6), dpi=110,
+                             squeeze=False)
     for ax, d in zip(axes.ravel(), scenes):
-        for local in LOCAL_SHARES:
+        body = []
+        curves = []
+        for i, local in enumerate(LOCAL_SHARES):
             sel = [r for r in d.fig5 if abs(r["local_share"] - local) < 1e-9]
             x = [100 * r["resident_split"] for r in sel]
-            ax.plot(x, [r["all"]["t_measured"] / d.t_r for r in sel], marker="o", markersize=3,
-                    label=f"local {100 * local:.0f} %")
-        ax.set_title(f"{d.name}")
+            t = [r[what]["t_measured"] / d.t_r for r in sel]
+            body += [v for xx, v in zip(x, t) if xx < 99.5]
+            curves.append((i, local, x, t))
+        lo, hi = fig5_ylim(body)
+        for i, local, x, t in curves:
+            st = _style(i)
+            line, = ax.plot(x, [min(v, hi) for v in t], linestyle=st["linestyle"], marker=st["marker"],
+                            markersize=4, label=f"local {100 * local:.0f} %")
+            for xx, v in zip(x, t):
+                if v > hi:  # clipped: an arrow on the top edge with the value
+                    ax.annotate(f"{v:.1f}", (xx, hi), xytext=(xx - 12, hi - (0.07 + 0.07 * i) * (hi - lo)), fontsize=7,
+                                color=line.get_color(), arrowprops={"arrowstyle": "->", "color": line.get_color()})
+        ax.axvline(70, **PAPER_STYLE, label="paper: best near 70 % (3 : 1)")
+        ax.set_title(d.name)
         ax.set_xlabel("resident share of local memory (%)")
-        ax.set_ylabel("t, effective access time (units of t_r)")
+        ax.set_ylabel("t (units of t_r)")
         ax.set_xlim(-3, 103)
-        ax.set_ylim(bottom=0.9)
+        ax.set_ylim(lo, hi)
         ax.grid(alpha=0.3)
-        ax.legend(title=f"{d.name}: local memory\n(% of database)", fontsize=8, title_fontsize=8,
-                  loc="upper center")
+        ax.legend(title="local memory (% of database)", fontsize=7, title_fontsize=7, loc="upper left")
     for ax in axes.ravel()[n:]:
         ax.set_visible(False)
-    fig.suptitle("Figure 5: effective memory access time t = t_r·{ρ + (1 − ρ)(8 − 6μ)} "
-                 f"(t_c = 2·t_r, t_g = 8·t_r)\nall IC database loads ({_suffix(scenes)})")
+    fig.suptitle("Figure 5: effective access time t = t_r·{ρ + (1 − ρ)(8 − 6μ)}, "
+                 f"{COUNTINGS[what]} ({_suffix(scenes)})\n{scenes[0].options.describe()}\n"
+                 "axis clipped above the curves; clipped 100 %-resident points: arrow and value",
+                 fontsize=9)
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
+
+
+def _sizing(scenes: list[SceneData]) -> str:
+    return "shape records" if scenes[0].options.sizing == "records" else "lists + records"
 
 
 def write_figures(scenes: list[SceneData], out: Path) -> list[Path]:
     paths = [out / name for name in FIGURES]
     figure3(scenes, paths[0])
     figure4(scenes, paths[1])
-    figure5(scenes, paths[2])
+    figure5(scenes, paths[2], "ref")
+    figure5(scenes, paths[3], "all")
     return paths

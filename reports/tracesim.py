@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from typing import Iterable, Iterator
 
 import numpy as np
+from numba import njit
 
 from netsushisen.host.databases import GLOBAL, RESIDENT, DatabaseLayout
 from netsushisen.host.golden import SHADOW
@@ -255,9 +256,61 @@ def ordered_stream_chunks(layout: DatabaseLayout, result, order: np.ndarray | No
 # Many configurations at once: the run-collapsed stream
 
 
+@njit(cache=True, nogil=True)
+def _replay_point(first, span, loads, prim, segment, fetch_is_reference, fetch_prim, resident, shift,
+                  tags, word_bytes, block_bytes, lists_cached):  # pragma: no cover - compiled
+    """One configuration's cache over one chunk of runs, in stream order: (hits of record
+    loads, hits of list loads, references through the cache whose every block hit). A run's
+    first load of each block is a real access; its other loads of that block hit. A direct-mapped
+    cache is one tag per set: a loop is exact and linear (the vectorised `replay_blocks` sorts)."""
+    sets = len(tags)
+    missed = np.zeros(len(fetch_is_reference), np.bool_)
+    h_shape = 0
+    h_list = 0
+    for i in range(len(first)):
+        p = prim[i]
+        if p < 0:
+            if not lists_cached:
+                continue
+            f = first[i]
+        else:
+            if resident[p]:
+                continue
+            f = first[i] + shift[p]
+        b1 = (f * word_bytes) // block_bytes
+        b2 = ((f + span[i]) * word_bytes) // block_bytes
+        hits = loads[i] - (b2 - b1 + 1)
+        miss = False
+        for b in range(b1, b2 + 1):
+            st = b % sets
+            tag = b // sets
+            if tags[st] == tag:
+                hits += 1
+            else:
+                tags[st] = tag
+                miss = True
+        if p < 0:
+            h_list += hits
+        else:
+            h_shape += hits
+            if miss:
+                missed[segment[i]] = True
+    ref_hits = 0
+    for k in range(len(fetch_is_reference)):
+        if fetch_is_reference[k] and not resident[fetch_prim[k]] and not missed[k]:
+            ref_hits += 1
+    return h_shape, h_list, ref_hits
+
+
 @dataclass
 class SweepPoint:
-    """One memory configuration of a sweep (a layout decides resident vs ICGM and addresses)."""
+    """One memory configuration of a sweep (a layout decides resident vs ICGM and addresses).
+
+    `counts` holds, per word (every load): `resident.shape_data`, `global.<region>` (cache
+    accesses), `hits.<region>`, `local.primitive_list` (list loads served by local memory when
+    the lists are not cached); and per primitive reference (one record fetched for one test):
+    `ref.resident`, `ref.cache` (fetches through the cache), `ref.hits` (fetches whose every
+    block hit)."""
 
     layout: DatabaseLayout
     cache_bytes: int
@@ -270,9 +323,25 @@ class SweepPoint:
     def __post_init__(self) -> None:
         self.tags = np.full(self.cache_bytes // self.block_bytes, -1, np.int64)
         self.resident = self.layout.record_space == RESIDENT
-        for k in ("resident.primitive_list", "resident.shape_data", "global.primitive_list",
-                  "global.shape_data", "hits.primitive_list", "hits.shape_data"):
+        for k in COUNT_KEYS:
             self.counts[k] = 0
+
+
+COUNT_KEYS = ("resident.primitive_list", "resident.shape_data", "global.primitive_list",
+              "global.shape_data", "hits.primitive_list", "hits.shape_data", "local.primitive_list",
+              "ref.resident", "ref.cache", "ref.hits")
+
+
+@dataclass
+class Runs:
+    """A chunk of the reference layout's stream, run-collapsed (see `SweepStream`)."""
+
+    first: np.ndarray  # first word address of each run
+    span: np.ndarray  # last − first
+    loads: np.ndarray  # loads in the run
+    prim: np.ndarray  # primitive of a record run, -1 for a list-cell run
+    segment: np.ndarray  # record runs: index of their fetch (consecutive runs of one record), else -1
+    fetch_is_reference: np.ndarray  # per fetch: it follows a list cell (a test), not a winner's hit words
 
 
 class SweepStream:
@@ -283,12 +352,24 @@ class SweepStream:
     no more than `min block words` apart. In any configuration a run's loads stay in one space,
     move by one offset (the record's new address) and touch every block between its first and
     last word, each block's loads back to back: the first load of a block is a real cache access,
-    the others hit. So a configuration replays only each run's blocks, exactly."""
+    the others hit. So a configuration replays only each run's blocks, exactly.
 
-    def __init__(self, reference: DatabaseLayout, points: list[SweepPoint], word_bytes: int):
+    Per primitive reference (the paper's counting, docs/databases.md): a *fetch* is a maximal
+    sequence of record runs of one primitive; a fetch that follows a list cell pair is one
+    reference (one test; the winner's hit words, read after a ray's last test, join it when the
+    winner was tested last and are no reference otherwise). A reference through the cache hits
+    when every block it touches hits.
+
+    `lists_cached=False` models list cells held in local memory beside the resident data (read
+    at t_r, never in the cache, not part of the sized database): their loads are counted as
+    `local.primitive_list` and skip the cache."""
+
+    def __init__(self, reference: DatabaseLayout, points: list[SweepPoint], word_bytes: int,
+                 lists_cached: bool = True):
         self.reference = reference
         self.points = points
         self.wb = word_bytes
+        self.lists_cached = lists_cached
         self.list_words = reference.list_words
         if np.any(reference.record_space != GLOBAL):
             raise ValueError("the reference layout must keep every record in ICGM")
@@ -300,12 +381,12 @@ class SweepStream:
             glob = p.layout.record_space == GLOBAL
             p.shift = np.where(glob, p.layout.record_address - self.addr0, 0)
 
-    def runs(self, address: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(first address, span, loads, primitive or -1 for list cells) of each run."""
+    def runs(self, address: np.ndarray) -> Runs:
+        """The chunk's runs and fetches."""
         a = np.asarray(address, np.int64)
         if not len(a):
             z = np.zeros(0, np.int64)
-            return z, z, z, z
+            return Runs(z, z, z, z, z, np.zeros(0, bool))
         cell = a < self.list_words
         i = np.searchsorted(self.starts, a, side="right") - 1
         prim = np.where(cell, -1, self.start_prim[np.maximum(i, 0)])
@@ -314,44 +395,65 @@ class SweepStream:
         brk[1:] = (prim[1:] != prim[:-1]) | (d <= 0) | (d > self.max_gap)
         start = np.flatnonzero(brk)
         end = np.concatenate([start[1:], [len(a)]]) - 1
-        return a[start], a[end] - a[start], end - start + 1, prim[start]
+        rp = prim[start]
+        is_rec = rp >= 0
+        prev = np.concatenate([[-2], rp[:-1]])
+        seg_start = is_rec & (prev != rp)
+        segment = np.where(is_rec, np.cumsum(seg_start) - 1, -1)
+        fetch_is_reference = (prev == -1)[seg_start]
+        return Runs(a[start], a[end] - a[start], end - start + 1, rp, segment, fetch_is_reference)
 
     def replay(self, space: np.ndarray, address: np.ndarray) -> None:
         """One chunk of the reference layout's stream (every load GLOBAL)."""
-        first, span, loads, prim = self.runs(address)
+        r = self.runs(address)
+        first, span, loads, prim, seg = r.first, r.span, r.loads, r.prim, r.segment
+        n = len(self.addr0)
         is_rec = prim >= 0
         p = np.maximum(prim, 0)
+        rec_runs = np.flatnonzero(is_rec)
+        heads = rec_runs[np.concatenate([[True], seg[rec_runs][1:] != seg[rec_runs][:-1]])] \
+            if len(rec_runs) else rec_runs
+        fetch_prim = prim[heads]
+        refs = r.fetch_is_reference
+        # what does not depend on the cache, per primitive: O(N) per configuration, not O(runs)
+        rec_loads = np.bincount(p[is_rec], loads[is_rec], minlength=n).astype(np.int64)
+        ref_count = np.bincount(fetch_prim[refs], minlength=n)
+        list_loads = int(loads[~is_rec].sum())
+        all_rec_loads, all_refs = int(rec_loads.sum()), int(ref_count.sum())
         for pt in self.points:
-            res = is_rec & pt.resident[p]
             c = pt.counts
-            c["resident.shape_data"] += int(loads[res].sum())
-            g = ~res
-            f = first[g] + np.where(is_rec[g], pt.shift[p[g]], 0)
-            b1 = (f * self.wb) // pt.block_bytes
-            nb = ((f + span[g]) * self.wb) // pt.block_bytes - b1 + 1
-            rec_g = is_rec[g]
-            ld = loads[g]
-            c["global.shape_data"] += int(ld[rec_g].sum())
-            c["global.primitive_list"] += int(ld[~rec_g].sum())
+            res_loads = int(rec_loads[pt.resident].sum())
+            res_refs = int(ref_count[pt.resident].sum())
+            c["resident.shape_data"] += res_loads
+            c["global.shape_data"] += all_rec_loads - res_loads
+            c["ref.resident"] += res_refs
+            c["ref.cache"] += all_refs - res_refs
+            if self.lists_cached:
+                c["global.primitive_list"] += list_loads
+            else:
+                c["local.primitive_list"] += list_loads
             if not len(pt.tags):
                 continue
-            blocks = ranges(b1, nb)
-            hits = replay_blocks(blocks, pt.tags)
-            rec_b = np.repeat(rec_g, nb)
-            extra = ld - nb  # loads after the first of their block: hits
-            c["hits.shape_data"] += int(np.count_nonzero(hits & rec_b)) + int(extra[rec_g].sum())
-            c["hits.primitive_list"] += int(np.count_nonzero(hits & ~rec_b)) + int(extra[~rec_g].sum())
+            h_shape, h_list, ref_hits = _replay_point(
+                first, span, loads, prim, seg, refs, fetch_prim, pt.resident, pt.shift, pt.tags,
+                self.wb, pt.block_bytes, self.lists_cached)
+            c["hits.shape_data"] += int(h_shape)
+            c["hits.primitive_list"] += int(h_list)
+            c["ref.hits"] += int(ref_hits)
 
     @staticmethod
     def figures(pt: SweepPoint, t_r: float = 1, t_c: float = 2, t_g: float = 8) -> dict:
-        """ρ, μ, measured t (in cycles with these times) and the paper's model t, over all IC
-        database loads (`all`) and over shape data alone (`shape`)."""
+        """ρ, μ, measured t (in cycles with these times) and the paper's model t: per word over
+        all IC database loads (`all`) and over shape data alone (`shape`), and per primitive
+        reference (`ref`, the paper's counting)."""
         c = pt.counts
         out = {}
-        for what, regions in (("all", ("primitive_list", "shape_data")), ("shape", ("shape_data",))):
-            res = sum(c[f"resident.{r}"] for r in regions)
-            acc = sum(c[f"global.{r}"] for r in regions)
-            hits = sum(c[f"hits.{r}"] for r in regions)
+        cases = (("all", c["resident.shape_data"] + c["local.primitive_list"],
+                  c["global.shape_data"] + c["global.primitive_list"],
+                  c["hits.shape_data"] + c["hits.primitive_list"]),
+                 ("shape", c["resident.shape_data"], c["global.shape_data"], c["hits.shape_data"]),
+                 ("ref", c["ref.resident"], c["ref.cache"], c["ref.hits"]))
+        for what, res, acc, hits in cases:
             total = res + acc
             rho = res / total if total else 0.0
             mu = hits / acc if acc else 0.0

@@ -86,7 +86,8 @@ def test_ctrl_c_during_a_compiled_render_writes_the_partial_image_and_statistics
 
 
 def test_ctrl_c_during_paper_writes_the_finished_scenes(tmp_path):
-    run = Piped("paper", "--res", "48", "--scenes", "tetra", "balls", "--out", "p", cwd=tmp_path)
+    run = Piped("paper", "--res", "48", "--scenes", "tetra", "balls", "--out", "p", "--jobs", "1",
+                cwd=tmp_path)  # one worker: scenes finish in order
     err = interrupted_after(run, r"tetra: done in", timeout=240)
     assert err.strip().splitlines()[-1] == ("netsushisen paper: interrupted; finished tetra, not "
                                             "balls; wrote what was finished to p/")
@@ -94,6 +95,18 @@ def test_ctrl_c_during_paper_writes_the_finished_scenes(tmp_path):
     assert "tetra" in report and "balls" in report  # balls named as not finished
     table1 = (tmp_path / "p" / "table1.csv").read_text()
     assert "tetra" in table1 and "balls" not in table1
+
+
+def test_ctrl_c_during_a_parallel_paper_stops_the_workers_and_keeps_the_finished(tmp_path):
+    run = Piped("paper", "--res", "48", "--scenes", "tetra", "balls", "mount", "rings", "--out", "p",
+                "--jobs", "2", cwd=tmp_path)
+    err = interrupted_after(run, r"trace-driven path done in", timeout=240)
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("netsushisen paper: interrupted; finished ") and "wrote what was finished to p/" in last
+    finished = last.split("finished ")[1].split(", not ")[0].split(", ")
+    table1 = (tmp_path / "p" / "table1.csv").read_text()
+    assert finished and all(name in table1 for name in finished)
+    assert "Incomplete run" in (tmp_path / "p" / "report.md").read_text()
 
 
 @pytest.mark.slow

@@ -4,6 +4,7 @@ files."""
 
 from __future__ import annotations
 
+import copy
 import csv
 from pathlib import Path
 
@@ -18,15 +19,13 @@ from netsushisen.host.prepass import run_prepass
 from netsushisen.isa.config import load_config
 from netsushisen.kernels import KERNELS
 from netsushisen.reports import paper as paper_mod
-from netsushisen.reports.paper import findings, table2
-from netsushisen.reports.paper_data import analyse_scene
+from netsushisen.reports.paper import table2
+from netsushisen.reports.paper_data import PaperOptions, analyse_scene
+from netsushisen.reports.paper_machine import compare_counters
 from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
 
 # ------------------------------------------------------------------------------------------------
 # End to end: the trace-driven path equals the emulator's counters (needs the stage kernels)
-
-COMPARED = ("resident", "cache", "global", "regions", "primitives")
-
 
 def _needs_kernels() -> None:
     """The stage kernels and their serial mode (SERIAL_TREES=1) exist: one gone missing is a
@@ -55,10 +54,7 @@ def check_emulator_equals_trace(scene: str, res: int, sets: tuple[str, ...] = ()
     config = load_config(None, list(sets))
     r = render(scene, config, res=res, slots=1, defines={"SERIAL_TREES": 1})
     assert r.run.status in ("halted", "finished"), r.run
-    emulator = r.stats["memory"]["pe0.ic"]
-    want = {k: emulator[k] for k in COMPARED if k in emulator}
-    got = trace_driven_counters(r.setup)
-    assert {k: got[k] for k in COMPARED if k in got} == want
+    assert compare_counters(trace_driven_counters(r.setup), r.stats["memory"]["pe0.ic"]) == ""
 
 
 # Small memories: at 8x8 the default 8 KB cache holds mount:2's whole database (cold misses
@@ -110,8 +106,10 @@ def test_trace_driven_path_equals_the_emulator_32(scene):
 
 @pytest.fixture(scope="module")
 def small():
+    """The machine's reading: lists + records sized, list cells through the cache (what the
+    IC kernel does), so every sweep point is a machine configuration."""
     config = load_config()
-    return analyse_scene("mount:3", 16, config), config
+    return analyse_scene("mount:3", 16, config, options=PaperOptions("records+lists", "cache")), config
 
 
 def test_sweep_points_equal_the_full_model(small):
@@ -162,27 +160,26 @@ def test_table2_and_locality_from_the_golden_model(small):
             assert r["all"]["t_measured"] == fig4[r["local_share"]]
 
 
-def _fake(name: str, refs: np.ndarray, base=None):
-    data, _ = base
-    import copy
-    d = copy.copy(data)
-    d.name = name
-    d.references = refs
-    d.visible = np.arange(len(refs) // 2)
-    return d
-
-
-def test_findings_can_disagree(small):
-    """A scene whose references are spread evenly must not 'agree' that they are skewed."""
-    uniform = _fake("mount", np.full(1000, 7, np.int64), small)
-    skewed = _fake("mount", np.r_[np.full(200, 1000), np.full(600, 1), np.zeros(200)].astype(np.int64), small)
-    v = {f.paper: f.verdict for f in findings([uniform])}
-    assert v["references are skewed in every scene"] == "differ"
-    assert v["primitives never referenced: 20 % in mount, 67 % in rings"] == "differ"
-    v = {f.paper: f.verdict for f in findings([skewed])}
-    assert v["references are skewed in every scene"] == "agree"
-    assert v["primitives never referenced: 20 % in mount, 67 % in rings"] == "agree"
-    assert all(f.verdict in ("agree", "partly", "differ", "not evaluated") for f in findings([skewed]))
+def test_paper_defaults_count_per_reference_against_the_records(small):
+    """The paper's reading (default options): local memory sized against the shape records,
+    list cells outside the cache; one reference per intersection test."""
+    _, config = small
+    d = analyse_scene("mount:3", 16, config)
+    assert d.options == PaperOptions()
+    assert d.primitive_database_bytes == d.database_bytes["shape_data"]
+    tests = int(d.references.sum())
+    for r in d.fig4 + d.fig5:
+        assert r["ref"]["loads"] == tests
+        assert r["all"]["loads"] > tests  # several words per test
+    cache_only = d.fig4[-1]
+    assert cache_only["ref"]["miss_rate"] > cache_only["all"]["miss_rate"]  # a reference misses if any word does
+    # no cache at a 100 % resident split: with the lists local, every cache access is a
+    # non-resident record's, and each costs t_g
+    full = [r for r in d.fig5 if r["resident_split"] == 1.0 and r["local_share"] == 0.5][0]
+    f = full["ref"]
+    assert full["cache_bytes"] == 0 and f["cache_hits"] == 0 and 0 < f["resident"] < tests
+    assert f["t_measured"] == pytest.approx((f["resident"] + 8 * f["cache_accesses"]) / tests)
+    assert full["all"]["cache_accesses"] == full["shape"]["cache_accesses"]  # no list read is cached
 
 
 # ------------------------------------------------------------------------------------------------
@@ -193,7 +190,8 @@ def test_paper_command_writes_report_figures_and_csvs(tmp_path, cli):
     out = tmp_path / "p"
     code, stdout, err = cli("paper", "--res", "8", "--scenes", "tetra:1", "mount:2", "--out", out, "--quiet")
     assert code == 0, err
-    for name in ("fig3_locality.png", "fig4_miss_rate.png", "fig5_access_time.png"):
+    for name in ("fig3_locality.png", "fig4_miss_rate.png", "fig5_access_time.png",
+                 "fig5_access_time_per_word.png"):
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with (out / "fig4_miss_rate.csv").open() as f:
         rows = list(csv.DictReader(f))
@@ -206,6 +204,34 @@ def test_paper_command_writes_report_figures_and_csvs(tmp_path, cli):
     assert "## Table 1" in md and "## Table 2" in md and "![Figure 5](fig5_access_time.png)" in md
     assert "Figure 5: for 10 % local memory t rises with the resident share" in md
     assert "tetra 4096 polygons" in md and "tetra | 4 (paper 2121)" not in md
+    assert "per primitive reference (the paper's counting):" in md and "- per word:" in md
+    assert md.count("*Test:*") == 13 and "Why these defaults are the paper's" in md
+    assert "--sizing records --lists local" in md
+
+
+def test_paper_on_machine_checks_the_counters(tmp_path, cli, engine_name):
+    """--on-machine renders each scene on the machine (serial mode) in worker processes and
+    finds IC's counters equal to the trace-driven path's."""
+    _needs_kernels()
+    out = tmp_path / "p"
+    code, stdout, err = cli("paper", "--res", "4", "--scenes", "mount:2", "--out", out,
+                            "--on-machine", "--engine", engine_name, "--jobs", "2")
+    assert code == 0, err
+    assert "counters equal the trace-driven path's for mount" in stdout
+    md = (out / "report.md").read_text()
+    assert "## On the machine" in md and "**All counters equal**" in md and f"{engine_name} engine" in md
+    assert md.count("| equal |") == 1
+
+
+def test_counter_comparison_names_the_first_difference():
+    a = {"resident": {"accesses": 5}, "cache": {"hits": 3, "misses": 1}, "regions": {"global.shape_data": {"accesses": 4}}}
+    b = copy.deepcopy(a)
+    assert compare_counters(a, b) == ""
+    b["regions"]["global.shape_data"]["accesses"] = 5
+    assert compare_counters(a, b) == "regions.global.shape_data.accesses: trace-driven 4, machine 5"
+    b = copy.deepcopy(a)
+    del b["cache"]
+    assert compare_counters(a, b).startswith("cache:")
 
 
 def test_paper_interrupted_writes_what_finished(tmp_path, cli, monkeypatch):
@@ -222,7 +248,8 @@ def test_paper_interrupted_writes_what_finished(tmp_path, cli, monkeypatch):
 
     monkeypatch.setattr(paper_command, "analyse_scene", fake)
     out = tmp_path / "p"
-    code, _, err = cli("paper", "--res", "6", "--scenes", "tetra:1", "balls:1", "--out", out, "--quiet")
+    code, _, err = cli("paper", "--res", "6", "--scenes", "tetra:1", "balls:1", "--out", out, "--quiet",
+                       "--jobs", "1")
     assert code == 130
     assert "interrupted; finished tetra, not balls" in err
     md = (out / "report.md").read_text()
@@ -234,6 +261,7 @@ def test_paper_interrupted_writes_what_finished(tmp_path, cli, monkeypatch):
     (["--scenes", "nosuchscene"], "cannot load scene"),
     (["--res", "0"], "--res 0"),
     (["--set", "ic_memory.block_bytes=48"], "block_bytes must be a power of two"),
+    (["--jobs", "0"], "--jobs 0"),
 ])
 def test_paper_bad_input_is_one_located_line(tmp_path, cli, argv, message):
     code, _, err = cli("paper", "--out", tmp_path / "p", "--quiet", *argv)
@@ -244,3 +272,24 @@ def test_paper_tables_hold_the_papers_numbers():
     assert paper_mod.PAPER_TABLE2["mount"] == (1903, 0.23, 0.57)
     assert paper_mod.PAPER_TABLE1["rings"][4] == 4200
     assert Path(paper_mod.__file__).stat().st_size > 0
+
+
+def test_trace_experiments_are_variants_of_the_main_pass():
+    """Mailboxing tests each primitive at most once per ray; eye-only, no-shadow and depth-1
+    variants keep a subset of the rays; all are counted from the reference trace."""
+    from netsushisen.host.golden import SHADOW
+    from netsushisen.reports.paper_data import trace_experiments
+
+    config = load_config()
+    g = golden_render(load_scene("mount:2"), config, res=8, keep_trace=True)
+    ex = trace_experiments(g)
+    full = ex["as rendered"]
+    assert np.array_equal(full, g.references)
+    mail = ex["mailboxing (each primitive tested once per ray)"]
+    assert np.all(mail <= full) and np.array_equal(mail > 0, full > 0) and mail.sum() < full.sum()
+    off = g.trace_ray_offsets
+    per_ray = np.diff(off)
+    shadow_tests = int(per_ray[g.trace_kind == SHADOW].sum())
+    assert int(ex["no shadow rays"].sum()) == int(full.sum()) - shadow_tests
+    assert np.all(ex["eye rays only"] <= ex["ray-tree depth 1 (eye rays and their shadow rays)"])
+    assert np.all(ex["ray-tree depth 1 (eye rays and their shadow rays)"] <= full)

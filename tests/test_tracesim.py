@@ -208,3 +208,73 @@ def test_sweep_equals_the_full_model(small_render, precision):
         for r in ("primitive_list", "shape_data"):
             assert got[f"hits.{r}"] == want.get(f"global.{r}", {}).get("hits", 0)
     assert points[2].counts["resident.shape_data"] > 0 and points[0].counts["hits.shape_data"] > 0
+
+
+def _reference_oracle(layout, stream, cache_bytes, block_bytes, word_bytes, lists_cached=True):
+    """Per primitive reference, load by load in plain Python: a reference is the record loads
+    after a list cell pair, while they stay in one record; it hits when none of its cache
+    loads misses. Lists not cached: their loads never touch the cache."""
+    sets = cache_bytes // block_bytes
+    tags = [-1] * sets
+    owner = {}
+    for prim, (sp, ad, size) in enumerate(zip(layout.record_space.tolist(), layout.record_address.tolist(),
+                                              layout.record_size.tolist())):
+        for w in range(size):
+            owner[(sp, ad + w)] = prim
+    out = {"resident": 0, "cache": 0, "hits": 0}
+    current, missed, space_of, after_cell = None, False, None, False
+
+    def close():
+        if current is not None:
+            if space_of == RESIDENT:
+                out["resident"] += 1
+            else:
+                out["cache"] += 1
+                out["hits"] += not missed
+    for s, a in stream:
+        is_cell = s == GLOBAL and a < layout.list_words
+        prim = None if is_cell else owner[(s, a)]
+        if prim != current or is_cell:
+            close()
+            current = prim if (prim is not None and after_cell) else None
+            missed, space_of = False, s
+        after_cell = is_cell
+        if s == GLOBAL and (lists_cached or not is_cell) and sets:
+            block = a * word_bytes // block_bytes
+            hit = tags[block % sets] == block // sets
+            tags[block % sets] = block // sets
+            missed |= not hit
+        elif s == GLOBAL and (lists_cached or not is_cell):
+            missed = True
+    close()
+    return out
+
+
+@pytest.mark.parametrize("lists_cached", [True, False])
+def test_sweep_counts_per_reference_like_a_plain_replay(small_render, lists_cached):
+    scene, config, grid, g = small_render
+    prio = priorities_from_counts(g.references)
+    ref = plan_layout(scene, load_config(None, ["ic_memory.resident_bytes=0"]), prio, grid)
+    points, layouts = [], []
+    for res_share, cache_share in [("0.0", "0.05"), ("0.1", "0.1"), ("0.3", "0.0")]:
+        lay = plan_layout(scene, load_config(None, [f"ic_memory.resident_share={res_share}",
+                                                   f"ic_memory.cache_share={cache_share}"]), prio, grid)
+        layouts.append(lay)
+        points.append(SweepPoint(lay, lay.cache_bytes, 64))
+    sweep = SweepStream(ref, points, config.word_bytes, lists_cached=lists_cached)
+    order = machine_order(g)
+    for s, a in ordered_stream_chunks(ref, g, order, rays_per_chunk=64):
+        sweep.replay(s, a)
+    for lay, pt in zip(layouts, points):
+        stream = [(s, a) for sp, ad in ordered_stream_chunks(lay, g, order)
+                  for s, a in zip(sp.tolist(), ad.tolist())]
+        want = _reference_oracle(lay, stream, lay.cache_bytes, 64, config.word_bytes, lists_cached)
+        c = pt.counts
+        assert (c["ref.resident"], c["ref.cache"], c["ref.hits"]) == (want["resident"], want["cache"], want["hits"])
+        # one reference per intersection test
+        assert c["ref.resident"] + c["ref.cache"] == int(g.references.sum())
+        assert (c["local.primitive_list"] > 0) != lists_cached
+        f = SweepStream.figures(pt)
+        assert f["ref"]["loads"] == int(g.references.sum())
+    assert points[0].counts["ref.hits"] < points[0].counts["ref.cache"]  # some reference misses
+    assert points[1].counts["ref.resident"] > 0 and points[2].counts["ref.hits"] == 0

@@ -1,0 +1,181 @@
+"""The paper's findings are checks that can fail: on synthetic data built to match every claim
+of the paper each finding agrees, and one perturbation per finding — a different outcome of the
+measured quantity — flips that finding's verdict (reports/paper.py)."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+from netsushisen.reports.paper import PAPER_TABLE1, PAPER_TABLE2, explain, findings
+from netsushisen.reports.paper_data import (CACHE_SHARES, LOCAL_SHARES, RESIDENT_SPLITS, PaperOptions,
+                                            SceneData)
+from netsushisen.reports.paper_plots import fig5_ylim
+
+N = {"tetra": 4096, "balls": 7382, "mount": 8196, "rings": 8401}
+UNREFERENCED = {"tetra": 0.67, "balls": 0.67, "mount": 0.20, "rings": 0.67}
+C20 = 0.78  # inside the paper's 70–80 %
+
+
+def _refs(name: str) -> tuple[np.ndarray, np.ndarray]:
+    """References and visible ids with the paper's Table 2 shares, C(20 %) = 78 % and the
+    paper's never-referenced shares: group A (top 20 %) takes 78 %, group B the rest of the
+    referenced; visible = part of A plus unreferenced ones."""
+    n = N[name]
+    vis_share, ref_share = PAPER_TABLE2[name][1:]
+    na, nc = int(0.2 * n), int(round(UNREFERENCED[name] * n))
+    nb = n - na - nc
+    total = 10 ** 7
+    refs = np.zeros(n, np.int64)
+    refs[:na] = int(C20 * total / na)
+    refs[na:na + nb] = int((1 - C20) * total / nb)
+    xa = int(round(ref_share / C20 * na))
+    visible = np.r_[np.arange(xa), np.arange(na + nb, na + nb + int(round(vis_share * n)) - xa)]
+    return refs, visible
+
+
+def _row(t: float, rho: float, miss: float) -> dict:
+    return {"rho": rho, "mu": 1 - miss, "miss_rate": miss, "t_measured": t, "t_model": t, "loads": 1000,
+            "resident": int(1000 * rho), "cache_accesses": 1000 - int(1000 * rho), "cache_hits": 0}
+
+
+def paper_world_t(local: float, split: float) -> float:
+    if local < 0.3:
+        return 3.0 + split  # 10 % local: t rises with the resident share
+    base = 2.0 if local < 0.4 else 1.9
+    return base + 0.5 * abs(split - 0.7)  # lowest at 70 %
+
+
+def scene(name: str, t=paper_world_t, miss=None, rho=lambda L, s: s) -> SceneData:
+    refs, visible = _refs(name)
+    miss = miss or (lambda share: {0.1: 0.05, 0.2: 0.03}.get(share, 0.0215 if share < 1 else 0.02))
+    counts = dict(zip(("primitives", "polygons", "spheres", "cones", "cylinders", "lights", "reflective",
+                       "transparent"), PAPER_TABLE1[name]))
+    d = SceneData(name=name, res=512, corners=False, precision="fp32", counts=counts,
+                  database_bytes={"primitive_list": 100, "shape_data": 200},
+                  primitive_database_bytes=200, rays={}, references=refs, visible=visible,
+                  prepass={"resolution": 51}, options=PaperOptions(), experiments={"as rendered": refs})
+    for share in CACHE_SHARES:
+        r = _row(1.0, 0.0, miss(share))
+        d.fig4.append({"cache_share": share, "resident_count": 0, "cache_bytes": 64, "ref": r, "all": r, "shape": r})
+    for L in LOCAL_SHARES:
+        for s in RESIDENT_SPLITS:
+            r = _row(t(L, s), rho(L, s), 0.05)
+            d.fig5.append({"local_share": L, "resident_split": s, "resident_count": int(100 * s),
+                           "cache_bytes": 64, "ref": r, "all": r, "shape": r})
+    return d
+
+
+def world(**kw) -> list[SceneData]:
+    return [scene(n, **kw) for n in N]
+
+
+def verdicts(scenes: list[SceneData]) -> dict[str, str]:
+    return {f"{f.figure}: {f.paper}": f.verdict for f in findings(scenes, "ref")}
+
+
+def key(scenes_verdicts: dict[str, str], start: str) -> str:
+    (k,) = [k for k in scenes_verdicts if k.startswith(start)]
+    return k
+
+
+def test_the_papers_world_agrees_with_every_finding():
+    v = verdicts(world())
+    assert len(v) == 13
+    assert all(x == "agree" for x in v.values()), {k: x for k, x in v.items() if x != "agree"}
+    assert all(f.test and f.counting for f in findings(world(), "ref"))
+
+
+def _changed(scenes: list[SceneData], name: str, **fields) -> list[SceneData]:
+    out = []
+    for d in scenes:
+        if d.name == name:
+            d = copy.copy(d)
+            for k, val in fields.items():
+                setattr(d, k, val)
+        out.append(d)
+    return out
+
+
+def _uniform(name: str) -> np.ndarray:
+    return np.full(N[name], 7, np.int64)
+
+
+def _concentrated(name: str) -> np.ndarray:
+    refs = np.zeros(N[name], np.int64)
+    refs[: int(0.1 * N[name])] = 1000
+    refs[int(0.1 * N[name]): int(0.8 * N[name])] = 1
+    return refs
+
+
+PERTURBATIONS = {
+    "Table 1": lambda: _changed(world(), "rings", counts=dict(scene("rings").counts, cylinders=4199)),
+    "Table 2: visible primitives": lambda: _changed(world(), "mount", visible=np.arange(3000)),
+    "Table 2: share of references": lambda: _changed(world(), "tetra", visible=np.arange(4000, 4096)),
+    "Figure 3: references are skewed": lambda: _changed(world(), "tetra", references=_uniform("tetra")),
+    "Figure 3: in mount and rings": lambda: _changed(world(), "mount", references=_concentrated("mount")),
+    "Figure 3: primitives never referenced": lambda: _changed(world(), "rings", references=_uniform("rings")),
+    "Figure 4: cache miss rates are low": lambda: world(miss=lambda s: 0.2 if s < 0.2 else 0.02),
+    "Figure 4: the hit rate saturates": lambda: world(miss=lambda s: 0.02 if s == 1.0 else 0.04),
+    "Figure 5: for 30 % and 50 %": lambda: world(t=lambda L, s: paper_world_t(L, s) if L < 0.3
+                                                 else 2.0 + 0.5 * abs(s - 0.3)),
+    "Figure 5: for 10 %": lambda: world(t=lambda L, s: 4.0 - s if L < 0.3 else paper_world_t(L, s)),
+    "Figure 5: 30 % and 50 %": lambda: world(t=lambda L, s: paper_world_t(L, s) - (1.0 if L > 0.4 else 0)),
+    "Figure 5: resident memory beats": lambda: world(t=lambda L, s: 2.0 + s),
+    "Figure 5: resident memory helps little": lambda: world(t=lambda L, s: paper_world_t(L, s) - (0.5 if 0 < s < 0.3 else 0)),
+}
+
+
+@pytest.mark.parametrize("start", list(PERTURBATIONS))
+def test_each_finding_flips_on_data_that_violates_it(start):
+    before = verdicts(world())
+    after = verdicts(PERTURBATIONS[start]())
+    k = key(after, start)
+    assert before[k] == "agree"
+    assert after[k] in ("differ", "partly"), (k, after[k])
+    # the perturbation violates its own finding (others may move along, e.g. a uniform scene)
+
+
+def test_a_finding_without_its_premise_is_not_testable_here():
+    """No configuration with a low ρ: 'helps little when ρ is low' is never agreement."""
+    v = verdicts(world(rho=lambda L, s: 0.5 + 0.5 * s))
+    assert v[key(v, "Figure 5: resident memory helps little")] == "not testable here"
+
+
+def test_counting_is_chosen_per_finding():
+    """Figures 4–5 read the counting asked for: per word data that violate Figure 4 flip only
+    the per-word verdict."""
+    scenes = world()
+    for d in scenes:
+        for r in d.fig4:
+            r["all"] = _row(1.0, 0.0, 0.3)
+    ref = {f.paper: f.verdict for f in findings(scenes, "ref")}
+    word = {f.paper: f.verdict for f in findings(scenes, "all")}
+    assert ref["cache miss rates are low in every scene"] == "agree"
+    assert word["cache miss rates are low in every scene"] == "differ"
+    assert "per word" in next(f.counting for f in findings(scenes, "all") if f.figure == "Figure 4")
+
+
+def test_explanations_name_the_experiment_that_accounts_for_a_difference():
+    scenes = _changed(world(), "rings", references=_uniform("rings"))
+    d = next(x for x in scenes if x.name == "rings")
+    fixed, _ = _refs("rings")
+    d.experiments = {"as rendered": d.references, "no shadow rays": fixed, "eye rays only": _uniform("rings")}
+    why = explain([d], lambda x: x.unreferenced_share, {"rings": 0.67}, 0.05)
+    assert why.startswith("explained by no shadow rays") and "rings 0 % → 67 %" in why
+    d.experiments = {"as rendered": d.references, "eye rays only": _uniform("rings")}
+    assert explain([d], lambda x: x.unreferenced_share, {"rings": 0.67}, 0.05).startswith("unexplained")
+
+
+def test_f_where_c_reaches_a_level():
+    d = scene("rings")
+    assert d.f_reaching(1.0) == pytest.approx(1 - d.unreferenced_share, abs=1 / d.n)
+    assert d.f_reaching(0.78 - 1e-9) == pytest.approx(0.2, abs=1 / d.n)
+    assert d.f_reaching(0.99) < d.f_reaching(0.999) <= d.f_reaching(1.0)
+
+
+def test_figure5_axis_is_clipped_above_the_curves():
+    lo, hi = fig5_ylim([1.2, 1.8, 2.0])
+    assert lo < 1.2 and 2.0 < hi < 2.5  # a 100 %-resident point at 4.6 t_r would lie above

@@ -429,6 +429,9 @@ def apply_override(config: MachineConfig, item: str) -> None:
                 raise ConfigError(f"--set {item!r}: too many parts after {part!r}")
             nxt[parts[-1]] = _convert(raw, int, path)
             return
+        if not dataclasses.is_dataclass(nxt):  # e.g. precision.foo=1: precision is a value
+            raise ConfigError(f"--set {item!r}: {'.'.join(parts[:i + 1])} is a value, not a "
+                              "table: it has no fields")
         obj = nxt
     data: Any = raw
     try:  # accept TOML literals (true, 0.3, "x"); fall back to the raw string

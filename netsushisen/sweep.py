@@ -47,6 +47,7 @@ from typing import Any
 from netsushisen import __version__
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.config import MachineConfig, apply_override, dump_toml, load_config
+from netsushisen.options import MAX_RES
 
 SPEC_KEYS = ("scenes", "res", "config", "set", "engine", "vary", "zip", "derive")
 
@@ -173,8 +174,8 @@ def load_spec(path: str | Path) -> Spec:
         errors.append(where("'scenes' must be a non-empty list of scene names or .nff files", "scenes"))
         scenes = []
     res = data.get("res", 32)
-    if not isinstance(res, int) or isinstance(res, bool) or not 1 <= res <= 8192:
-        errors.append(where(f"'res' must be an integer 1..8192, not {res!r}", "res"))
+    if not isinstance(res, int) or isinstance(res, bool) or not 1 <= res <= MAX_RES:
+        errors.append(where(f"'res' must be an integer 1..{MAX_RES}, not {res!r}", "res"))
     sets = data.get("set", [])
     if not isinstance(sets, list) or not all(isinstance(s, str) for s in sets):
         errors.append(where("'set' must be a list of 'path.to.field=value' strings", "set"))

@@ -222,3 +222,10 @@ def test_render_never_overwrites_an_image_it_was_not_told_to(cli, tmp_path, monk
         "tetra-1.png", "tetra-2.png", "tetra.png"]
     err = _one_line_error(cli, *argv, "-o", tmp_path / "no" / "t.png")
     assert err.endswith(f"cannot write here: no folder '{tmp_path / 'no'}'")
+
+
+def test_set_into_a_value_is_one_line(cli):
+    """`--set precision.foo=1`: precision is a value, not a table (was a TypeError)."""
+    code, _, err = cli("run", "--set", "precision.foo=1")
+    assert code == 1 and "precision is a value, not a table" in err
+    assert "Traceback" not in err and "internal error" not in err and len(err.strip().splitlines()) == 1

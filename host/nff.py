@@ -38,7 +38,7 @@ import numpy as np
 
 from netsushisen.errors import Diagnostic, SceneError
 from netsushisen.host.nff_builder import SceneBuilder
-from netsushisen.host.nff_geometry import (FP32_EPS, MAX_WARNINGS, GeometryChecks,  # noqa: F401
+from netsushisen.host.nff_geometry import (FP32_EPS, MAX_WARNINGS, GeometryChecks, fp32_half_spacing,  # noqa: F401
                                            scene_warnings)
 from netsushisen.host.scenes import Kind, Scene
 
@@ -382,7 +382,7 @@ class _Parser(GeometryChecks):
             raise self.error(f"{what}: both radii are zero (a line, never hit)", record)
         self.check_round(v[0:3], max(v[3], v[7]), record, what)
         axis = math.dist(v[0:3], v[4:7])
-        if axis < max(map(abs, v[0:3] + v[4:7])) * FP32_EPS / 2:
+        if axis < fp32_half_spacing(max(map(abs, v[0:3] + v[4:7]))):
             raise self.error(f"{what}: its axis ({axis:g} long) is lost beside its position in "
                              "fp32 (the machine's precision)", record)
         self.builder.add_cone(*v)

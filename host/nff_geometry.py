@@ -6,9 +6,8 @@ as meant:
 * **Errors** (exit 1, the first one stops the read): a sphere radius that is not positive; a
   cone radius that is negative, or both zero; a coordinate or radius of magnitude beyond
   MAX_COORD (1e18: the machine computes in fp32, where the squares and dot products every
-  intersection test takes overflow to infinity past about 1.8e19); a sphere or cylinder so
-  small beside its position that fp32 rounds both its sides back to its centre (it would vanish, and a
-  scene of only such objects has no extent to build a grid on).
+  intersection test takes overflow to infinity past about 1.8e19); a cone whose axis is lost
+  beside its position in fp32 (it has no direction).
 * **Warnings** (`file:line:col: warning: ...` on standard error, the scene is used): a polygon
   with zero area (collinear or repeated vertices: it is never hit; tessellators emit these at
   poles, so they are legal), and a polygon of more than three vertices that is not planar (it
@@ -36,6 +35,12 @@ FP32_EPS = 2.0 ** -23
 the spacing at its position, |position| × FP32_EPS / 2, is lost beside it: position ± extent
 rounds back to the position. Anything larger is still a (tiny) object that the robust tests
 handle — the numerics catalog's far tiny sphere, r = 1e-3 at 1e4, is hit correctly in fp32."""
+
+def fp32_half_spacing(x: float) -> float:
+    """Half the gap between fp32 numbers at magnitude |x|: an extent below it, added to x,
+    rounds back to x."""
+    return float(np.spacing(np.float32(min(abs(x), MAX_COORD)))) / 2
+
 
 MAX_WARNINGS = 5
 """Warnings shown per kind of problem; the rest are counted."""
@@ -108,12 +113,14 @@ class GeometryChecks:
                           "rendered as the fan of triangles from its first vertex", record)
 
     def check_round(self, centre: list[float], radius: float, record: int, what: str) -> None:
-        """A sphere's or cone end's radius against fp32's resolution at its position."""
+        """A sphere's or cone end's radius against fp32's resolution at its position: a warning,
+        not an error — fp64 still renders it, and `netsushisen numerics` exists to show such a
+        scene's fp32 failures."""
         scale = max(abs(c) for c in centre)
-        if 0.0 < radius < scale * FP32_EPS / 2:
-            raise self.error(f"{what}: radius {radius:g} is lost beside its position "
-                             f"{scale:g} in fp32 (the machine's precision): the object would "
-                             "vanish", record)
+        if 0.0 < radius < fp32_half_spacing(scale):
+            self.warn("lost in fp32", f"{what}: radius {radius:g} is lost beside its position "
+                      f"{scale:g} in fp32 (centre ± radius rounds back to the centre): in fp32 "
+                      "the object vanishes; fp64 keeps it", record)
 
 
 def scene_warnings(scene: Scene) -> list[str]:

@@ -21,8 +21,11 @@ def test_sweep_figures_by_hand():
     #        model = rho + (1 - rho)(8 - 6 mu) = 1/6 + 5/6 * 5.6 = 290/60
     # shape: rho = 10/40 = 0.25, mu = 15/30 = 0.5, t = (10 + 15*2 + 15*8)/40 = 4,
     #        model = 0.25 + 0.75 * (8 - 3) = 4
-    counts = {"resident.shape_data": 10, "resident.primitive_list": 0, "global.shape_data": 30,
-              "global.primitive_list": 20, "hits.shape_data": 15, "hits.primitive_list": 5}
+    # ref (per primitive reference): 4 resident, 8 through the cache of which 6 hit:
+    #        rho = 1/3, mu = 0.75, t = (4 + 6*2 + 2*8)/12 = 32/12, model = 1/3 + 2/3 * 3.5 = 32/12
+    counts = {"resident.shape_data": 10, "local.primitive_list": 0, "global.shape_data": 30,
+              "global.primitive_list": 20, "hits.shape_data": 15, "hits.primitive_list": 5,
+              "ref.resident": 4, "ref.cache": 8, "ref.hits": 6}
     f = SweepStream.figures(SimpleNamespace(counts=counts))
     assert f["all"]["loads"] == 60 and f["all"]["resident"] == 10 and f["all"]["cache_hits"] == 20
     assert f["all"]["rho"] == pytest.approx(1 / 6) and f["all"]["mu"] == pytest.approx(0.4)
@@ -32,6 +35,10 @@ def test_sweep_figures_by_hand():
     assert f["shape"]["loads"] == 40 and f["shape"]["rho"] == pytest.approx(0.25)
     assert f["shape"]["mu"] == pytest.approx(0.5)
     assert f["shape"]["t_measured"] == pytest.approx(4.0) and f["shape"]["t_model"] == pytest.approx(4.0)
+    assert f["ref"]["loads"] == 12 and f["ref"]["rho"] == pytest.approx(1 / 3)
+    assert f["ref"]["mu"] == pytest.approx(0.75) and f["ref"]["miss_rate"] == pytest.approx(0.25)
+    assert f["ref"]["t_measured"] == pytest.approx(32 / 12)
+    assert f["ref"]["t_model"] == pytest.approx(32 / 12)
 
 
 @pytest.mark.parametrize("addresses, bad", [([0, 5, 100, 7], 100), ([3, -2, 60], -2)])
@@ -51,7 +58,8 @@ def test_sweep_runs_cut_at_a_new_record_a_step_back_or_a_gap():
     assert lay.record_size[p] >= 3
     stream = SweepStream(lay, [], cfg.word_bytes)
     # a list cell pair (1, 2); record p's words a, a+1, a+2; back to a; a gap of 2 to a+2
-    first, span, loads, prim = stream.runs(np.array([1, 2, a, a + 1, a + 2, a, a + 2]))
+    r = stream.runs(np.array([1, 2, a, a + 1, a + 2, a, a + 2]))
+    first, span, loads, prim = r.first, r.span, r.loads, r.prim
     assert first.tolist() == [1, a, a, a + 2]
     assert span.tolist() == [1, 2, 0, 0]
     assert loads.tolist() == [2, 3, 1, 1]

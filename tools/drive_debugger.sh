@@ -21,8 +21,8 @@ ROWS=${SIZE#*x}
 PY=${PYTHON:-python3}
 HERE=$(cd "$(dirname "$0")/.." && pwd)
 WORK=$(mktemp -d)
-SESSION="nssdbg$$"
-trap 'tmux kill-session -t "$SESSION" 2>/dev/null || true; rm -rf "$WORK"' EXIT
+SESSION="nssdbg$$"  # also its own tmux server (-L): runs side by side never share a server's sizes
+trap 'tmux -L "$SESSION" kill-server 2>/dev/null || true; rm -rf "$WORK"' EXIT
 
 command -v tmux >/dev/null || { echo "drive_debugger: tmux is not installed" >&2; exit 1; }
 
@@ -82,10 +82,10 @@ else
 fi
 
 : > "$OUT"
-tmux new-session -d -s "$SESSION" -x "$COLS" -y "$ROWS" \
-    "cd '$WORK' && PYTHONPATH='${PYTHONPATH:-}' NETSUSHISEN_DEBUG_HISTORY='' $NSS debug --os os.s --ic ic.s --sc sc.s --image image.json --proc ic; echo '[debugger exited]'; sleep 30"
+tmux -L "$SESSION" new-session -d -s "$SESSION" -x "$COLS" -y "$ROWS" \
+    "unset COLUMNS LINES; cd '$WORK' && PYTHONPATH='${PYTHONPATH:-}' NETSUSHISEN_DEBUG_HISTORY='' $NSS debug --os os.s --ic ic.s --sc sc.s --image image.json --proc ic; echo '[debugger exited]'; sleep 30"
 
-screen() { tmux capture-pane -p -t "$SESSION"; }
+screen() { tmux -L "$SESSION" capture-pane -p -t "$SESSION"; }
 
 # wait until the screen has changed from $2 (if given) and the prompt is back (the last
 # non-empty line is `(nss)`), at most ~90 s (a loaded machine starts the debugger slowly)
@@ -110,12 +110,12 @@ FAILED=0
 step() {
     local cmd=$1 expect=${2:-} keep=${3:-1} title=${4:-$1}
     if [ -n "$cmd" ]; then
-        tmux send-keys -t "$SESSION" -l "$cmd"
+        tmux -L "$SESSION" send-keys -t "$SESSION" -l "$cmd"
     fi
     sleep 0.1
     local before
     before=$(screen)
-    tmux send-keys -t "$SESSION" Enter
+    tmux -L "$SESSION" send-keys -t "$SESSION" Enter
     wait_prompt "$cmd" "$before"
     if [ "$keep" = 1 ]; then
         { echo "===== (nss) ${title:-<Enter> (repeats the last command)}"; screen | sed -e 's/[[:space:]]*$//'; echo; } >> "$OUT"
@@ -140,8 +140,8 @@ step "continue"          "watchpoint 2: pe0.ic.r6:"
 step "reverse-step 12"   "last cycle 22 (23 cycles run)"      "$((1 - QUICK))"
 step "bogus"             "error: unknown command 'bogus'"      0
 # Tab completion: `info reg<Tab>` completes to `info registers`
-tmux send-keys -t "$SESSION" -l "info reg"
-tmux send-keys -t "$SESSION" Tab
+tmux -L "$SESSION" send-keys -t "$SESSION" -l "info reg"
+tmux -L "$SESSION" send-keys -t "$SESSION" Tab
 for _ in $(seq 1 100); do  # the completion is drawn when the front end gets to it
     screen | grep -q "(nss) info registers" && break
     sleep 0.1
@@ -149,8 +149,8 @@ done
 # (on a short terminal the table's title has scrolled away: its last row, lr, is there)
 if [ "$ROWS" -ge 45 ]; then SHOWN="registers pe0.ic (* changed since the previous stop)"; else SHOWN="lr "; fi
 step "" "$SHOWN" "$((1 - QUICK))" "info reg<Tab> (completes to: info registers)"
-tmux send-keys -t "$SESSION" -l "quit"
-tmux send-keys -t "$SESSION" Enter
+tmux -L "$SESSION" send-keys -t "$SESSION" -l "quit"
+tmux -L "$SESSION" send-keys -t "$SESSION" Enter
 for _ in $(seq 1 50); do
     screen | grep -q '\[debugger exited\]' && break
     sleep 0.1

@@ -258,6 +258,7 @@ def test_cli_bad_input_is_one_line(cli, tmp_path):
         assert not (tmp_path / "x" / "accuracy.json").exists()
 
 
+@pytest.mark.slow  # 45 s: every axis, the fidelity axis's reference-engine row included
 def test_cli_writes_every_file_and_keeps_the_contract(cli, tmp_path):
     out = tmp_path / "acc"
     code, stdout, err = cli("accuracy", "tetra", "--res", "4", "--engine", "compiled", "--out", out)

@@ -83,7 +83,7 @@ def region_metrics(stats: dict, name: str, region: str | None) -> dict[str, floa
     f = memory_figures(stats, name, region)
     if not f:
         return {}
-    return {"loads": f["references"], "ρ": f["rho"], "μ": f["mu"] if f["cache"] else None,
+    return {"loads": f["loads"], "ρ": f["rho"], "μ": f["mu"] if f["cache"] else None,
             "t": f["measured"], "t model": f["model"]}
 
 

@@ -30,7 +30,7 @@ def memory_sections(stats: dict) -> list[Section]:
         for region in names + (["all"] if names else []):
             f = memory_figures(stats, name, None if region == "all" else region)
             if f:
-                main.rows.append([name, region, f["references"], f["resident"], f["cache"], f["rho"],
+                main.rows.append([name, region, f["loads"], f["resident"], f["cache"], f["rho"],
                                   f["mu"] if f["cache"] else None, f["measured"], f["model"]])
         loc = mem.get("local") or {}
         if loc.get("reads") or loc.get("writes"):

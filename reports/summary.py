@@ -4,7 +4,7 @@ IC's memory did.
 
 Dynamic ILP is operations per cycle (stalls included); static ILP is operations per bundle of the
 kernel as scheduled: the same names and meanings as in `report ilp`, `report annotate` and
-`report diff`. The memory line gives the paper's quantities for IC's shape-data references
+`report diff`. The memory line gives the paper's quantities for IC's shape-data loads
 (its two-level memory of resident memory and cache; docs/databases.md): ρ = the share served by
 resident memory, μ = the cache hit rate, and the mean access time measured next to the paper's
 model t = t_r·{ρ + (1 − ρ)(8 − 6μ)} (which assumes t_c = 2·t_r and t_g = 8·t_r).
@@ -17,7 +17,8 @@ from rich.table import Table
 
 
 def memory_figures(stats: dict, proc: str = "pe0.ic", region: str | None = "shape_data") -> dict | None:
-    """ρ, μ and access times for one processor's references to one database region (None: every
+    """ρ, μ and access times for one processor's loads (4-byte words, the machine's own counting;
+    `netsushisen paper` also counts per primitive reference) from one database region (None: every
     region of its resident and global memory together)."""
     mem = stats["memory"].get(proc, {})
     regions = mem.get("regions", {})
@@ -37,7 +38,7 @@ def memory_figures(stats: dict, proc: str = "pe0.ic", region: str | None = "shap
     mu = hits / acc if acc else 1.0
     measured = (res * cfg["t_r"] + hits * cfg["t_c"] + (acc - hits) * cfg["t_g"]) / total
     model = cfg["t_r"] * (rho + (1 - rho) * (8 - 6 * mu))
-    return {"references": total, "resident": res, "cache": acc, "hits": hits, "rho": rho, "mu": mu,
+    return {"loads": total, "resident": res, "cache": acc, "hits": hits, "rho": rho, "mu": mu,
             "measured": measured, "model": model}
 
 
@@ -78,10 +79,10 @@ def memory_table(stats: dict) -> Table | None:
         return None
     t = Table(title="IC memory (paper §5: resident ρ, cache hit rate μ, access time in t_r)",
               title_justify="left")
-    for col in ("processor", "region", "references", "ρ", "μ", "t measured", "t model"):
+    for col in ("processor", "region", "loads", "ρ", "μ", "t measured", "t model"):
         t.add_column(col, justify="left" if col in ("processor", "region") else "right")
     for name, region, f in rows:
-        t.add_row(name, region, f"{f['references']:,}", f"{f['rho']:.3f}", f"{f['mu']:.3f}",
+        t.add_row(name, region, f"{f['loads']:,}", f"{f['rho']:.3f}", f"{f['mu']:.3f}",
                   f"{f['measured']:.2f}", f"{f['model']:.2f}" if region == "shape_data" else "-")
     return t
 

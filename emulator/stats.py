@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from netsushisen.asm.listing import static_ilp
+from netsushisen.asm.listing import static_ilp, target_names
 from netsushisen.asm.objects import Program
 from netsushisen.emulator.machine import Machine
 
@@ -51,11 +51,12 @@ def program_listing(program: Program) -> dict[str, list]:
     so a report reads the program beside its counters even when the kernel source has changed
     or is gone; the file name alone keeps the statistics the same wherever the kernels are."""
     labels = program.code_labels()
+    names = target_names(program)  # one pass: label+offset of every address
     out: dict[str, list] = {"label": [], "text": [], "ops": [], "target": [], "source": []}
     for addr, bundle in enumerate(program.bundles):
         real = [op for op in bundle if op.opcode.kind != "nop"]
         loc = program.source_map[addr] if addr < len(program.source_map) else None
-        out["label"].append(program.label_at(addr))
+        out["label"].append(names.get(addr, str(addr)))
         out["text"].append(" ; ".join(op.format(labels) for op in real) or "nop")
         out["ops"].append(len(real))
         out["target"].append(next((op.args[-1] for op in real if op.opcode.kind in ("branch", "jump")

@@ -212,8 +212,8 @@ def _latency_override_problem(proc: str, mnemonic: str) -> str | None:
     op = OPCODES.get(mnemonic)
     if op is None:
         known = [m for m, o in OPCODES.items() if proc in o.procs]
-        return f"{proc}.latency.{mnemonic}: unknown mnemonic {mnemonic!r}" + (
-            _did_you_mean(mnemonic, known) if difflib.get_close_matches(mnemonic, known, 1) else "")
+        return (f"{proc}.latency.{mnemonic}: unknown mnemonic {mnemonic!r}"
+                + _did_you_mean(mnemonic, known, list_known=False))
     if proc not in op.procs:
         return f"{proc}.latency.{mnemonic}: {proc.upper()} has no {mnemonic!r} instruction"
     if op.kind == "load" and proc in ("ic", "sc"):
@@ -285,12 +285,13 @@ def _shown(value: Any) -> str:
     return f"{text} ({kind})" if kind else text
 
 
-def _did_you_mean(name: str, known: list[str]) -> str:
-    """`; did you mean 'x'?` for the closest known name, else the list of known names."""
+def _did_you_mean(name: str, known: list[str], list_known: bool = True) -> str:
+    """`; did you mean 'x'?` for the closest known name, else the list of known names (or
+    nothing, with list_known=False: the opcode table is too long to list)."""
     close = difflib.get_close_matches(name, known, n=1, cutoff=0.6)
     if close:
         return f"; did you mean {close[0]!r}?"
-    return "; known: " + ", ".join(sorted(known))
+    return "; known: " + ", ".join(sorted(known)) if list_known else ""
 
 
 def _apply(obj: Any, data: dict[str, Any], prefix: str, problems: list[tuple[str, str]],

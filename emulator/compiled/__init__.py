@@ -26,10 +26,33 @@ from netsushisen.emulator.machine import DeadlockError, RunResult
 from netsushisen.emulator.memories import MemoryFault
 from netsushisen.emulator.cmu import col_on_ring
 from netsushisen.emulator.compiled import state as S
-from netsushisen.emulator.compiled.build import load
+from netsushisen.emulator.compiled.build import load, run_loop
 
 CHUNK = 2_000_000
 """Cycles per call into compiled code: progress reports and Ctrl-C come between calls."""
+
+
+_ENDS_ANYWHERE = (S.S_RUNNING, S.S_HALTED, S.S_FINISHED, S.S_STOPPED)
+"""The ends the loop can reach with processors run ahead of the machine (state.py C_AHEAD):
+none can end a run while a processor is busy on its own."""
+
+
+def _chunk(loop, st: S.State) -> int:
+    """One call into the compiled loop. One that ends in a fault or a deadlock is done again
+    from the same start with no processor running ahead (state.py G_AHEAD), so the report sees
+    every processor in the cycle the run ended in, as the reference engine does."""
+    g = st.arrays["g"]
+    if not g[S.G_AHEAD]:
+        return run_loop(loop, st.args())
+    start = {k: v.copy() for k, v in st.arrays.items()
+             if isinstance(v, np.ndarray) and k not in S.READ_ONLY}
+    code = run_loop(loop, st.args())
+    if code in _ENDS_ANYWHERE:
+        return code
+    for k, v in start.items():
+        st.arrays[k][...] = v
+    g[S.G_AHEAD] = 0
+    return run_loop(loop, st.args())
 
 
 class CompiledEngine(Engine):
@@ -49,6 +72,7 @@ class CompiledEngine(Engine):
         g = st.arrays["g"]
         if self._stop is not None:
             g[S.G_STOP_P], g[S.G_STOP_PC] = self._stop
+            g[S.G_AHEAD] = 0  # a stop point may come in any cycle: no processor runs ahead
         code = S.S_RUNNING
         try:
             while True:
@@ -56,7 +80,7 @@ class CompiledEngine(Engine):
                 if limit:
                     until = min(until, limit)
                 st.arrays["until"] = int(until)
-                code = loop.run_loop(*st.args())
+                code = _chunk(loop, st)
                 if code != S.S_RUNNING:
                     break
                 if progress is not None:

@@ -14,6 +14,7 @@ The cache folder is `$NETSUSHISEN_CACHE`, else `~/.cache/netsushisen`, else a te
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import importlib.util
@@ -121,6 +122,41 @@ def source(precision: str) -> tuple[str, str]:
         h.update(path.read_bytes())
     h.update(f"numba {numba.__version__} numpy {np.__version__} {sys.version}".encode())
     return text, h.hexdigest()[:16]
+
+
+def _index_as_is(context, builder, idxty, idx, size):
+    return context.cast(builder, idx, idxty, numba.core.types.intp)
+
+
+@contextlib.contextmanager
+def no_wraparound():
+    """Compile with array indices taken as they are: numba otherwise adds the array's length to
+    every negative signed index (Python's a[-1]), a compare and a select on each of the loop's
+    hundreds of array accesses — about an eighth of its time. loop.py never indexes with a
+    negative number (every -1 it stores means "none" and is tested before use), so the result
+    is the same. Only code compiled inside this block is affected, and numba's compiler lock is
+    held throughout, so no other thread compiles meanwhile; with an unknown numba (the hook
+    gone) the loop simply compiles with the wraparound."""
+    from numba.core.compiler_lock import global_compiler_lock
+    from numba.np import arrayobj
+    with global_compiler_lock:
+        hook = getattr(arrayobj, "fix_integer_index", None)
+        if hook is not None:
+            arrayobj.fix_integer_index = _index_as_is
+        try:
+            yield
+        finally:
+            if hook is not None:
+                arrayobj.fix_integer_index = hook
+
+
+def run_loop(module, args: tuple) -> int:
+    """module.run_loop(*args). The first call in a process compiles the loop (or loads it from
+    the disk cache) under no_wraparound()."""
+    if module.run_loop.signatures:
+        return module.run_loop(*args)
+    with no_wraparound():
+        return module.run_loop(*args)
 
 
 def load(precision: str):

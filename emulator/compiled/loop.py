@@ -12,8 +12,10 @@ plain integers.
 
 Where the loop does less than the reference's cycle-by-cycle rule, it is because the skipped
 work provably gives the same answer: issue checks that cannot fail (no result in flight, no
-unit occupied, ports to spare), processors asleep on their FIFOs (state.py C_SLEEP), and quiet
-cycles skipped at once (skip_quiet) — each charging its counters exactly as the rule would.
+unit occupied, ports to spare), processors asleep on their FIFOs (state.py C_SLEEP), processors
+run ahead of the machine through bundles that touch only their own state (advance, state.py
+C_AHEAD), and quiet cycles skipped at once (skip_quiet) — each charging its counters exactly as
+the rule would.
 """
 
 import numpy as np
@@ -39,7 +41,8 @@ from netsushisen.emulator.compiled.state import (
     D_DYNAMIC, D_NEXT, D_NMSGS, D_WORDS_SENT, L_MESSAGES, L_WORDS, L_WIDTH, L_HEIGHT, G_CYCLE,
     G_DEADLOCK_CYCLES, G_POOLED, G_NPES, G_W, G_STOP_P, G_STOP_PC, S_RUNNING, S_HALTED, S_FINISHED,
     S_DEADLOCK_PE, S_DEADLOCK_COL, S_FAULT, S_STOPPED, F_PC, F_MEMORY, F_RING_COL, F_COL_HEADER,
-    F_COL_PIXEL, SP_LOCAL, SP_RESIDENT, S_DEADLOCK_MSG,
+    F_COL_PIXEL, SP_LOCAL, SP_RESIDENT, S_DEADLOCK_MSG, C_AHEAD, C_AHEAD_ISSUED, C_AHEAD_CAUSE,
+    B_PRIVATE, G_AHEAD,
 )
 
 _OPTS = dict(cache=True, nogil=True, error_model="numpy", boundscheck=False, _nrt=False)
@@ -60,11 +63,17 @@ def q_ready(fq, fbt, q, c):
 
 @njit(**_INLINE)
 def q_visible(fq, fbt, q, c):
-    n = 0
-    cap = fbt.shape[1]
+    """The words of FIFO q visible in cycle c: a prefix, since a FIFO's words become visible in
+    the order they were pushed (push cycle + the FIFO's constant delay) — so all of them once
+    the newest is."""
+    cnt = fq[q, Q_CNT]
+    wrap = fbt.shape[1] - 1  # capacities are powers of two (state.py)
     h = fq[q, Q_HEAD]
-    for k in range(fq[q, Q_CNT]):
-        if fbt[q, (h + k) % cap] > c:
+    if cnt == 0 or fbt[q, (h + cnt - 1) & wrap] <= c:
+        return cnt
+    n = 0
+    for k in range(cnt):
+        if fbt[q, (h + k) & wrap] > c:
             break
         n += 1
     return n
@@ -79,8 +88,7 @@ def q_push(fq, fbt, fbw, pw, q, c, w):
         pw[pe, W_LASTVIS] = c + fq[q, Q_DELAY]
     if fq[q, Q_CSTAGE] >= 0:
         pw[pe, W_MASK + fq[q, Q_CSTAGE]] |= 1 << fq[q, Q_CIN]
-    cap = fbt.shape[1]
-    k = (fq[q, Q_HEAD] + fq[q, Q_CNT]) % cap
+    k = (fq[q, Q_HEAD] + fq[q, Q_CNT]) & (fbt.shape[1] - 1)
     fbt[q, k] = c + fq[q, Q_DELAY]
     fbw[q, k] = w
     fq[q, Q_CNT] += 1
@@ -104,7 +112,7 @@ def q_pop(fq, fbw, pw, q, c):
     fq[q, Q_POPS] += 1
     h = fq[q, Q_HEAD]
     w = fbw[q, h]
-    fq[q, Q_HEAD] = (h + 1) % fbw.shape[1]
+    fq[q, Q_HEAD] = (h + 1) & (fbw.shape[1] - 1)
     fq[q, Q_CNT] -= 1
     if fq[q, Q_CNT] == 0 and fq[q, Q_CSTAGE] >= 0:
         pw[pe, W_MASK + fq[q, Q_CSTAGE]] &= ~(1 << fq[q, Q_CIN])
@@ -174,7 +182,7 @@ def stall(cs, stpc, p, cause, pc, k):
     cs[p, C_LAST_PC] = pc
 
 
-@njit(**_INLINE)
+@njit(**_OPTS)  # rare: a call of its own spares compile time
 def flush_stalls(cs, stpc, nproc):
     """Add every processor's pending stall run to the counters (before the loop returns)."""
     for p in range(nproc):
@@ -207,7 +215,7 @@ def schedule(cs, regs_ready, prod, wbn, wbr, wbw, W, p, rd, word, t, mn):
     prod[p, rd] = mn
 
 
-@njit(**_INLINE)
+@njit(**_OPTS)  # rare: a call of its own spares compile time
 def memory_fault(finfo, p, pc, space, addr):
     """An access outside a memory: fault code 1 with what the report needs."""
     finfo[0] = F_MEMORY
@@ -362,10 +370,11 @@ def issue(c, p, pc, A, W, finfo):
         j = bun[p, pc, B_LOAD0 + k]
         if j < 0:
             break
+        t_, c_, a_ = load_time(cs, ctags, regs, ops, opk, p, pc, j)  # one inlined copy
         if k == 0:
-            lt0, lc0, la0 = load_time(cs, ctags, regs, ops, opk, p, pc, j)
+            lt0, lc0, la0 = t_, c_, a_
         else:
-            lt1, lc1, la1 = load_time(cs, ctags, regs, ops, opk, p, pc, j)
+            lt1, lc1, la1 = t_, c_, a_
     next_pc = pc + 1
     taken = False
     hold_mem = c + 1
@@ -530,7 +539,7 @@ def core_step(c, p, A, W, finfo):
     return 0
 
 
-@njit(**_INLINE)
+@njit(**_OPTS)  # once per FIFO wait: a call of its own spares compile time
 def fall_asleep(c, p, cs, recvq, sendq, fq, fbt, pw):
     """After a FIFO stall in cycle c with nothing in flight: sleep (state.py C_SLEEP) unless a
     word already pushed to a receive FIFO is not visible yet or a send FIFO was popped this
@@ -556,13 +565,93 @@ def wake(cs, stpc, p, upto):
     cs[p, C_SLEEP] = 0
 
 
-@njit(**_INLINE)
+@njit(**_OPTS)  # rare: a call of its own spares compile time
 def wake_all(cs, stpc, nproc, c, stepped):
     """Before the loop returns in (or after) cycle c: every sleeping processor charged through
     cycle c if it was stepped in it (index < stepped), else through c − 1."""
     for p in range(nproc):
-        if cs[p, C_SLEEP]:
+        if cs[p, C_AHEAD]:
+            ahead_end(cs, p)
+        elif cs[p, C_SLEEP]:
             wake(cs, stpc, p, c + 1 if p < stepped else c)
+
+
+@njit(**_INLINE)
+def advance(c, p, until, ahead, A, W, finfo):
+    """Step processor p in cycle c (core_step) and, if `ahead`, on through the cycles after c
+    before the rest of the machine, for as long as its next bundle is private (state.py
+    B_PRIVATE) or it is held (by a branch, a load, an operand, a destination or a unit). Those
+    cycles change only its own registers, memories and counters and read nothing another part
+    of the machine writes, so taking them early gives them the same outcome; a hold is taken
+    in one step (hold_through). It stops short of `until` and of the first bundle that would
+    touch a FIFO or halt; then the processor sleeps until the cycle it reached (state.py
+    C_AHEAD). Returns 0, or 1 on a fault (finfo filled) — after which the engine runs the
+    chunk again without running ahead when it came ahead of cycle c (a fault's report must
+    show every processor in the cycle it happened)."""
+    cs, bun = A[0], A[15]
+    t = c
+    while True:  # one core_step in the text: each inlined copy costs compile time
+        if core_step(t, p, A, W, finfo):
+            return 1
+        t += 1
+        if not ahead or cs[p, C_SLEEP] or cs[p, C_HALTED]:
+            break
+        while t < until and (t < cs[p, C_HOLD_UNTIL] or t < cs[p, C_WAKE]):
+            t = hold_through(t, p, until, A, W)
+        if t >= until:
+            break
+        pc = cs[p, C_PC]
+        if pc < 0 or pc >= cs[p, C_NB] or not bun[p, pc, B_PRIVATE]:
+            break
+    if t > c + 1:
+        cs[p, C_AHEAD] = 1
+        cs[p, C_AHEAD_ISSUED] = cs[p, C_LAST_ISSUED]
+        cs[p, C_AHEAD_CAUSE] = cs[p, C_CAUSE]
+        cs[p, C_LAST_ISSUED] = 0
+        cs[p, C_CAUSE] = CAUSE_BRANCH  # a stall of its own: neither idle nor stuck
+        cs[p, C_SLEEP] = t
+    return 0
+
+
+@njit(**_INLINE)
+def hold_through(t, p, until, A, W):
+    """Processor p, held in cycle t (by an earlier bundle's branch or load: C_HOLD_UNTIL; or
+    waiting for an operand, a destination or a unit: C_WAKE), stays so with the same cause
+    until the hold's memory part ends, the hold ends or the wake cycle comes: charge those
+    cycles at once as core_step would one by one, write the results that fall due meanwhile,
+    and return the first cycle after them."""
+    cs, regs, wbn, wbr, wbw, stpc = A[0], A[1], A[4], A[5], A[6], A[10]
+    if t < cs[p, C_HOLD_UNTIL]:
+        pcx = cs[p, C_HOLD_PC]
+        if t < cs[p, C_HOLD_MEM_UNTIL]:
+            cause = cs[p, C_HOLD_CAUSE]
+            end = cs[p, C_HOLD_MEM_UNTIL]
+        else:
+            cause = CAUSE_BRANCH
+            end = cs[p, C_HOLD_UNTIL]
+    else:
+        pcx = cs[p, C_PC]
+        cause = cs[p, C_WAKE_CAUSE]
+        end = cs[p, C_WAKE]
+    if end > until:
+        end = until
+    last = end - 1 if end - 1 < t + W - 1 else t + W - 1
+    if cs[p, C_NPEND]:
+        for u in range(t, last + 1):
+            write_due(cs, regs, wbn, wbr, wbw, p, u & (W - 1))
+    cs[p, C_LAST_ISSUED] = 0
+    cs[p, C_CYCLES] += end - t
+    stall(cs, stpc, p, cause, pcx, end - t)
+    return end
+
+
+@njit(**_INLINE)
+def ahead_end(cs, p):
+    """A processor that ran ahead is back in step with the machine (its cycles are charged)."""
+    cs[p, C_LAST_ISSUED] = cs[p, C_AHEAD_ISSUED]
+    cs[p, C_CAUSE] = cs[p, C_AHEAD_CAUSE]
+    cs[p, C_AHEAD] = 0
+    cs[p, C_SLEEP] = 0
 
 
 # -- the CMU (cmu.Cmu.step) -------------------------------------------------------------------
@@ -693,7 +782,7 @@ def pe_progressed(pe, cs, cflags, pes):
     return False
 
 
-@njit(**_INLINE)
+@njit(**_OPTS)  # rare: a call of its own spares compile time
 def unsent(npes, cm, cin, route, rem, fq, fbw):
     """machine.Machine.unsent_messages, as a test: some processor is in the middle of sending
     a message on the ring (its CMU still waits for words of it, or its send FIFO ends in a
@@ -745,6 +834,7 @@ def run_cycles(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn,
     pooled = g[G_POOLED]
     limit = g[G_DEADLOCK_CYCLES]
     nmsgs = dis[D_NMSGS]
+    ahead = g[G_AHEAD]
     # the CMUs' round robin starts at input c mod n: counted along, not divided, when every CMU
     # has the same n
     rn = cm[0, M_N]
@@ -803,11 +893,15 @@ def run_cycles(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn,
             for s in range(3):
                 p = pe * 3 + s
                 if cs[p, C_PRESENT]:
-                    if cs[p, C_SLEEP]:
+                    if cs[p, C_AHEAD]:
+                        if c < cs[p, C_SLEEP]:
+                            continue
+                        ahead_end(cs, p)
+                    elif cs[p, C_SLEEP]:
                         if c < pw[pe, W_WAKE + s]:
                             continue
                         wake(cs, stpc, p, c)
-                    if core_step(c, p, A, W, finfo):
+                    if advance(c, p, until, ahead, A, W, finfo):
                         wake_all(cs, stpc, npes * 3, c, p)
                         g[G_CYCLE] = c + 1
                         return S_FAULT
@@ -949,7 +1043,9 @@ def skip_quiet(c, until, limit, npes, W, cs, regs, wbn, wbr, wbw, stpc, pes, pw,
     for p in range(npes * 3):
         if not cs[p, C_PRESENT] or cs[p, C_HALTED]:
             continue
-        if cs[p, C_SLEEP]:  # asleep: charged when it wakes
+        if cs[p, C_AHEAD]:  # ahead of the machine: charged up to the cycle it reached
+            w = cs[p, C_SLEEP]
+        elif cs[p, C_SLEEP]:  # asleep: charged when it wakes
             w = pw[p // 3, W_WAKE + p % 3]
         elif c1 < cs[p, C_HOLD_UNTIL]:
             w = cs[p, C_HOLD_MEM_UNTIL] if c1 < cs[p, C_HOLD_MEM_UNTIL] else cs[p, C_HOLD_UNTIL]
@@ -985,7 +1081,7 @@ def skip_quiet(c, until, limit, npes, W, cs, regs, wbn, wbr, wbw, stpc, pes, pw,
         stall(cs, stpc, p, cause, pcx, k)
     last = T - 1 if T - 1 < c + W - 1 else c + W - 1
     for p in range(npes * 3):
-        if cs[p, C_NPEND]:
+        if cs[p, C_NPEND] and not cs[p, C_AHEAD]:
             for t in range(c1, last + 1):
                 write_due(cs, regs, wbn, wbr, wbw, p, t & (W - 1))
     for i in range(npes):

@@ -32,14 +32,14 @@ _C = _enum("PC HALTED HOLD_UNTIL HOLD_MEM_UNTIL HOLD_CAUSE HOLD_PC CYCLES BUNDLE
            "LAST_ISSUED CAUSE PRESENT NB WPORTS PENALTY PE T_LOCAL T_R T_C T_G SEG_LOCAL "
            "SEG_RES SEG_GLOBAL CACHE_SETS CACHE_OFF BLOCK_BYTES WORD_BYTES LOCAL_READS "
            "LOCAL_WRITES RES_READS CACHE_ACC CACHE_HITS CACHE_MISSES GLOBAL_ACC WAKE WAKE_CAUSE NPEND "
-           "FIFOWAIT BSHIFT SSHIFT BUSYMAX SLEEP RUN_N RUN_PC RUN_CAUSE")
+           "FIFOWAIT BSHIFT SSHIFT BUSYMAX SLEEP RUN_N RUN_PC RUN_CAUSE AHEAD AHEAD_ISSUED AHEAD_CAUSE")
 (C_PC, C_HALTED, C_HOLD_UNTIL, C_HOLD_MEM_UNTIL, C_HOLD_CAUSE, C_HOLD_PC, C_CYCLES, C_BUNDLES,
  C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY, C_PE,
  C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL, C_CACHE_SETS,
  C_CACHE_OFF, C_BLOCK_BYTES, C_WORD_BYTES, C_LOCAL_READS, C_LOCAL_WRITES, C_RES_READS,
  C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE,
  C_NPEND, C_FIFOWAIT, C_BSHIFT, C_SSHIFT, C_BUSYMAX, C_SLEEP, C_RUN_N, C_RUN_PC,
- C_RUN_CAUSE) = range(len(_C))
+ C_RUN_CAUSE, C_AHEAD, C_AHEAD_ISSUED, C_AHEAD_CAUSE) = range(len(_C))
 """C_WAKE, C_WAKE_CAUSE: derived, not written back — a processor stalled on an operand, a
 destination or a busy unit stalls for that same cause until the cycle C_WAKE (nothing but its
 own issue changes what those checks read), so the loop charges those cycles without checking.
@@ -57,7 +57,12 @@ C_RUN_N, C_RUN_PC, C_RUN_CAUSE (derived): stall cycles not yet added to the coun
 all at the same PC and cause. A stalled processor usually stalls for the same cause at the same
 PC for several cycles running; counting the run and adding it once, when the PC or cause
 changes or the loop returns (loop.py stall, flush_stalls), spares a scattered increment per
-stalled cycle in a table too big for the cache (~2 MB)."""
+stalled cycle in a table too big for the cache (~2 MB).
+C_AHEAD (derived): 1 while the processor has run ahead of the machine (loop.py run_ahead): its
+bundles up to its next FIFO operation touch nothing another part of the machine reads, so it
+steps through them at once and then sleeps (C_SLEEP: the cycle it has reached). Meanwhile the
+end-of-run checks see it as stalled for a cause of its own (C_LAST_ISSUED 0, C_CAUSE branch);
+C_AHEAD_ISSUED and C_AHEAD_CAUSE keep the real values until it wakes."""
 N_C = len(_C)
 
 # decoded bundles: bun[processor, pc, B_*]; reads up to 8, writes up to 4, (class, count) pairs
@@ -70,7 +75,8 @@ B_NWTOTAL: the register writes of all its operations (bounds what the write-port
 B_LOAD0, B_LOAD1 = 33, 34  # slots of the bundle's loads (or -1)
 B_NWLAT, B_WLAT = 35, 36  # (latency, register writes) of the other writers, by distinct latency
 B_LATE, B_UNPIPED = 44, 45  # has FIFO operations or stores; has an unpipelined operation
-N_B = 46
+B_PRIVATE = 46  # touches only its processor's own state: no FIFO operation, no halt
+N_B = 47
 
 # decoded operations: ops[processor, pc, slot, O_*]; O_R.. the three source registers in order
 (O_KIND, O_MN, O_UNIT, O_LAT, O_PIPE, O_RD, O_SRC, O_R, O_R1, O_R2, O_BASE, O_SPACE, O_PORT,
@@ -130,7 +136,9 @@ P_MOVED, P_DIS_MOVED, P_COL_MOVED, P_NO_PROGRESS, P_HOST, P_COL = range(6)
 # DIS, COL, globals
 D_DYNAMIC, D_NEXT, D_NMSGS, D_WORDS_SENT = range(4)
 L_MESSAGES, L_WORDS, L_WIDTH, L_HEIGHT = range(4)
-G_CYCLE, G_DEADLOCK_CYCLES, G_POOLED, G_NPES, G_W, G_STOP_P, G_STOP_PC = range(7)
+G_CYCLE, G_DEADLOCK_CYCLES, G_POOLED, G_NPES, G_W, G_STOP_P, G_STOP_PC, G_AHEAD = range(8)
+"""G_AHEAD: processors may run ahead (C_AHEAD); off where the loop must be able to stop in any
+cycle with every processor there: a stop point, or the rerun after a fault or deadlock."""
 
 # run-loop status codes and fault kinds (finfo[0])
 S_RUNNING, S_HALTED, S_FINISHED, S_DEADLOCK_PE, S_DEADLOCK_COL, S_FAULT, S_STOPPED = range(7)
@@ -161,6 +169,11 @@ ARG_ORDER = ("g", "until", "cs", "regs", "ready", "prod", "wbn", "wbr", "wbw", "
              "cout", "route", "rem", "lown", "linkw", "pes", "dis", "dcur", "doff", "dup",
              "dasg", "moff", "mwords", "col", "cpart", "cplen", "frame", "ids", "cflags", "pw",
              "finfo")
+
+
+READ_ONLY = frozenset(("unitn", "ops", "opk", "opf", "bun", "recvq", "sendq", "seg", "rg", "rmap",
+                       "rdense", "cin", "cout", "moff", "mwords", "cflags"))
+"""The arrays the loop only reads (the decoded program, the layouts, the messages to send)."""
 
 
 def _words(a: np.ndarray) -> np.ndarray:
@@ -219,7 +232,8 @@ def flatten(machine: Machine) -> State:
     # FIFOs, in each PE's fixed order
     fifos = [f for pe in machine.pes for f in pe.ring.fifos()]
     fid = {id(f): i for i, f in enumerate(fifos)}
-    cap = max(f.capacity for f in fifos)
+    # each FIFO a ring buffer of a power-of-two size (loop.py wraps its indices with a mask)
+    cap = 1 << (max(f.capacity for f in fifos) - 1).bit_length()
     fq = np.zeros((len(fifos), 14), np.int64)
     fbt = np.zeros((len(fifos), cap), np.int64)
     fbw = np.zeros((len(fifos), cap), np.int64)
@@ -433,7 +447,8 @@ def flatten(machine: Machine) -> State:
         seg[i] = (off, len(s))
         off += len(s)
     a.update(
-        g=np.array([machine.cycle, cfg.ring.deadlock_cycles, cfg.ring.buffer_pool, npes, W, -1, 0],
+        g=np.array([machine.cycle, cfg.ring.deadlock_cycles, cfg.ring.buffer_pool, npes, W, -1, 0,
+                    1],
                    np.int64),
         until=0, cs=cs, regs=regs, ready=ready, prod=prod, wbn=wbn, wbr=wbr, wbw=wbw, busy=busy,
         occ=occ, unitn=unitn, stpc=stpc, bpc=bpc, ops=ops, opk=opk, opf=opf, bun=bun,
@@ -492,6 +507,8 @@ def _decode(core, units: list[str], ops: np.ndarray, opk: np.ndarray, opf: np.nd
         row[B_NWTOTAL] = sum(d.nwrites for d in b.writers)
         row[B_LATE] = any(d.kind in ("recv", "send", "store") for d in b.ops)
         row[B_UNPIPED] = any(not d.pipelined for d in b.ops)
+        row[B_PRIVATE] = not any(d.kind in ("send", "recv", "poll", "room", "wait", "halt")
+                                 for d in b.ops)
         loads = [j for j, d in enumerate(b.ops) if d.kind == "load"]
         row[B_LOAD0] = loads[0] if loads else -1
         row[B_LOAD1] = loads[1] if len(loads) > 1 else -1

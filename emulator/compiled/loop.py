@@ -13,7 +13,7 @@ plain integers.
 Where the loop does less than the reference's cycle-by-cycle rule, it is because the skipped
 work provably gives the same answer: issue checks that cannot fail (no result in flight, no
 unit occupied, ports to spare), processors asleep on their FIFOs (state.py C_SLEEP), processors
-run ahead of the machine through bundles that touch only their own state (advance, state.py
+run ahead of the machine through bundles that touch only their own state (run_cycles, state.py
 C_AHEAD), and quiet cycles skipped at once (skip_quiet) — each charging its counters exactly as
 the rule would.
 """
@@ -577,43 +577,6 @@ def wake_all(cs, stpc, nproc, c, stepped):
 
 
 @njit(**_INLINE)
-def advance(c, p, until, ahead, A, W, finfo):
-    """Step processor p in cycle c (core_step) and, if `ahead`, on through the cycles after c
-    before the rest of the machine, for as long as its next bundle is private (state.py
-    B_PRIVATE) or it is held (by a branch, a load, an operand, a destination or a unit). Those
-    cycles change only its own registers, memories and counters and read nothing another part
-    of the machine writes, so taking them early gives them the same outcome; a hold is taken
-    in one step (hold_through). It stops short of `until` and of the first bundle that would
-    touch a FIFO or halt; then the processor sleeps until the cycle it reached (state.py
-    C_AHEAD). Returns 0, or 1 on a fault (finfo filled) — after which the engine runs the
-    chunk again without running ahead when it came ahead of cycle c (a fault's report must
-    show every processor in the cycle it happened)."""
-    cs, bun = A[0], A[15]
-    t = c
-    while True:  # one core_step in the text: each inlined copy costs compile time
-        if core_step(t, p, A, W, finfo):
-            return 1
-        t += 1
-        if not ahead or cs[p, C_SLEEP] or cs[p, C_HALTED]:
-            break
-        while t < until and (t < cs[p, C_HOLD_UNTIL] or t < cs[p, C_WAKE]):
-            t = hold_through(t, p, until, A, W)
-        if t >= until:
-            break
-        pc = cs[p, C_PC]
-        if pc < 0 or pc >= cs[p, C_NB] or not bun[p, pc, B_PRIVATE]:
-            break
-    if t > c + 1:
-        cs[p, C_AHEAD] = 1
-        cs[p, C_AHEAD_ISSUED] = cs[p, C_LAST_ISSUED]
-        cs[p, C_AHEAD_CAUSE] = cs[p, C_CAUSE]
-        cs[p, C_LAST_ISSUED] = 0
-        cs[p, C_CAUSE] = CAUSE_BRANCH  # a stall of its own: neither idle nor stuck
-        cs[p, C_SLEEP] = t
-    return 0
-
-
-@njit(**_INLINE)
 def hold_through(t, p, until, A, W):
     """Processor p, held in cycle t (by an earlier bundle's branch or load: C_HOLD_UNTIL; or
     waiting for an operand, a destination or a unit: C_WAKE), stays so with the same cause
@@ -901,10 +864,40 @@ def run_cycles(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn,
                         if c < pw[pe, W_WAKE + s]:
                             continue
                         wake(cs, stpc, p, c)
-                    if advance(c, p, until, ahead, A, W, finfo):
-                        wake_all(cs, stpc, npes * 3, c, p)
-                        g[G_CYCLE] = c + 1
-                        return S_FAULT
+                    # step it in cycle c and, if it may, run it ahead (state.py C_AHEAD):
+                    # on through the cycles after c, before the rest of the machine, for as
+                    # long as its next bundle is private (B_PRIVATE) or it is held (a hold in
+                    # one step: hold_through). Those cycles change only its own registers,
+                    # memories and counters and read nothing another part of the machine
+                    # writes, so taking them early gives the same outcome. It stops short of
+                    # `until` and of the first bundle that would touch a FIFO or halt, and then
+                    # sleeps until the cycle it reached. A fault ahead of cycle c is reported
+                    # as one, and the engine runs the chunk again without running ahead (its
+                    # report must show every processor in the fault's cycle). The text holds
+                    # one core_step: each inlined copy costs seconds of compile time.
+                    t = c
+                    while True:
+                        if core_step(t, p, A, W, finfo):
+                            wake_all(cs, stpc, npes * 3, c, p)
+                            g[G_CYCLE] = c + 1
+                            return S_FAULT
+                        t += 1
+                        if not ahead or cs[p, C_SLEEP] or cs[p, C_HALTED]:
+                            break
+                        while t < until and (t < cs[p, C_HOLD_UNTIL] or t < cs[p, C_WAKE]):
+                            t = hold_through(t, p, until, A, W)
+                        if t >= until:
+                            break
+                        pc = cs[p, C_PC]
+                        if pc < 0 or pc >= cs[p, C_NB] or not bun[p, pc, B_PRIVATE]:
+                            break
+                    if t > c + 1:
+                        cs[p, C_AHEAD] = 1
+                        cs[p, C_AHEAD_ISSUED] = cs[p, C_LAST_ISSUED]
+                        cs[p, C_AHEAD_CAUSE] = cs[p, C_CAUSE]
+                        cs[p, C_LAST_ISSUED] = 0
+                        cs[p, C_CAUSE] = CAUSE_BRANCH  # its own stall: neither idle nor stuck
+                        cs[p, C_SLEEP] = t
             moved = 0
             start = rr if uniform else c % cm[pe * 3, M_N]  # a PE's CMUs: as many inputs
             for s in range(3):

@@ -7,7 +7,7 @@ result turned into a word by its result type. The generated text and loop.py are
 one module in a cache folder named by a hash of everything compiled into it (the generated
 text, loop.py, bits.py, state.py, the ISA modules, numba's and numpy's versions), so numba's
 on-disk cache (`cache=True`) never serves code compiled from an older source: a change anywhere
-makes a new folder. Compilation takes a few seconds the first time, then loads from disk.
+makes a new folder. Compilation takes about 45 s the first time, then loads from disk.
 
 The cache folder is `$NETSUSHISEN_CACHE`, else `~/.cache/netsushisen`, else a temporary folder.
 """

@@ -13,14 +13,13 @@ engine ran. The engines:
     tandem      both in lock step; stops at the first cycle where any state or counter differs
 
 `make_engine(name, ...)` is the one way to get an engine; an unknown name is a one-line error
-that lists the engines. The default (DEFAULT_ENGINE) is the compiled engine where numba is
-installed, else the reference engine. A long run is stopped safely by raising KeyboardInterrupt
+that lists the engines. The default (DEFAULT_ENGINE) is the compiled engine; where it does not
+import, `default_engine()` falls back to the reference engine with one warning line. A long run is stopped safely by raising KeyboardInterrupt
 from its progress callback (between cycles or chunks) and ended with `interrupt()`.
 """
 
 from __future__ import annotations
 
-import importlib.util
 from typing import Callable
 
 import numpy as np
@@ -136,8 +135,11 @@ class Engine:
                 if core.present and not core.halted and core.cause.startswith("fifo_empty:")]
 
     def statistics(self) -> dict:
-        """The run's statistics (schema `netsushisen-stats`, emulator/stats.py)."""
-        return run_stats.collect(self.machine)
+        """The run's statistics (schema `netsushisen-stats`, emulator/stats.py), `run.engine`
+        naming the engine that ran it (the one field in which two engines' statistics differ)."""
+        stats = run_stats.collect(self.machine)
+        stats["run"]["engine"] = self.name
+        return stats
 
     def summary(self) -> str:
         return self.machine.summary()
@@ -195,23 +197,44 @@ ReferenceEngine = Engine
 ENGINES: dict[str, Callable[..., Engine]] = {"reference": ReferenceEngine}
 """Engines by name; the compiled and tandem engines register themselves when importable."""
 
-DEFAULT_ENGINE = "compiled" if importlib.util.find_spec("numba") is not None else "reference"
-"""The engine commands and library calls use unless told otherwise: the compiled engine where
-numba is installed (checked without importing it, so a command that runs no machine does not
-pay for numba), else the reference engine. `default_engine()` also falls back when the compiled
-engine is installed but does not import."""
+DEFAULT_ENGINE = "compiled"
+"""The engine commands and library calls use unless told otherwise. Where the compiled engine
+does not import (numba missing or broken), `default_engine()` falls back to the reference
+engine and says so once. Nothing here imports numba: a command that runs no machine does not
+pay for it."""
+
+FALLBACK_COST = "about 200 times slower"
+"""What the reference engine costs against the compiled one (README, docs/engines.md)."""
+
+_unavailable: dict[str, str] = {}
+"""Engines that did not import, with why (the ImportError's message)."""
+_warned = False
 
 
 def default_engine() -> str:
-    """DEFAULT_ENGINE if it imports, else "reference"."""
+    """DEFAULT_ENGINE if it imports, else "reference" with one warning line on standard error
+    (once per process): why the compiled engine is missing and what that costs."""
+    global _warned
     _register_optional()
-    return DEFAULT_ENGINE if DEFAULT_ENGINE in ENGINES else "reference"
+    if DEFAULT_ENGINE in ENGINES:
+        return DEFAULT_ENGINE
+    if not _warned:
+        import sys
+
+        _warned = True
+        print(f"netsushisen: warning: the compiled engine is unavailable "
+              f"({_unavailable.get(DEFAULT_ENGINE, 'not installed')}); running on the reference "
+              f"engine, {FALLBACK_COST} (pip install numba)", file=sys.stderr)
+    return "reference"
 
 
 def _register_optional() -> None:
+    if "compiled" in ENGINES or "compiled" in _unavailable:
+        return
     try:
         from netsushisen.emulator.compiled import CompiledEngine, TandemEngine
-    except ImportError:  # numba missing or the compiled engine not built yet
+    except ImportError as err:  # numba missing or broken, or the compiled engine not installed
+        _unavailable["compiled"] = _unavailable["tandem"] = f"{type(err).__name__}: {err}"
         return
     ENGINES["compiled"] = CompiledEngine
     ENGINES["tandem"] = TandemEngine
@@ -225,6 +248,9 @@ def engine_names() -> list[str]:
 def check_engine(name: str) -> str:
     """`name` if it is an engine, else a one-line ConfigError naming the engines."""
     names = engine_names()
+    if name in _unavailable:
+        raise ConfigError(Diagnostic(f"engine {name!r} is unavailable here ({_unavailable[name]}); "
+                                     f"engines: {', '.join(names)}"))
     if name not in ENGINES:
         raise ConfigError(Diagnostic(f"unknown engine {name!r} (engines: {', '.join(names)})"))
     return name

@@ -21,7 +21,7 @@ import numpy as np
 
 from netsushisen.asm.assembler import assemble_text
 from netsushisen.asm.objects import Program
-from netsushisen.emulator.engine import DEFAULT_ENGINE, Engine, make_engine
+from netsushisen.emulator.engine import Engine, default_engine, make_engine
 from netsushisen.emulator.machine import RunResult
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.images import MemoryImage, Segment
@@ -81,7 +81,7 @@ def run_machine(engine: str, config: MachineConfig, programs: dict[str, Program 
                 image: MemoryImage | None = None, max_cycles: int | None = None) -> Engine:
     """Build engine `engine` for (config, programs, image) and run it to its end or `max_cycles`;
     the run's result is `.result()`, everything else is read through the interface."""
-    e = make_engine(engine, config, programs, image)
+    e = make_engine(engine or default_engine(), config, programs, image)
     e.run(max_cycles)
     return e
 
@@ -141,7 +141,7 @@ class StageRun:
 
 def run_stage(stage: str, program: Program, host_messages: list[list[int]], config: MachineConfig,
               image: MemoryImage | None = None, max_cycles: int = 2_000_000,
-              engine: str = DEFAULT_ENGINE) -> StageRun:
+              engine: str | None = None) -> StageRun:
     """Run `program` on `stage` of PE 0 with stubs elsewhere, on engine `engine`;
     `host_messages` (raw words, e.g. from `encode_message`) are the host stream."""
     if program.proc != stage:
@@ -151,7 +151,7 @@ def run_stage(stage: str, program: Program, host_messages: list[list[int]], conf
     programs[stage] = program
     image = image or MemoryImage()
     image.host = [Segment(0, [("w", np.asarray([w for m in host_messages for w in m], dtype=np.uint64))])]
-    e = make_engine(engine, config, programs, image)
+    e = make_engine(engine or default_engine(), config, programs, image)
     result = e.run(max_cycles)
     received = {}
     for s in STAGES:

@@ -15,8 +15,8 @@ import ctypes
 import ctypes.util
 
 import numpy as np
-from numba.core import types
-from numba.extending import overload
+
+from netsushisen.isa.jit import overload
 
 _LIBM = ctypes.CDLL(ctypes.util.find_library("m") or "libm.so.6")
 _powf = _LIBM.powf
@@ -34,6 +34,8 @@ def c_pow(a, b):
 
 @overload(c_pow)
 def _c_pow_numba(a, b):
+    from numba.core import types
+
     if a == types.float32:
         return lambda a, b: np.power(a, np.float32(b))
     return lambda a, b: np.power(np.float64(a), np.float64(b))

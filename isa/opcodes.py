@@ -33,7 +33,8 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
-from numba.extending import register_jitable
+
+from netsushisen.isa.jit import jitable
 
 from netsushisen.isa.libm import c_pow
 from netsushisen.isa.words import INT_MAX, INT_MIN, wrap32
@@ -44,14 +45,15 @@ from netsushisen.isa.words import INT_MAX, INT_MIN, wrap32
 # Every semantics is a plain function `semantics(F, *sources)` of values (integers as Python or
 # machine ints, floats as scalars of type F) written so that numba compiles it unchanged: the
 # reference engine calls these functions, the compiled engine compiles the very same ones (no
-# opcode is typed twice). Helpers they call are `register_jitable`: plain Python functions
-# that numba can also compile. Corner cases are written out: no semantics depends on numpy's
-# error state or on Python exceptions. Floating-point arithmetic is the hardware's IEEE 754
+# opcode is typed twice). Helpers they call are `jitable` (isa/jit.py: numba's `register_jitable`,
+# registered when the compiled engine is imported): plain Python functions numba can also
+# compile. Corner cases are written out: no semantics depends on numpy's error state or on Python
+# exceptions. Floating-point arithmetic is the hardware's IEEE 754
 # (its overflow to ±inf and its default NaN for invalid operations); pow is the C library's
 # powf / pow (`c_pow`), which is what numba calls too.
 
 
-@register_jitable
+@jitable
 def _div(a: int, b: int) -> int:
     if b == 0:
         return -1
@@ -61,7 +63,7 @@ def _div(a: int, b: int) -> int:
     return q if (a < 0) == (b < 0) else -q
 
 
-@register_jitable
+@jitable
 def _rem(a: int, b: int) -> int:
     if b == 0:
         return a
@@ -70,17 +72,17 @@ def _rem(a: int, b: int) -> int:
     return a - _div(a, b) * b
 
 
-@register_jitable
+@jitable
 def _srl(a: int, b: int) -> int:
     return wrap32((a & 0xFFFFFFFF) >> (b & 31))
 
 
-@register_jitable
+@jitable
 def _sra(a: int, b: int) -> int:
     return a >> (b & 31)
 
 
-@register_jitable
+@jitable
 def _fmin(F, a, b):
     if a != a or b != b:
         return F(np.nan)
@@ -91,7 +93,7 @@ def _fmin(F, a, b):
     return a if math.copysign(1.0, float(a)) < 0 else b  # equal: -0 wins
 
 
-@register_jitable
+@jitable
 def _fmax(F, a, b):
     if a != a or b != b:
         return F(np.nan)
@@ -102,7 +104,7 @@ def _fmax(F, a, b):
     return b if math.copysign(1.0, float(a)) < 0 else a  # equal: +0 wins
 
 
-@register_jitable
+@jitable
 def _to_int(x, down: bool) -> int:
     """Truncate toward zero (ftoi) or round toward -inf (floor, `down`); saturate to
     [INT_MIN, INT_MAX]; NaN gives 0."""
@@ -116,14 +118,14 @@ def _to_int(x, down: bool) -> int:
     return int(math.floor(x)) if down else int(math.trunc(x))
 
 
-@register_jitable
+@jitable
 def _fdiv(F, a, b):
     # x/±0 is ±inf by the signs of both, 0/0 and NaN/0 the hardware's default NaN: all of it
     # is what IEEE 754 division gives, so the division itself decides (no trap, no exception).
     return F(a / b)
 
 
-@register_jitable
+@jitable
 def _fsqrt(F, a):
     # sqrt(-0) = -0; sqrt(x < 0) = the default NaN; both are IEEE 754's square root.
     return F(np.sqrt(a))

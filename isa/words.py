@@ -14,13 +14,14 @@ import struct
 from dataclasses import dataclass
 
 import numpy as np
-from numba.extending import register_jitable
+
+from netsushisen.isa.jit import jitable
 
 INT_MIN = -(1 << 31)
 INT_MAX = (1 << 31) - 1
 
 
-@register_jitable
+@jitable
 def wrap32(v: int) -> int:
     """Reduce any Python int to the signed 32-bit value with the same low 32 bits."""
     v &= 0xFFFFFFFF

@@ -5,6 +5,11 @@ Every subcommand is a module of `netsushisen/commands/` exposing `configure(pars
 file only routes to them, so adding a command touches one table. Bad input surfaces as
 `NetsushisenError` and is printed as located messages with a non-zero exit; an unexpected
 internal error is reported in one line too (set NETSUSHISEN_DEBUG=1 for the traceback).
+
+One convention for every command (netsushisen/options.py, checked by tests/test_cli.py): a usage
+error is one line `netsushisen CMD: error: ...` on standard error with exit 1 (an unknown
+option names the closest one); `--help` prints the usage. Only the named command's module is
+imported, so a command that runs no machine does not pay for numba.
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ import sys
 
 from netsushisen import __version__
 from netsushisen.errors import NetsushisenError
+from netsushisen.options import Parser, UsageError, closest, parse
 
 # name -> (module that implements it, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -47,15 +53,19 @@ def _available_commands() -> dict[str, tuple[str, str]]:
     return found
 
 
-def build_parser() -> tuple[argparse.ArgumentParser, dict[str, object]]:
-    parser = argparse.ArgumentParser(
-        prog="netsushisen",
-        description="Toolchain for the Netsushisen parallel ray-tracing machine.",
-    )
+def build_parser(only: str | None = None) -> tuple[argparse.ArgumentParser, dict[str, object]]:
+    """The parser of every command, or with `only` of that command alone ("": none): the
+    others get an empty parser (their name and help for `netsushisen --help`) and their modules
+    are not imported, so a command pays only for its own imports (`asm` does not import numba)."""
+    parser = Parser(prog="netsushisen",
+                    description="Toolchain for the Netsushisen parallel ray-tracing machine.")
     parser.add_argument("--version", action="version", version=f"netsushisen {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     modules: dict[str, object] = {}
     for name, (module_name, help_text) in _available_commands().items():
+        if only is not None and name != only:
+            sub.add_parser(name, help=help_text, description=help_text, add_help=False)
+            continue
         module = importlib.import_module(module_name)
         p = sub.add_parser(name, help=help_text, description=(module.__doc__ or help_text).strip())
         module.configure(p)
@@ -63,16 +73,38 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, object]]:
     return parser, modules
 
 
+def _command_named(argv: list[str]) -> str | None:
+    """The command `argv` names (its first word that is not an option), None if none; an
+    unknown one is a usage error naming the closest command."""
+    for word in argv:
+        if word == "--":
+            return None
+        if not word.startswith("-"):
+            commands = _available_commands()
+            if word not in commands:
+                raise UsageError("netsushisen", f"unknown command {word!r}{closest(word, commands)}"
+                                 f" (commands: {', '.join(commands)})")
+            return word
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else [str(a) for a in argv]
+    prog = "netsushisen"
     try:
-        parser, modules = build_parser()
-        args = parser.parse_args(argv)
+        command = _command_named(argv)
+        prog = f"netsushisen {command}" if command else prog
+        parser, modules = build_parser(only=command or "")
+        args = parse(parser, argv)
         if not args.command:
             parser.print_help()
-            return 2
+            return 1
         return int(modules[args.command].run(args) or 0)
-    except NetsushisenError as err:
+    except UsageError as err:
         print(err.format(), file=sys.stderr)
+        return err.exit_code
+    except NetsushisenError as err:
+        print(with_command(err, prog), file=sys.stderr)
         return err.exit_code
     except KeyboardInterrupt:
         print("netsushisen: interrupted", file=sys.stderr)
@@ -85,6 +117,14 @@ def main(argv: list[str] | None = None) -> int:
         print(f"netsushisen: internal error: {type(err).__name__}: {err} "
               "(set NETSUSHISEN_DEBUG=1 for the traceback)", file=sys.stderr)
         return 70
+
+
+def with_command(err: NetsushisenError, prog: str) -> str:
+    """An error's lines, each unlocated one (`error: ...`) as `netsushisen CMD: error: ...`;
+    a located one (`file:line:col: error: ...`, a source's caret lines) as it is."""
+    lines = err.format().split("\n")
+    return "\n".join(f"{prog}: {line}" if line.startswith(("error: ", "warning: ")) else line
+                      for line in lines)
 
 
 if __name__ == "__main__":

@@ -32,12 +32,31 @@ the same and is checked the same way wherever it appears:
     add_timeline(parser)        --timeline FILE, --cycles A:B, --procs PROCS (`render`, `run`);
                                 `timeline_from_args(args)` checks them before any work
 
+    Parser, parse(parser, argv)
+                                the argument parser of every command: a usage error is one
+                                line `netsushisen CMD: error: ...` (`UsageError`, exit 1), an
+                                unknown option names the command and the closest option
+    add_output(parser, help, metavar=, default=, aliases=)
+                                -o/--out PATH (`args.out`): every command's output file or
+                                folder has this one name; `aliases` are old spellings kept hidden
+    add_quiet(parser, help=)    -q/--quiet (`args.quiet`)
+    add_json(parser, help), write_text(path, text)
+                                --json [FILE] (`args.json`): JSON to FILE, or to standard
+                                output with `-` or no FILE
+
+One name, one meaning: an option several commands take (`-o/--out`, `-q/--quiet`, `--depth`,
+`--max-cycles`, `--res`, `--engine`, `--config`, `--set`, ...) is added by the one helper here,
+so it has the same spelling, destination and type everywhere (tests/test_cli.py walks every
+command's parser and checks it).
+
 Bad values are `NetsushisenError`s: the command line prints one line and exits 1.
 """
 
 from __future__ import annotations
 
 import argparse
+import difflib
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -55,6 +74,112 @@ MAX_RES = MAX_SIDE - 1
 """The largest --res the machine can number: 46,339, so that even the SPD corners' (N+1)² eye
 rays fit the frame's 32-bit pixel index (netsushisen/limits.py). Whether this host can hold
 the run is `check_footprint`'s question, asked before anything is allocated."""
+
+
+# ---------------------------------------------------------------------------------------------
+# The parser: one line per usage error, exit 1
+
+
+class UsageError(NetsushisenError):
+    """A command line argparse or the option check refuses: `PROG: error: MESSAGE`, one line
+    (argparse's own is the usage and exit 2)."""
+
+    def __init__(self, prog: str, message: str):
+        self.prog = prog
+        super().__init__(message)
+
+    def format(self) -> str:
+        return f"{self.prog}: error: {self.diagnostics[0].message}"
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with the project's convention: an error is a `UsageError` (one line, exit 1),
+    not the usage and exit 2; `--help` still prints the usage. Subcommands' parsers are of this
+    class too (argparse makes them of their parent's class)."""
+
+    def error(self, message: str):
+        raise UsageError(self.prog, message)
+
+
+def closest(word: str, candidates) -> str:
+    """` (did you mean 'X'?)` for the candidate nearest `word`, "" if none is near."""
+    names = {c.lstrip("-"): c for c in candidates}  # '--bogus' is not near '--os' for its dashes
+    match = difflib.get_close_matches(word.lstrip("-"), list(names), n=1, cutoff=0.6)
+    return f" (did you mean {names[match[0]]!r}?)" if match else ""
+
+
+def _subparsers(parser: argparse.ArgumentParser):
+    return next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+
+
+def option_names(parser: argparse.ArgumentParser, hidden: bool = True) -> list[str]:
+    """The option strings `parser` takes (with `hidden`, its hidden aliases too)."""
+    return [o for a in parser._actions for o in a.option_strings
+            if hidden or a.help != argparse.SUPPRESS]
+
+
+_NEGATIVE = re.compile(r"^-\d+$|^-\d*\.\d+$")
+
+
+def parse(parser: argparse.ArgumentParser, argv: list[str]) -> argparse.Namespace:
+    """`parser.parse_args(argv)`, with an unknown option reported first (before a missing
+    argument) by the (sub)command it was given to, naming the closest option it takes."""
+    target = parser
+    for word in argv:  # the deepest (sub)command named: its options are the ones to take
+        if word == "--":
+            break
+        sub = _subparsers(target)
+        if sub is not None and not word.startswith("-") and word in sub.choices:
+            target = sub.choices[word]
+    known = option_names(target) + option_names(parser)
+    for word in argv:
+        if word == "--":
+            break
+        if not word.startswith("-") or word == "-" or _NEGATIVE.match(word):
+            continue
+        name = word.split("=", 1)[0]
+        ok = (any(o.startswith(name) for o in known if o.startswith("--")) if name.startswith("--")
+              else name[:2] in known)
+        if not ok:
+            near = closest(name, [o for o in option_names(target, hidden=False) if o.startswith("--")])
+            raise UsageError(target.prog, f"unrecognized option {name!r}"
+                                          f"{near or f' (see {target.prog} --help)'}")
+    args, extras = parser.parse_known_args(argv)
+    if extras:
+        raise UsageError(target.prog, f"unrecognized arguments: {' '.join(extras)}")
+    return args
+
+
+def add_output(parser: argparse.ArgumentParser, help: str, metavar: str = "FILE",
+               default: str | None = None, aliases: tuple[str, ...] = ()) -> None:
+    """-o/--out: where a command writes its output (a file or a folder, as `help` says);
+    `aliases` (e.g. "--output") are earlier spellings, accepted and not shown."""
+    parser.add_argument("-o", "--out", dest="out", metavar=metavar, default=default, help=help)
+    for alias in aliases:
+        parser.add_argument(alias, dest="out", metavar=metavar, default=default,
+                            help=argparse.SUPPRESS)
+
+
+def add_json(parser: argparse.ArgumentParser, help: str) -> None:
+    """--json [FILE]: the command's result as JSON, to FILE, or to standard output with `-` or
+    no FILE (`args.json`: None, "-" or the path); `write_text(args.json, text)` writes it."""
+    parser.add_argument("--json", nargs="?", const="-", default=None, metavar="FILE", help=help)
+
+
+def write_text(path: str, text: str) -> None:
+    """`text` to standard output (`-`) or to the file `path` (an OSError as a located line)."""
+    import sys
+
+    if path == "-":
+        sys.stdout.write(text)
+        sys.stdout.flush()
+        return
+    write_output(path, lambda p: Path(p).write_text(text, encoding="utf-8"))
+
+
+def add_quiet(parser: argparse.ArgumentParser, help: str = "no progress bar, no summary") -> None:
+    """-q/--quiet: nothing on the terminal but errors and warnings (and what `help` keeps)."""
+    parser.add_argument("-q", "--quiet", action="store_true", help=help)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -22,7 +22,7 @@ import numpy as np
 
 from netsushisen.asm.assembler import assemble_file
 from netsushisen.asm.objects import Program
-from netsushisen.emulator.engine import DEFAULT_ENGINE, EXIT_CODES, Engine, RunResult, make_engine
+from netsushisen.emulator.engine import EXIT_CODES, Engine, RunResult, default_engine, make_engine
 from netsushisen.errors import ConfigError, Diagnostic
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.databases import MachineImages, build_images
@@ -72,9 +72,9 @@ class RenderSetup:
         image.frame = (self.side, self.side)
         return image
 
-    def engine(self, name: str = DEFAULT_ENGINE) -> Engine:
-        """A fresh engine `name` loaded with this setup, ready to run."""
-        return make_engine(name, self.images.config, self.programs, self.memory_image())
+    def engine(self, name: str | None = None) -> Engine:
+        """A fresh engine `name` (default: `default_engine()`) loaded with this setup."""
+        return make_engine(name or default_engine(), self.images.config, self.programs, self.memory_image())
 
     def machine(self):
         """A fresh reference `Machine`, for the debugger: it steps the reference engine's
@@ -282,8 +282,8 @@ def render(scene: Scene | str, config: MachineConfig, res: int = 32, corners: bo
            generic: bool = False, slots: int = DEFAULT_SLOTS, kernel_dir: str | Path | None = None,
            kernels: dict[str, str | Path] | None = None, progress=None,
            defines: dict[str, int | float] | None = None,
-           engine: str = DEFAULT_ENGINE) -> RenderResult:
-    """Render on the emulated machine with engine `engine`. `progress(cycle)` is called now and
+           engine: str | None = None) -> RenderResult:
+    """Render on the emulated machine with engine `engine` (default: `default_engine()`). `progress(cycle)` is called now and
     then if given; `defines` adds kernel symbols (see `prepare`)."""
     setup = prepare(scene, config, res, corners, generic, slots, kernel_dir, kernels, defines)
     eng = setup.engine(engine)

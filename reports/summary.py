@@ -12,8 +12,7 @@ model t = t_r·{ρ + (1 − ρ)(8 − 6μ)} (which assumes t_c = 2·t_r and t_g 
 
 from __future__ import annotations
 
-from rich.console import Console
-from rich.table import Table
+from netsushisen.reports.tables import Section, render_table
 
 
 def memory_figures(stats: dict, proc: str = "pe0.ic", region: str | None = "shape_data") -> dict | None:
@@ -48,11 +47,8 @@ def _top_stalls(p: dict, n: int = 3) -> str:
     return ", ".join(f"{cause} {100 * c / cycles:.0f}%" for cause, c in items) or "-"
 
 
-def processor_table(stats: dict) -> Table:
-    t = Table(title="ILP and stalls", title_justify="left")
-    for col in ("processor", "cycles", "ops", "dynamic ILP", "static ILP", "stalled", "top stalls"):
-        t.add_column(col, justify="left" if col in ("processor", "top stalls") else "right",
-                     overflow="fold")
+def processor_table(stats: dict) -> Section:
+    rows = []
     for name, p in stats["processors"].items():
         if not p.get("present", True):
             continue
@@ -60,13 +56,16 @@ def processor_table(stats: dict) -> Table:
         cycles = max(p["cycles"], 1)
         program = (stats.get("programs") or {}).get(stage) or {}
         static = (program.get("static_ilp") or {}).get("ops_per_bundle")
-        t.add_row(name, f"{p['cycles']:,}", f"{p['ops']:,}", f"{p['ops'] / cycles:.2f}",
-                  f"{static:.2f}" if static is not None else "-",
-                  f"{100 * p['stall_cycles'] / cycles:.0f}%", _top_stalls(p))
-    return t
+        rows.append([name, p["cycles"], p["ops"], p["ops"] / cycles, static,
+                     p["stall_cycles"] / cycles, _top_stalls(p)])
+    return Section("processors", "ILP and stalls",
+                   ["processor", "cycles", "ops", "dynamic ILP", "static ILP", "stalled",
+                    "top stalls"], rows,
+                   {"cycles": "int", "ops": "int", "dynamic ILP": "f2", "static ILP": "f2",
+                    "stalled": "pct"})
 
 
-def memory_table(stats: dict) -> Table | None:
+def memory_table(stats: dict) -> Section | None:
     rows = []
     for name in stats["memory"]:
         if not name.endswith(".ic"):
@@ -74,25 +73,23 @@ def memory_table(stats: dict) -> Table | None:
         for region in ("shape_data", "primitive_list"):
             f = memory_figures(stats, name, region)
             if f:
-                rows.append((name, region, f))
+                rows.append([name, region, f["loads"], f["rho"], f["mu"], f["measured"],
+                             f["model"] if region == "shape_data" else None])
     if not rows:
         return None
-    t = Table(title="IC memory (paper §5: resident ρ, cache hit rate μ, access time in t_r)",
-              title_justify="left")
-    for col in ("processor", "region", "loads", "ρ", "μ", "t measured", "t model"):
-        t.add_column(col, justify="left" if col in ("processor", "region") else "right")
-    for name, region, f in rows:
-        t.add_row(name, region, f"{f['loads']:,}", f"{f['rho']:.3f}", f"{f['mu']:.3f}",
-                  f"{f['measured']:.2f}", f"{f['model']:.2f}" if region == "shape_data" else "-")
-    return t
+    return Section("memory", "IC memory (paper §5: resident ρ, cache hit rate μ, access time in t_r)",
+                   ["processor", "region", "loads", "ρ", "μ", "t measured", "t model"], rows,
+                   {"loads": "int", "ρ": "f3", "μ": "f3", "t measured": "f2", "t model": "f2"})
 
 
-def print_summary(stats: dict, console: Console | None = None) -> None:
-    console = console or Console(width=100)
-    console.print(processor_table(stats))
+def summary_tables(stats: dict, width: int | None = None) -> str:
+    """The ILP / stall and memory tables, as `report` draws its tables: at most the terminal's
+    width (80 columns when the output is not a terminal; reports/tables.py)."""
+    sections = [processor_table(stats)]
     mt = memory_table(stats)
     if mt is not None:
-        console.print(mt)
+        sections.append(mt)
+    return render_table(sections, width)
 
 
 def render_headline(stats: dict, seconds: float, output: str) -> list[str]:
@@ -103,16 +100,17 @@ def render_headline(stats: dict, seconds: float, output: str) -> list[str]:
     return [
         f"{r['scene']}: {res}x{res}{' corners' if r['corners'] else ''} on {pes} "
         f"PE{'s' if pes > 1 else ''}, {cfg['precision']}, "
-        f"{'generic' if r['generic'] else 'specialised'} kernels: {run['status'] or 'interrupted'} "
-        f"after {run['cycles']:,} cycles ({seconds:.1f} s) -> {output}",
+        f"{'generic' if r['generic'] else 'specialised'} kernels, {run.get('engine', '?')} engine: "
+        f"{run['status'] or 'interrupted'} after {run['cycles']:,} cycles ({seconds:.1f} s) "
+        f"-> {output}",
         f"rays: eye {rays['eye']:,} (hits {rays['eye_hits']:,}), reflection {rays['reflection']:,}, "
         f"refraction {rays['refraction']:,}, shadow {rays['shadow']:,}; "
         f"visible primitives {stats['visible_primitives']:,}"]
 
 
 def print_render_summary(stats: dict, seconds: float, output: str,
-                         console: Console | None = None) -> None:
+                         width: int | None = None) -> None:
     """The whole summary `render` prints: the headline, then the ILP / stall and memory tables."""
     for line in render_headline(stats, seconds, output):
         print(line)
-    print_summary(stats, console)
+    print(summary_tables(stats, width), end="")

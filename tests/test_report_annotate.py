@@ -208,13 +208,7 @@ def test_plots(cli, render_pair, tmp_path, kind):
 
 
 def test_summary_names_static_and_dynamic_ilp(render_pair):
-    import io
+    from netsushisen.reports.summary import summary_tables
 
-    from rich.console import Console
-
-    from netsushisen.reports.summary import print_summary
-
-    buf = io.StringIO()
-    print_summary(json.loads(render_pair[0].read_text()), Console(file=buf, width=120))
-    text = buf.getvalue()
+    text = summary_tables(json.loads(render_pair[0].read_text()), width=120)
     assert "dynamic ILP" in text and "static ILP" in text and "ops/bundle" not in text

@@ -19,6 +19,9 @@ from __future__ import annotations
 import numpy as np
 
 from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.jit import register_with_numba
+
+register_with_numba()  # the ISA's semantics, marked for numba (isa/jit.py), before any compile
 
 from netsushisen.emulator.core import RunFault
 from netsushisen.emulator.engine import Engine, Progress

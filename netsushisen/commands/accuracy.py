@@ -27,7 +27,8 @@ from pathlib import Path
 
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
-from netsushisen.options import (add_config_options, add_engine, add_resolution, check_footprint,
+from netsushisen.options import (add_config_options, add_engine, add_output, add_quiet,
+                                 add_resolution, check_footprint,
                                  check_resolution, config_from_args, engine_from_args)
 from netsushisen.reports.accuracy import AXES
 
@@ -41,10 +42,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--axes", default=",".join(AXES), metavar="A,B,...",
                         help=f"axes to measure, comma-separated (default {','.join(AXES)})")
     add_engine(parser)
-    parser.add_argument("--out", default="accuracy", help="output folder (default accuracy/)")
+    add_output(parser, "output folder (default accuracy/)", metavar="DIR", default="accuracy")
     add_config_options(parser)
     parser.add_argument("--seed", type=int, default=1992, help="seed of the sampled tiles (default 1992)")
-    parser.add_argument("--quiet", action="store_true", help="no progress, no tables")
+    add_quiet(parser, "no progress, no tables")
 
 
 def parse_axes(text: str) -> list[str]:

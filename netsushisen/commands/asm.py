@@ -23,8 +23,8 @@ from netsushisen.asm.listing import format_static_ilp, listing, static_ilp
 from netsushisen.asm.objects import Program
 from netsushisen.errors import NetsushisenError
 from netsushisen.isa.processors import STAGES
-from netsushisen.options import (add_config_options, add_defines, add_include_dirs,
-                                 add_resolution, check_resolution, config_from_args, parse_defines)
+from netsushisen.options import (add_config_options, add_defines, add_include_dirs, add_json,
+                                 add_output, add_resolution, write_text, check_resolution, config_from_args, parse_defines)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -35,10 +35,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
                              "--scene and no SOURCE: only this stage's kernel, else all three)")
     add_defines(parser)
     add_include_dirs(parser)
-    parser.add_argument("-o", dest="output", help="object file to write (default: STEM.o)")
+    add_output(parser, "object file to write (default: STEM.o)")
     parser.add_argument("--listing", metavar="PATH|-", help="write a listing (- for stdout)")
     parser.add_argument("--stats", action="store_true", help="print static ILP statistics")
-    parser.add_argument("--json", action="store_true", help="with --stats: print them as JSON")
+    add_json(parser, "with --stats: print them as JSON (to FILE if given)")
     scene = parser.add_argument_group("kernels for a scene (the symbols `render` uses)")
     scene.add_argument("--scene", metavar="SCENE",
                        help="built-in scene name (tetra, balls, ...) or .nff file")
@@ -105,13 +105,13 @@ def run(args: argparse.Namespace) -> int:
     programs: list[tuple[Path, Program]] = [
         (path, assemble_file(path, proc=proc, defines=defines, include_dirs=includes))
         for proc, path in sources]
-    analysis_only = (args.stats or args.listing or args.show_defines) and not args.output
+    analysis_only = (args.stats or args.listing or args.show_defines) and not args.out
     if not analysis_only:
-        if args.output and len(programs) > 1:
+        if args.out and len(programs) > 1:
             raise NetsushisenError("-o names one object file: add --proc os|ic|sc, or leave -o "
                                    "out to write os.o, ic.o and sc.o")
         for path, program in programs:
-            out = Path(args.output or (path.stem + ".o"))
+            out = Path(args.out or (path.stem + ".o"))
             try:
                 program.save(out)
             except OSError as err:
@@ -126,8 +126,8 @@ def run(args: argparse.Namespace) -> int:
         stats = {program.proc: static_ilp(program) for _, program in programs}
         if args.json:
             body = {p: s.as_dict() for p, s in stats.items()}
-            print(json.dumps(body[programs[0][1].proc] if args.source else body, indent=2,
-                             sort_keys=True))
+            write_text(args.json, json.dumps(body[programs[0][1].proc] if args.source else body,
+                                             indent=2, sort_keys=True) + "\n")
         else:
             print("\n".join(format_static_ilp(stats[program.proc], str(path))
                             for path, program in programs))

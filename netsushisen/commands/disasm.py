@@ -10,16 +10,18 @@ from pathlib import Path
 from netsushisen.asm.disasm import disassemble
 from netsushisen.asm.objects import Program
 
+from netsushisen.options import add_output
+
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("object", help="object file written by `netsushisen asm`")
-    parser.add_argument("-o", dest="output", help="write the source here instead of stdout")
+    add_output(parser, "write the source here instead of standard output")
 
 
 def run(args: argparse.Namespace) -> int:
     text = disassemble(Program.load(args.object))
-    if args.output:
-        Path(args.output).write_text(text)
+    if args.out:
+        Path(args.out).write_text(text)
     else:
         print(text, end="")
     return 0

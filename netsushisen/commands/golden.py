@@ -19,9 +19,9 @@ from netsushisen.host.catalog import load_scene
 from netsushisen.host.golden import render
 from netsushisen.host.images import write_png
 from netsushisen.host.nff import scene_warnings
-from netsushisen.options import (add_config_options, add_resolution, check_footprint,
+from netsushisen.options import (add_config_options, add_json, add_output, add_resolution, check_footprint,
                                  check_output_folders, check_resolution, config_from_args,
-                                 write_output)
+                                 write_output, write_text)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -30,15 +30,15 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--corners", action="store_true",
                         help="SPD eye rays through the pixel corners ((N+1)^2 rays, pixel = mean of 4)")
     add_config_options(parser, precision=True, depth=True)
-    parser.add_argument("-o", "--output", metavar="PNG", help="write the image as PNG (only "
-                        "here: without -o no image is written)")
+    add_output(parser, "write the image as PNG (only here: without -o no image is written)",
+               metavar="PNG", aliases=("--output",))
     parser.add_argument("--ids", metavar="NPY", help="write the eye rays' hit-primitive ids (.npy)")
-    parser.add_argument("--json", metavar="FILE", help="write the statistics as JSON")
+    add_json(parser, "write the statistics as JSON to FILE (- : standard output)")
 
 
 def run(args: argparse.Namespace) -> int:
     check_resolution(args.res)
-    check_output_folders(args.output, args.ids, args.json)
+    check_output_folders(args.out, args.ids, args.json)
     config = config_from_args(args)
     check_footprint(f"golden {args.scene}", None, args.res + 1 if args.corners else args.res,
                     None, golden=True)
@@ -51,11 +51,14 @@ def run(args: argparse.Namespace) -> int:
              "visible_primitives": result.visible_primitives, "rays": result.rays,
              "references": result.total_references, "seconds": round(result.seconds, 3),
              "grid": result.grid.stats()}
-    for path, write in ((args.output, lambda p: write_png(p, result.image_u8)),
-                        (args.ids, lambda p: np.save(p, result.hit_ids)),
-                        (args.json, lambda p: Path(p).write_text(json.dumps(stats, indent=2) + "\n"))):
+    for path, write in ((args.out, lambda p: write_png(p, result.image_u8)),
+                        (args.ids, lambda p: np.save(p, result.hit_ids))):
         if path:
             write_output(path, write)
+    if args.json:
+        write_text(args.json, json.dumps(stats, indent=2) + "\n")
+        if args.json == "-":
+            return 0
     r = result.rays
     total = r["eye"] + r["reflection"] + r["refraction"] + r["shadow"]
     print(f"{scene.name}: {scene.n_primitives} primitives, {result.visible_primitives} visible; "

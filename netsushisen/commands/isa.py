@@ -7,16 +7,18 @@ from pathlib import Path
 
 from netsushisen.isa.reference import markdown
 
+from netsushisen.options import add_output
+
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--markdown", action="store_true", help="Markdown (the only format; the default)")
-    parser.add_argument("-o", dest="output", help="write to this file instead of stdout")
+    add_output(parser, "write to this file instead of standard output")
 
 
 def run(args: argparse.Namespace) -> int:
     text = markdown()
-    if args.output:
-        Path(args.output).write_text(text)
+    if args.out:
+        Path(args.out).write_text(text)
     else:
         print(text, end="")
     return 0

@@ -27,17 +27,19 @@ from pathlib import Path
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.images import write_png
-from netsushisen.options import add_config_options, add_engine, add_resolution, check_resolution, \
-    config_overrides, engine_from_args
+from netsushisen.options import (add_config_options, add_engine, add_output, add_quiet,
+                                 add_resolution, check_resolution, config_overrides,
+                                 engine_from_args)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scene", nargs="?", metavar="SCENE",
                         help="built-in SPD name or .nff file (default: the built-in catalog of hard cases)")
     add_resolution(parser, None, "N×N eye rays (default 32 with a SCENE; the catalog: each case's own)")
-    parser.add_argument("--out", default="numerics", help="output folder (default numerics/)")
+    add_output(parser, "output folder (default numerics/)", metavar="DIR", default="numerics")
     add_engine(parser)
     add_config_options(parser)
+    add_quiet(parser, "no progress lines, no table (the verdict and the files still)")
 
 
 def _write(path: Path, write) -> None:
@@ -61,13 +63,17 @@ def catalog_table(verdicts) -> list[str]:
 def _catalog(args, out: Path, engine: str) -> int:
     from netsushisen import numerics  # noqa: PLC0415 (heavy: the oracle and the machine)
     paths = [numerics.GOLDEN32, numerics.GOLDEN64, f"emulator-{engine}"]
-    print(f"{'case':<28} {'path':<20} {'rays':>5} {'wrong':>5} {'shadow':>6} {'blocked':>7}  verdict")
+    # one row a verdict as it comes, 80 columns at most (the longest case and path names fit)
+    row = "{:<25} {:<18} {:>5} {:>5} {:>6} {:>7} {}"
+    if not args.quiet:
+        print(row.format("case", "path", "rays", "wrong", "shadow", "blocked", "verdict"))
     verdicts = []
 
     def show(v):
         verdicts.append(v)
-        print(f"{v.case:<28} {v.path:<20} {v.rays:>5} {v.wrong_hits:>5} {v.shadow_rays:>6} "
-              f"{v.wrongly_blocked:>7}  {'stable' if v.stable else 'UNSTABLE'}", flush=True)
+        if not args.quiet:
+            print(row.format(v.case, v.path, v.rays, v.wrong_hits, v.shadow_rays, v.wrongly_blocked,
+                             "stable" if v.stable else "UNSTABLE"), flush=True)
 
     try:
         numerics.run_catalog(paths, res=args.res, progress=show)
@@ -97,7 +103,7 @@ def _scene(args, out: Path) -> int:
     rep = numerics.SceneReport(scene.name, res)
     interrupted = False
     try:
-        numerics.scene_report(scene, res, sets, progress=lambda m: print(f"  {m}", file=sys.stderr), report=rep)
+        numerics.scene_report(scene, res, sets, progress=None if args.quiet else (lambda m: print(f"  {m}", file=sys.stderr)), report=rep)
     except KeyboardInterrupt:
         interrupted = True
         if rep.pair is None:

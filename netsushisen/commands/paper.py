@@ -31,7 +31,8 @@ from pathlib import Path
 
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
-from netsushisen.options import (add_config_options, add_engine, add_resolution, check_footprint,
+from netsushisen.options import (add_config_options, add_engine, add_output, add_quiet,
+                                 add_resolution, check_footprint,
                                  check_resolution, config_from_args, engine_from_args)
 from netsushisen.reports.paper import findings
 from netsushisen.reports.paper_data import (LIST_PLACEMENTS, PAPER_SCENES, SIZINGS, PaperOptions,
@@ -82,7 +83,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_resolution(parser, 512, "N×N main pass (default 512, the paper's)")
     parser.add_argument("--scenes", nargs="+", default=list(PAPER_SCENES), metavar="SCENE",
                         help="built-in scenes or .nff files (default: tetra balls mount rings)")
-    parser.add_argument("--out", default="paper", help="output folder (default paper/)")
+    add_output(parser, "output folder (default paper/)", metavar="DIR", default="paper")
     parser.add_argument("--corners", action="store_true", help="SPD corner rays: (N+1)² eye rays")
     parser.add_argument("--sizing", choices=SIZINGS, default="records",
                         help="what local memory sizes are shares of: the shape records (default, the "
@@ -97,7 +98,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                              "IC's counters equal the trace-driven path's")
     add_config_options(parser, precision=True)
     add_engine(parser)
-    parser.add_argument("--quiet", action="store_true", help="no progress bars or summary")
+    add_quiet(parser, "no progress bars or summary")
 
 
 def _command(args: argparse.Namespace) -> str:

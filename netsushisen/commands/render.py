@@ -29,10 +29,11 @@ from netsushisen import render as pipeline
 from netsushisen.emulator import stats as run_stats
 from netsushisen.host.images import write_png
 from netsushisen.host.nff import scene_warnings
-from netsushisen.options import (add_config_options, add_engine, add_resolution, add_timeline,
+from netsushisen.options import (add_config_options, add_engine, add_json, add_output, add_quiet,
+                                 add_resolution, add_timeline,
                                  check_footprint, check_output_folders, check_resolution,
                                  config_from_args, engine_from_args, fresh_output,
-                                 timeline_from_args, write_output)
+                                 timeline_from_args, write_output, write_text)
 from netsushisen.progress import INTERRUPTED, RunMonitor
 from netsushisen.reports.summary import print_render_summary
 
@@ -42,17 +43,17 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_resolution(parser, 32)
     parser.add_argument("--corners", action="store_true", help="SPD corner rays: (N+1)² eye rays")
     add_engine(parser)
-    add_config_options(parser, pes=True, precision=True)
+    add_config_options(parser, pes=True, precision=True, depth=True, max_cycles=True)
     parser.add_argument("--generic", action="store_true", help="assemble every feature, not only the scene's")
     parser.add_argument("--slots", type=int, default=pipeline.DEFAULT_SLOTS, help="rays OS keeps in flight")
-    parser.add_argument("-o", dest="output", help="image file (default: SCENE.png, or SCENE-1.png, "
-                        "SCENE-2.png, ... when that exists: never overwritten unless named here)")
+    add_output(parser, "image file (default: SCENE.png, or SCENE-1.png, SCENE-2.png, ... when "
+                       "that exists: never overwritten unless named here)", metavar="PNG")
     parser.add_argument("--ids", help="save the eye rays' hit-primitive ids (int32 .npy, -1 background)")
-    parser.add_argument("--json", help="write the statistics JSON here")
+    add_json(parser, "write the statistics as JSON to FILE (- : standard output, no summary)")
     parser.add_argument("--kernels", help="folder with your own os.s, ic.s, sc.s")
     for stage in ("os", "ic", "sc"):
         parser.add_argument(f"--{stage}", help=f"your own {stage.upper()} kernel source")
-    parser.add_argument("--quiet", action="store_true", help="no summary, no progress bar")
+    add_quiet(parser)
     add_timeline(parser)
 
 
@@ -60,7 +61,8 @@ def run(args: argparse.Namespace) -> int:
     from netsushisen.emulator.trace import TimelineRun
 
     check_resolution(args.res)
-    check_output_folders(args.output, args.ids, args.json)
+    check_output_folders(args.out, args.ids, args.json)
+    args.quiet = args.quiet or args.json == "-"
     engine_name = engine_from_args(args)
     request = timeline_from_args(args)
     config = config_from_args(args)
@@ -81,15 +83,14 @@ def run(args: argparse.Namespace) -> int:
         run_result = timeline.run(monitor) if timeline is not None else monitor.run()
     result = pipeline.finish(setup, engine, run_result)
     seconds = time.perf_counter() - start
-    output = args.output or fresh_output(setup.scene.name)
+    output = args.out or fresh_output(setup.scene.name)
     write_output(output, lambda p: write_png(p, result.image_u8))
     written = [output]
     if args.ids:
         write_output(args.ids, lambda p: np.save(p, result.hit_ids))
         written.append(args.ids)
     if args.json:
-        write_output(args.json, lambda p: Path(p).write_text(run_stats.dumps(result.stats),
-                                                             encoding="utf-8"))
+        write_text(args.json, run_stats.dumps(result.stats))
         written.append(args.json)
     if not args.quiet:
         print_render_summary(result.stats, seconds, output)

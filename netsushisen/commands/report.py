@@ -32,6 +32,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from netsushisen.options import add_output
 from netsushisen.errors import Diagnostic
 from netsushisen.reports.tables import FORMATS, StatsError, load_stats, render, select, write_csv_dir
 
@@ -47,8 +48,8 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--format", choices=FORMATS, default="table", help="output format (default table)")
     p.add_argument("--table", metavar="NAME", help="only this table of the report (its key, as "
                    "in the JSON output: e.g. causes, locations); CSV holds one table")
-    p.add_argument("-o", dest="output", metavar="FILE|DIR", help="write to this file instead of "
-                   "standard output (CSV of several tables: a folder, one file per table)")
+    add_output(p, "write to this file instead of standard output (CSV of several tables: a "
+                  "folder, one file per table)", metavar="FILE|DIR")
     p.add_argument("--width", type=int, metavar="N", help="table width (default: the terminal's; "
                    "80 when the output is not a terminal, or with -o)")
 
@@ -157,20 +158,20 @@ def run(args: argparse.Namespace) -> int:
             what = f"missing field {err}" if isinstance(err, KeyError) else str(err)
             raise StatsError(Diagnostic(f"malformed statistics: {what}", file=str(args.stats))) from None
     sections = select(sections, args.table)
-    if args.format == "csv" and len(sections) > 1 and args.output:
-        paths = write_csv_dir(sections, args.kind, args.output)
+    if args.format == "csv" and len(sections) > 1 and args.out:
+        paths = write_csv_dir(sections, args.kind, args.out)
         print(f"report {args.kind}: {len(paths)} tables -> {', '.join(map(str, paths))}", file=sys.stderr)
         return 0
-    width = args.width or (80 if args.output else None)  # a file is not the terminal
+    width = args.width or (80 if args.out else None)  # a file is not the terminal
     return _emit(args, render(sections, args.format, args.kind, source, width))
 
 
 def _emit(args: argparse.Namespace, text: str) -> int:
-    if args.output:
+    if args.out:
         try:
-            Path(args.output).write_text(text, encoding="utf-8")
+            Path(args.out).write_text(text, encoding="utf-8")
         except OSError as err:
-            raise StatsError(Diagnostic(f"cannot write the report: {err.strerror}", file=args.output)) from None
+            raise StatsError(Diagnostic(f"cannot write the report: {err.strerror}", file=args.out)) from None
     else:
         sys.stdout.write(text)
     return 0

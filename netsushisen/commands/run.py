@@ -29,9 +29,10 @@ import numpy as np
 
 from netsushisen.errors import NetsushisenError
 from netsushisen.limits import check_words
-from netsushisen.options import (add_engine, add_program_options, add_timeline, check_footprint,
+from netsushisen.options import (add_engine, add_json, add_program_options, add_quiet, add_timeline,
+                                 check_footprint,
                                  check_output_folders, engine_from_args, machine_inputs,
-                                 timeline_from_args)
+                                 timeline_from_args, write_text)
 from netsushisen.progress import INTERRUPTED, RunMonitor
 
 
@@ -39,7 +40,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
     add_program_options(parser)
     add_engine(parser)
-    parser.add_argument("--json", metavar="FILE", help="write the statistics as JSON")
+    add_json(parser, "write the statistics as JSON to FILE (- : standard output, no summary)")
     parser.add_argument("--frame", metavar="FILE", help="write the frame buffer (.npy, H x W x 3)")
     parser.add_argument("--trace", action="store_true", help="print a line trace, one line per "
                         "cycle per processor")
@@ -48,7 +49,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cycles", metavar="A:B", help="trace (or --timeline) only cycles A "
                         "(included) to B (excluded)")
     parser.add_argument("--trace-out", metavar="FILE", help="write the trace to FILE, not stdout")
-    parser.add_argument("-q", "--quiet", action="store_true", help="no summary, no progress bar")
+    add_quiet(parser)
     add_timeline(parser, cycles=False)
 
 
@@ -68,6 +69,7 @@ def run(args: argparse.Namespace) -> int:
                                f"engine cycle by cycle), not --engine {engine_name}")
     config, programs, image = machine_inputs(args)
     check_output_folders(args.json, args.frame, args.trace_out)
+    args.quiet = args.quiet or args.json == "-"
     try:
         parse_cycles(args.cycles)
     except ValueError:
@@ -98,13 +100,14 @@ def run(args: argparse.Namespace) -> int:
             trace_file.close()
     written = []
     if args.json:
-        Path(args.json).write_text(stats.dumps(engine.statistics()), encoding="utf-8")
+        write_text(args.json, stats.dumps(engine.statistics()))
         written.append(args.json)
     if args.frame:
         np.save(args.frame, engine.frame)
         written.append(args.frame)
     if not args.quiet:
-        print(engine.summary())
+        head, _, rest = engine.summary().partition("\n")
+        print(f"{head}, {engine.name} engine" + (f"\n{rest}" if rest else ""))
     if timeline is not None:
         print(timeline.note(), file=sys.stderr)
     if monitor.interrupted:

@@ -19,6 +19,7 @@ from rich.table import Table
 from netsushisen.host.catalog import BUILTIN_SCENES, builtin_help, load_scene
 from netsushisen.host.nff import format_nff, write_nff
 from netsushisen.host.scenes import Kind, Scene
+from netsushisen.options import add_json, add_output, write_text
 
 _SCENE_HELP = (f"built-in scene ({', '.join(BUILTIN_SCENES)}; NAME:SIZE picks the SPD size "
                "factor, e.g. balls:2) or path of an .nff file")
@@ -29,10 +30,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     info = sub.add_parser("info", help="Table-1 counts of a scene (primitives by kind, lights, "
                                        "reflective/transparent, database sizes)")
     info.add_argument("scene", metavar="SCENE", help=_SCENE_HELP)
-    info.add_argument("--json", action="store_true", help="print the counts as JSON")
+    add_json(info, "print the counts as JSON (to FILE if given)")
     nff = sub.add_parser("nff", help="write a scene as NFF text")
     nff.add_argument("scene", metavar="SCENE", help=_SCENE_HELP)
-    nff.add_argument("-o", "--output", metavar="FILE", help="write to FILE instead of stdout")
+    add_output(nff, "write to FILE instead of standard output", aliases=("--output",))
     sub.add_parser("list", help="list the built-in scenes")
 
 
@@ -42,14 +43,14 @@ def run(args: argparse.Namespace) -> int:
         return 0
     scene = load_scene(args.scene)
     if args.scene_action == "nff":
-        if args.output:
-            write_nff(scene, args.output)
+        if args.out:
+            write_nff(scene, args.out)
         else:
             sys.stdout.write(format_nff(scene))
         return 0
     counts = scene_counts(scene)
     if args.json:
-        print(json.dumps(counts, indent=2))
+        write_text(args.json, json.dumps(counts, indent=2) + "\n")
     else:
         _print_table(scene, counts)
     return 0

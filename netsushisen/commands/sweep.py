@@ -27,6 +27,7 @@ import time
 from pathlib import Path
 
 from netsushisen.errors import NetsushisenError
+from netsushisen.options import add_output, add_quiet
 from netsushisen.sweep import Point, Spec, load_spec, point_config, points, run_point, tidy_row, with_keys
 
 FAILED = ("error", "fault", "deadlock", "max_cycles", "interrupted", "lost")
@@ -41,15 +42,15 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="a running Dask scheduler (tcp://host:8786); default: a LocalCluster")
     parser.add_argument("--workers", type=int, metavar="N",
                         help="LocalCluster worker processes (default: one per core)")
-    parser.add_argument("--out", default="sweep", metavar="DIR", help="output folder (default sweep/)")
+    add_output(parser, "output folder (default sweep/); with plot: the image file (default next "
+                       "to RESULTS)", metavar="PATH", aliases=("--output",))
     parser.add_argument("--engine", help="engine of every point (default: the spec's, else compiled)")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet(parser, "no progress bar")
     plot = parser.add_argument_group("plot")
     plot.add_argument("--x", help="(plot) field on the x axis (default: the first varied field)")
     plot.add_argument("--y", default="cycles", help="(plot) metric (default cycles)")
     plot.add_argument("--hue", help="(plot) field drawn as one line per value (or the heat map's y axis)")
     plot.add_argument("--kind", choices=("line", "heat"), default="line", help="(plot) line plot or heat map")
-    plot.add_argument("-o", "--output", metavar="FILE", help="(plot) image file (default next to RESULTS)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -58,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
         if not args.results:
             raise NetsushisenError("sweep plot: give the results file (DIR/results.csv)")
         out = plot_results(args.results, x=args.x, y=args.y, hue=args.hue, kind=args.kind,
-                           output=args.output)
+                           output=args.out)
         print(f"wrote {out}")
         return 0
     if args.results:
@@ -68,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     spec = load_spec(args.spec)
     engine = _engine(args.engine or spec.engine)
     _check_footprint(spec, engine, args.quiet)
-    summary = run_sweep(spec, Path(args.out), engine, scheduler=args.scheduler,
+    summary = run_sweep(spec, Path(args.out or "sweep"), engine, scheduler=args.scheduler,
                         workers=args.workers, show=not args.quiet and sys.stderr.isatty())
     print(summary.line())
     if summary.interrupted:
@@ -89,8 +90,8 @@ def _check_footprint(spec: Spec, engine: str, quiet: bool) -> None:
 
 
 def _engine(name: str | None) -> str:
-    from netsushisen.emulator.engine import DEFAULT_ENGINE, check_engine
-    return check_engine(name) if name else DEFAULT_ENGINE
+    from netsushisen.emulator.engine import check_engine, default_engine
+    return check_engine(name) if name else default_engine()
 
 
 class Summary:

@@ -454,30 +454,50 @@ def _scalar(v: Any) -> str:
     return repr(v)
 
 
-def dump_toml(config: MachineConfig) -> str:
-    """The configuration as TOML that `load_config` reads back to an equal config."""
+def dump_toml(config: MachineConfig,
+              describe: typing.Callable[[str, Any], str | None] | None = None) -> str:
+    """The configuration as TOML that `load_config` reads back to an equal config. With
+    `describe(path, value)` (`config --dump`: reports/descriptions.py), each field is preceded
+    by a `# description (unit; default ...)` comment, and each processor's latency table also
+    lists, commented out, every latency it can override at its default (the opcode table's)."""
+    from netsushisen.isa.opcodes import OPCODES  # late: opcodes imports nothing from here
+
     lines: list[str] = []
+
+    def note(path: str, value: Any) -> None:
+        text = describe(path, value) if describe else None
+        if text:
+            lines.append(f"# {text}")
 
     def emit(obj: Any, table: str) -> None:
         subtables = []
-        doc_lines = []
+        doc_lines: list[tuple[str, Any, str]] = []
         for f in dataclasses.fields(obj):
             v = getattr(obj, f.name)
             if dataclasses.is_dataclass(v) or isinstance(v, dict):
                 subtables.append((f.name, v))
-            elif v is None:
-                doc_lines.append(f"# {f.name} = (unset)")
             else:
-                doc_lines.append(f"{f.name} = {_scalar(v)}")
+                text = f"# {f.name} = (unset)" if v is None else f"{f.name} = {_scalar(v)}"
+                doc_lines.append((f.name, v, text))
         if doc_lines:
             if table:
                 lines.append(f"\n[{table}]")
-            lines.extend(doc_lines)
+            for name, v, text in doc_lines:
+                note(f"{table}.{name}" if table else name, v)
+                lines.append(text)
         for name, v in subtables:
             full = f"{table}.{name}" if table else name
             if isinstance(v, dict):
                 lines.append(f"\n[{full}]")
-                lines.extend(f"{k} = {_scalar(x)}" for k, x in sorted(v.items()))
+                for k, x in sorted(v.items()):
+                    text = describe(f"{full}.{k}", x) if describe else None
+                    lines.append(f"{k} = {_scalar(x)}".ljust(20) + f"# {text}" if text
+                                 else f"{k} = {_scalar(x)}")
+                if describe and name == "latency":
+                    for m, op in OPCODES.items():
+                        if m not in v and _latency_override_problem(table, m) is None:
+                            lines.append(f"# {m} = {op.latency}".ljust(20)
+                                         + f"# {describe(f'{full}.{m}', op.latency)}")
             else:
                 emit(v, full)
 

@@ -64,7 +64,8 @@ class StatsError(NetsushisenError):
 
 
 def load_stats(path: str | Path) -> dict:
-    """Read and check a statistics JSON (`run --json`, `render --json`); one located error otherwise."""
+    """Read and check a statistics file (`run --json`, `render --json`), JSON or a flat dump
+    (`report flat`, reports/flat.py); one located error otherwise."""
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8")
@@ -74,8 +75,10 @@ def load_stats(path: str | Path) -> dict:
         raise StatsError(Diagnostic("this is a directory, not a statistics file", file=str(p))) from None
     except UnicodeDecodeError:
         raise StatsError(Diagnostic("not a text file (expected statistics JSON)", file=str(p))) from None
+    from netsushisen.reports.flat import is_flat, parse_flat
+
     try:
-        data = json.loads(text)
+        data = parse_flat(text, str(p)) if is_flat(text) else json.loads(text)
     except json.JSONDecodeError as err:
         raise StatsError(Diagnostic(f"not valid JSON: {err.msg}", file=str(p), line=err.lineno,
                                     col=err.colno)) from None

@@ -4,7 +4,9 @@
     netsushisen config --check FILE [--set ...]                         validate a file
 
 `--dump` prints the defaults (or FILE with the overrides applied) as TOML that `--config` reads
-back; `--check` reports every problem of FILE as `FILE:LINE: error: ...` (exit 1) — unknown
+back, each field under a comment with its description, unit and default, and each processor's
+latency table with every latency it can override at its default, commented out
+(reports/descriptions.py); `--check` reports every problem of FILE as `FILE:LINE: error: ...` (exit 1) — unknown
 sections and fields (with the closest known name), values of the wrong type (a TOML string is
 never a bool or a number: `buffer_pool = "no"` is an error), impossible values — or prints `ok`.
 """
@@ -33,5 +35,10 @@ def run(args: argparse.Namespace) -> int:
             return 0
     else:
         config = config_from_args(args, host=False)
-    print(dump_toml(config), end="")
+    from netsushisen.reports.descriptions import config_comment
+
+    def describe(path: str, value) -> str | None:  # every field's default, set or not
+        return config_comment(path)
+
+    print(dump_toml(config, describe if args.dump or not args.check else None), end="")
     return 0

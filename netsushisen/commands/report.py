@@ -8,6 +8,7 @@
                                 [--plot FILE.png]
     netsushisen report diff     A.json B.json [--changed]
     each also: [--format table|json|csv|md] [--table NAME] [-o FILE|DIR] [--width N]
+    netsushisen report flat     STATS.json [-o FILE]   (one statistic a line, gem5's stats.txt)
 
 ilp: per processor cycles, bundles, operations, dynamic ILP (ops per cycle) against static ILP
 (ops per bundle as scheduled), slot fill per unit class, register-port use, the hottest code.
@@ -18,7 +19,9 @@ t = t_r·{ρ + (1 − ρ)(8 − 6μ)}. annotate: the program listing with, per b
 stall cycles by cause, share of the processor's cycles and slot fill, hottest first or in
 program order, and a summary per loop; `--plot` draws the cycles per bundle along the listing.
 diff: the inputs that differ, then every processor's and memory region's figures in A and B
-with the change and relative change (`--changed`: only the figures that changed).
+with the change and relative change (`--changed`: only the figures that changed). flat: every
+statistic as `name value # description (unit)`, dotted stable names (reports/flat.py). Every
+report reads a statistics JSON or a flat dump alike, so `report diff A.txt B.txt` diffs dumps.
 
 Tables fit the terminal's width (80 columns when not a terminal or with `-o`; `--width` or
 `COLUMNS` to choose) and wrap between words only. CSV is one table per file, readable by pandas as it is:
@@ -32,15 +35,16 @@ import argparse
 import sys
 from pathlib import Path
 
-from netsushisen.options import add_output
 from netsushisen.errors import Diagnostic
+from netsushisen.options import add_output
 from netsushisen.reports.tables import FORMATS, StatsError, load_stats, render, select, write_csv_dir
 
 REPORTS = {"ilp": "ILP per processor, slot fill, register ports, hottest code",
            "stalls": "cycles by stall cause and by code location; --explain: what the causes mean",
            "memory": "resident share ρ, cache hit rate μ, access time t per database region",
            "annotate": "the program listing with cycles, stalls and slot fill per bundle; loops",
-           "diff": "compare two statistics files: inputs that differ, then every figure's change"}
+           "diff": "compare two statistics files: inputs that differ, then every figure's change",
+           "flat": "every statistic, one a line: name value # description (unit)"}
 PLOT_SUFFIXES = (".png", ".svg", ".pdf")
 
 
@@ -67,8 +71,14 @@ def configure(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="kind", metavar="REPORT", required=True)
     for kind, help_text in REPORTS.items():
         p = sub.add_parser(kind, help=help_text, description=help_text)
+        if kind == "flat":
+            p.add_argument("stats", metavar="STATS.json", help="statistics file (run --json / "
+                           "render --json)")
+            add_output(p, "write to this file instead of standard output")
+            continue
         if kind == "diff":
-            p.add_argument("stats", metavar="A.json", help="the first statistics file")
+            p.add_argument("stats", metavar="A.json", help="the first statistics file (JSON or "
+                           "a flat dump)")
             p.add_argument("other", metavar="B.json", help="the second, compared with the first")
             p.add_argument("--changed", action="store_true", help="only the figures that changed")
         else:
@@ -112,7 +122,7 @@ def _check(args: argparse.Namespace) -> None:
     """Option errors, before any file is read."""
     if getattr(args, "top", None) is not None and args.top < 0:
         raise StatsError("--top must not be negative")
-    if args.width is not None and args.width < 20:
+    if getattr(args, "width", None) is not None and args.width < 20:
         raise StatsError(f"--width {args.width}: a table needs at least 20 columns")
     plot = getattr(args, "plot", None)
     if plot:
@@ -146,6 +156,9 @@ def run(args: argparse.Namespace) -> int:
         sections, source, stats = [glossary_section()], "reports/glossary.py", None
         if args.format == "md":
             return _emit(args, glossary_markdown())
+    elif args.kind == "flat":
+        from netsushisen.reports.flat import format_flat
+        return _emit(args, format_flat(load_stats(args.stats)))
     else:
         stats = load_stats(args.stats)
         other = load_stats(args.other) if args.kind == "diff" else None

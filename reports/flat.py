@@ -1,0 +1,171 @@
+"""The flat statistics dump: one statistic per line, `name value # description (unit)`.
+
+gem5's `stats.txt`, for a statistics file (`run --json`, `render --json`): greppable, diffable
+with any tool, each name dotted and stable —
+
+    pe0.ic.cycles                          23295  # cycles simulated on the processor: ... (cycles)
+    pe0.ic.stalls.cache_hit                 3600  # stall cycles: an `ldg` that hit ... (cycles)
+    config.ic_memory.t_g                       8  # Global memory access time ... (cycles; default 8)
+
+Names are the statistics file's keys joined by dots, with the `processors` and `memory`
+sections keyed by the processor (`pe0.ic.cycles`, `pe0.ic.cache.hits`,
+`pe0.ic.regions.global.shape_data.accesses`); a list's items are numbered
+(`dis.messages_per_pe.0`). Booleans are 1 / 0, an unset value is `none`, text that is not one
+word is a JSON string. The programs' listings are left out (text, not statistics; `report
+annotate` needs the JSON). Descriptions and units are reports/descriptions.py's.
+
+`parse_flat` reads a dump back into the statistics file's structure, so every report that reads
+statistics reads a flat dump too (`load_stats` in reports/tables.py; `report diff A.txt B.txt`).
+"""
+
+from __future__ import annotations
+
+import json
+
+from netsushisen.reports.descriptions import describe
+from netsushisen.reports.diff import flatten
+
+MEMORY_KEYS = frozenset({"local", "resident", "cache", "global", "regions", "primitives"})
+"""A processor's keys of the statistics' `memory` section (the rest are `processors`')."""
+
+LISTS = frozenset({"dis.messages_per_pe"})
+"""Statistics that are lists (numbered in the dump)."""
+
+SKIPPED = ("listing",)
+"""Keys of `programs.<stage>` left out of the dump."""
+
+
+def flat_items(stats: dict) -> list[tuple[str, object]]:
+    """(name, value) of every statistic, in the statistics file's order."""
+    out: list[tuple[str, object]] = []
+    for section, value in stats.items():
+        if section in ("processors", "memory"):
+            for proc, body in value.items():
+                for key, v in body.items():
+                    if key == "regions":  # region keys hold a dot: "global.shape_data"
+                        for region, counts in v.items():
+                            out += [(f"{proc}.regions.{region}.{k}", x) for k, x in counts.items()]
+                    else:
+                        out += list(flatten({f"{proc}.{key}": v}).items())
+        elif section == "fifos":
+            for fifo, counts in value.items():
+                out += [(f"fifos.{fifo}.{k}", x) for k, x in counts.items()]
+        elif section == "programs":
+            for stage, body in (value or {}).items():
+                if body is None:
+                    continue
+                out += list(flatten({f"programs.{stage}": {k: v for k, v in body.items()
+                                                           if k not in SKIPPED}}).items())
+        else:
+            out += list(flatten({section: value}).items())
+    items = []
+    for name, v in out:
+        if name in LISTS and isinstance(v, list):
+            items += [(f"{name}.{i}", x) for i, x in enumerate(v)]
+        else:
+            items.append((name, v))
+    return items
+
+
+def format_value(v: object) -> str:
+    if v is None:
+        return "none"
+    if isinstance(v, bool):
+        return "1" if v else "0"
+    if isinstance(v, (int, float)):
+        return repr(v)
+    text = str(v)
+    if not text or any(c.isspace() for c in text) or "#" in text or text[0] in "\"'" or \
+            text == "none" or _number(text) is not None:
+        return json.dumps(text, ensure_ascii=False)
+    return text
+
+
+def format_flat(stats: dict) -> str:
+    """The dump: a line per statistic, names padded to a column, values right-aligned."""
+    rows = [(name, format_value(v)) for name, v in flat_items(stats)]
+    w_name = min(max((len(n) for n, _ in rows), default=0), 56)
+    w_value = min(max((len(v) for _, v in rows), default=0), 20)
+    lines = []
+    for name, value in rows:
+        q = describe(name)
+        comment = q.comment() if q is not None else "(not in the table of descriptions)"
+        lines.append(f"{name:<{w_name}} {value:>{w_value}}  # {comment}")
+    return "\n".join(lines) + "\n"
+
+
+def _number(text: str) -> int | float | None:
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        return float(text)
+    except ValueError:
+        return None
+
+
+def parse_value(text: str) -> object:
+    if text == "none":
+        return None
+    n = _number(text)
+    return text if n is None else n
+
+
+def is_flat(text: str) -> bool:
+    """Whether a statistics file's text is a flat dump (not JSON)."""
+    return not text.lstrip().startswith("{")
+
+
+def parse_flat(text: str, source: str = "<flat>") -> dict:
+    """A flat dump back into the statistics file's structure (the listings aside)."""
+    from netsushisen.errors import Diagnostic
+    from netsushisen.reports.tables import StatsError
+
+    stats: dict = {}
+    for number, line in enumerate(text.splitlines(), 1):
+        body = line.strip()
+        if not body or body.startswith("#"):
+            continue
+        name, _, rest = body.partition(" ")
+        rest = rest.strip()
+        if not rest:
+            raise StatsError(Diagnostic("expected `name value # description`", file=source,
+                                        line=number))
+        if rest.startswith('"'):
+            try:
+                value, _ = json.JSONDecoder().raw_decode(rest)
+            except json.JSONDecodeError as err:
+                raise StatsError(Diagnostic(f"bad quoted value: {err.msg}", file=source,
+                                            line=number)) from None
+        else:
+            value = parse_value(rest.split()[0])
+        _place(stats, name, value)
+    for name in LISTS:
+        section, key = name.split(".")
+        d = stats.get(section, {}).get(key)
+        if isinstance(d, dict):
+            stats[section][key] = [d[k] for k in sorted(d, key=int)]
+    return stats
+
+
+def _set(d: dict, keys: list[str], value: object) -> None:
+    for k in keys[:-1]:
+        d = d.setdefault(k, {})
+    d[keys[-1]] = value
+
+
+def _place(stats: dict, name: str, value: object) -> None:
+    parts = name.split(".")
+    if parts[0].startswith("pe") and parts[0][2:].isdigit() and len(parts) >= 3:
+        proc, key = f"{parts[0]}.{parts[1]}", parts[2]
+        if key == "regions":
+            _set(stats, ["memory", proc, "regions", ".".join(parts[3:5]), *parts[5:]], value)
+        elif key in MEMORY_KEYS:
+            _set(stats, ["memory", proc, *parts[2:]], value)
+        else:
+            _set(stats, ["processors", proc, *parts[2:]], value)
+    elif parts[0] == "fifos":
+        _set(stats, ["fifos", ".".join(parts[1:-1]), parts[-1]], value)
+    else:
+        _set(stats, parts, value)

@@ -20,7 +20,7 @@ import time
 
 from netsushisen.emulator.compiled.build import load
 from netsushisen.isa.config import MachineConfig
-from netsushisen.render import prepare
+from netsushisen.pipeline import prepare
 
 
 def measure(scene: str, res: int, engine: str) -> tuple[int, float]:

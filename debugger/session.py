@@ -73,7 +73,7 @@ class ProgramsFactory:
 
 class SceneFactory:
     """Scene mode: the render pipeline's host work (grid, pre-pass, images, kernels, eye rays;
-    a `netsushisen.render.RenderSetup`) is done once; every `build()` (the start, `restart`)
+    a `netsushisen.pipeline.RenderSetup`) is done once; every `build()` (the start, `restart`)
     makes a fresh Machine from it."""
 
     def __init__(self, setup):

@@ -10,6 +10,7 @@ t_g = 8·t_r, direct-mapped cache with 64-byte blocks) and documented choices el
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import difflib
 import re
@@ -197,6 +198,38 @@ class MachineConfig:
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
+
+    @classmethod
+    def load(cls, path: str | Path | None = None,
+             overrides: dict[str, Any] | list[str] | None = None) -> MachineConfig:
+        """Defaults, then the TOML file `path`, then `overrides` (`{"ic.latency.fmul": 6}` or
+        `["ic.latency.fmul=6"]`, as `--set` takes them); validated (`load_config`)."""
+        return load_config(path, override_items(overrides))
+
+    def with_(self, overrides: dict[str, Any] | list[str] | None = None,
+              **fields: Any) -> MachineConfig:
+        """A copy with `overrides` (`{"ic.latency.fmul": 6}`, set paths as `--set` takes them)
+        and top-level `fields` (`pes=4`) applied; validated. This configuration is unchanged."""
+        config = copy.deepcopy(self)
+        problems: list[Diagnostic] = []
+        for item in override_items(overrides) + override_items(fields):
+            try:
+                apply_override(config, item)
+            except ConfigError as err:
+                problems += err.diagnostics
+        if problems:
+            raise ConfigError(problems)
+        config.validate()
+        return config
+
+
+def override_items(overrides: dict[str, Any] | list[str] | None) -> list[str]:
+    """Overrides as `--set` items: `path=value`, a value written as TOML writes it."""
+    if overrides is None:
+        return []
+    if isinstance(overrides, dict):
+        return [f"{k}={_scalar(v)}" for k, v in overrides.items()]
+    return list(overrides)
 
 
 def _latency_override_problem(proc: str, mnemonic: str) -> str | None:

@@ -16,6 +16,34 @@ joins host and machine (`render`), and the diagnostics every tool reports bad in
     netsushisen.reports   ILP, stall and memory reports; the paper's tables and figures
 
 Data flows one way: scene → host → memory images → machine → statistics → reports.
+
+The Python API (`netsushisen/api.py`, docs/api.md) is this package's public surface, the names of
+`__all__`; everything else is private. The names load on first use, so `import netsushisen` and
+a command that needs none of them stay cheap:
+
+    import netsushisen as nss
+    r = nss.render("tetra", res=32, set={"ic.latency.fmul": 6})
+    r.table("ilp")          # a pandas DataFrame with the columns of `report ilp --format csv`
 """
 
 __version__ = "0.1.0"
+
+__all__ = ["render", "golden", "run", "assemble", "scene", "Config", "load_stats", "Results",
+           "NetsushisenError", "__version__"]
+
+
+def __getattr__(name: str):
+    """The API's names, imported on first use (PEP 562). `netsushisen.render` is the API's
+    function; the render pipeline module is `netsushisen.render` only once imported as a
+    module, which the API does for you."""
+    if name == "NetsushisenError":
+        from netsushisen.errors import NetsushisenError
+        return NetsushisenError
+    if name in __all__:
+        from netsushisen import api
+        return getattr(api, name)
+    raise AttributeError(f"module 'netsushisen' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

@@ -33,7 +33,7 @@ from netsushisen.host import golden
 from netsushisen.host.prepass import coarse_resolution
 from netsushisen.host.scenes import Scene
 from netsushisen.isa.config import MachineConfig, apply_override
-from netsushisen.render import RenderResult, RenderSetup, finish, prepare
+from netsushisen.pipeline import RenderResult, RenderSetup, finish, prepare
 from netsushisen.reports.accuracy import (Row, fidelity_errors, hit_id_share, ic_regions, image_errors,
                                           memory_point, ray_errors, relative, stratified_estimate,
                                           traced_rays)

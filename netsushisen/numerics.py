@@ -183,7 +183,7 @@ def run_path(scene: Scene, path: str, res: int, sets: tuple[str, ...] = ()) -> P
         config = load_config(None, [f"precision={precision}", *sets])
         r = golden_render(scene, config, res=res, keep_shadows=True)
         return PathResult(path, r.hit_ids.ravel(), r.image_u8, dict(r.rays), r.shadows)
-    from netsushisen.render import render  # noqa: PLC0415 (the machine side is heavy to import)
+    from netsushisen.pipeline import render  # noqa: PLC0415 (the machine side is heavy to import)
     engine = path.split("-", 1)[1]
     m = render(scene, load_config(None, list(sets)), res=res, engine=engine)
     if m.run.status != "finished":

@@ -242,7 +242,7 @@ def _check_points(spec: Spec, text: str, where) -> None:
         base = load_config(spec.config_file, spec.sets)
     except NetsushisenError as err:
         raise SpecError([where(f"base configuration: {d.message}", "config") for d in err.diagnostics]) from None
-    from netsushisen.render import check_fifo_depth
+    from netsushisen.pipeline import check_fifo_depth
     errors: dict[str, Diagnostic] = {}
 
     def problem(name: str | None, message: str, at: str = "") -> None:
@@ -358,7 +358,7 @@ def run_point(task: dict) -> dict:
     """Render one point (runs in a Dask worker; the host work of its scene is kept between
     points: render.HostMemo). Never raises for bad input or a failed run: the result says."""
     global _MEMO
-    from netsushisen.render import HostMemo, finish, prepare
+    from netsushisen.pipeline import HostMemo, finish, prepare
     if _MEMO is None:
         _MEMO = HostMemo()
     t0 = time.perf_counter()

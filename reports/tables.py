@@ -255,6 +255,28 @@ def render(sections: list[Section], fmt: str, report: str, source: str, width: i
     return render_table(sections, width)
 
 
+REPORTS: dict[str, tuple[str, str]] = {
+    "ilp": ("netsushisen.reports.ilp", "ilp_sections"),
+    "stalls": ("netsushisen.reports.stalls", "stall_sections"),
+    "memory": ("netsushisen.reports.memory", "memory_sections"),
+    "annotate": ("netsushisen.reports.annotate", "annotate_sections"),
+    "diff": ("netsushisen.reports.diff", "diff_sections"),
+}
+"""The reports made of sections: name -> (module, function(stats, ...) -> [Section]). `report
+KIND` and the Python API's `.table(KIND)` both read them through `report_sections`."""
+
+
+def report_sections(kind: str, stats: dict, *args, **options) -> list[Section]:
+    """The sections of report `kind` on `stats` (`diff` takes the other statistics next);
+    `options` are the report function's (`top`, `explain`, `proc`, `order`, `changed_only`)."""
+    import importlib
+
+    if kind not in REPORTS:
+        raise StatsError(f"no report {kind!r} (reports: {', '.join(REPORTS)})")
+    module, function = REPORTS[kind]
+    return getattr(importlib.import_module(module), function)(stats, *args, **options)
+
+
 def present_processors(stats: dict) -> list[tuple[str, dict]]:
     """(name, processor statistics) of every processor that ran a program."""
     return [(n, p) for n, p in stats["processors"].items() if p.get("present", True)]

@@ -15,7 +15,7 @@ from netsushisen.accuracy import (depth_rows, fidelity_rows, machine_point, prec
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.golden import render as golden_render
 from netsushisen.isa.config import MachineConfig
-from netsushisen.render import render
+from netsushisen.pipeline import render
 from netsushisen.reports.accuracy import (Row, axis_sentences, depth_settles, image_errors, relative,
                                           sampled_estimate, stratified_estimate, traced_rays)
 from netsushisen.reports.summary import memory_figures

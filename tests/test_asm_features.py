@@ -254,14 +254,14 @@ def test_kernels_write_their_twins_once():
     generic IC program has its resident twins (the same count of ldr and ldg in them)."""
     import re
 
-    from netsushisen.render import assemble_kernels
+    from netsushisen.pipeline import assemble_kernels
 
     sources = "".join(p.read_text() for p in KERNELS_DIR.glob("ic*"))
     assert not re.search(r"\bldr\s+\w+,", sources)
     os_src = (KERNELS_DIR / "os.s").read_text()
     assert os_src.count("    ENQUEUE ") == 2 and ".rept 5" in os_src
     from netsushisen.isa.config import MachineConfig
-    from netsushisen.render import kernel_inputs
+    from netsushisen.pipeline import kernel_inputs
 
     ic = assemble_kernels(kernel_inputs("tetra:1", MachineConfig(), 4, generic=True).defines)["ic"]
     loads = [op.mnemonic for bundle in ic.bundles for op in bundle if op.mnemonic in ("ldr", "ldg")]

@@ -21,7 +21,7 @@ SOURCES = sorted(kernels_dir().rglob("*.s"))
 @functools.lru_cache(maxsize=1)
 def scene_defines() -> dict:
     """The stage kernels are assembled per scene: the symbols of a small scene, every feature on."""
-    from netsushisen.render import kernel_defines
+    from netsushisen.pipeline import kernel_defines
     from netsushisen.host.catalog import load_scene
     from netsushisen.host.databases import build_images
     from netsushisen.isa.config import MachineConfig

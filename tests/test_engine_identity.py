@@ -66,7 +66,7 @@ def render_pair(cli, tmp_path, monkeypatch):
 
     The kernels of a (defines, folder) pair are assembled once and shared by both runs (the
     assembler is most of a small render's time; the programs are only read by the engines)."""
-    from netsushisen import render as pipeline
+    from netsushisen import pipeline
 
     assembled: dict = {}
     assemble = pipeline.assemble_kernels

@@ -38,7 +38,7 @@ from netsushisen.isa.images import Segment
 from netsushisen.isa.ring import parse_header
 from netsushisen.isa.words import word_format
 from netsushisen.kernels import KERNELS, protocol
-from netsushisen.render import eye_ray_messages
+from netsushisen.pipeline import eye_ray_messages
 
 P = protocol()
 SCENES = "tests/scenes/"
@@ -611,7 +611,7 @@ def test_serial_mode_renders_what_normal_mode_renders(engine_name):
     """The whole machine (render), serial mode with one slot against normal mode with eight: the
     same image bit for bit, hit ids, ray counts and IC references (accesses per primitive, per
     region, resident and cache) — only the order of the work differs."""
-    from netsushisen.render import render
+    from netsushisen.pipeline import render
     from netsushisen.isa.config import load_config
 
     config = load_config()

@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from netsushisen import render as pipeline
+from netsushisen import pipeline
 from netsushisen.isa.config import MachineConfig
 from netsushisen.kernels import KERNELS
 

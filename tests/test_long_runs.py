@@ -38,7 +38,7 @@ pty = pytest.importorskip("pty")
 def test_compiled_is_the_default_engine_where_it_imports(cli, tmp_path, monkeypatch):
     assert default_engine() == ("compiled" if COMPILED else "reference")
     assert DEFAULT_ENGINE == "compiled" or not COMPILED
-    from netsushisen import render
+    from netsushisen import pipeline as render
 
     used = []
     make = render.make_engine
@@ -73,7 +73,7 @@ def test_no_progress_output_when_stderr_is_not_a_terminal(cli, tmp_path):
 def test_an_interrupted_run_is_a_whole_machine(engine_name):
     """A KeyboardInterrupt out of the progress callback stops every engine at a cycle boundary:
     its statistics are the reference engine's at that cycle, status "interrupted"."""
-    from netsushisen.render import prepare
+    from netsushisen.pipeline import prepare
 
     setup = prepare("balls:1", load_config(None, []), res=4)
     engine = setup.engine(engine_name)

@@ -60,7 +60,7 @@ def test_run_takes_the_defines_asm_takes(tmp_path, cli, program):
 def no_work(monkeypatch):
     """Any scene loading, host work or machine building fails the test: a rejected option must
     be rejected before anything is allocated."""
-    from netsushisen import render
+    from netsushisen import pipeline as render
     from netsushisen.commands import golden, paper
     from netsushisen.emulator import engine
 

@@ -49,7 +49,7 @@ def trace_driven_counters(setup) -> dict:
 
 def check_emulator_equals_trace(scene: str, res: int, sets: tuple[str, ...] = ()) -> None:
     _needs_kernels()
-    from netsushisen.render import render
+    from netsushisen.pipeline import render
 
     config = load_config(None, list(sets))
     r = render(scene, config, res=res, slots=1, defines={"SERIAL_TREES": 1})
@@ -70,7 +70,7 @@ def test_serial_mode_ic_loads_follow_machine_order():
     one, the golden trace's IC access stream in `machine_order` (each pixel's ray tree in level
     order) — and in normal mode they are not."""
     _needs_kernels()
-    from netsushisen.render import prepare
+    from netsushisen.pipeline import prepare
 
     def ic_loads(setup) -> list[tuple[int, int]]:
         machine = setup.machine()

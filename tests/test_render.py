@@ -20,7 +20,7 @@ from netsushisen.emulator.stats import ic_reference_counts
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.golden import render as golden_render
 from netsushisen.isa.config import load_config
-from netsushisen.render import render
+from netsushisen.pipeline import render
 
 SCENES_DIR = Path(__file__).with_name("scenes")
 PAPER = ["tetra", "balls", "mount", "rings"]

@@ -18,7 +18,7 @@ from netsushisen.isa.config import load_config
 from netsushisen.isa.ring import parse_header
 from netsushisen.isa.words import FP32, FP64
 from netsushisen.kernels import protocol
-from netsushisen.render import eye_ray_messages, render
+from netsushisen.pipeline import eye_ray_messages, render
 
 MISS_KERNELS = Path(__file__).with_name("kernels_miss")
 

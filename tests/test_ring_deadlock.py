@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from netsushisen.emulator.stats import ic_reference_counts
-from netsushisen.render import longest_message, render
+from netsushisen.pipeline import longest_message, render
 from netsushisen.errors import ConfigError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.golden import render as golden_render

@@ -17,7 +17,7 @@ import pytest
 
 from netsushisen.errors import NetsushisenError
 from netsushisen.isa.config import load_config
-from netsushisen.render import render
+from netsushisen.pipeline import render
 from netsushisen.sweep import evaluate, load_spec, points
 
 pytest.importorskip("distributed")

@@ -25,7 +25,7 @@ import pytest
 from netsushisen.cli import main
 from netsushisen.emulator.trace import HOLD_CAUSES, Tracer
 from netsushisen.isa.config import load_config
-from netsushisen import render as pipeline
+from netsushisen import pipeline
 
 TETRA = ["render", "tetra", "--res", "4", "--quiet"]
 WINDOW = (6_000, 7_500)

@@ -13,6 +13,6 @@ image) come from `netsushisen/options.py`, so they mean and check the same every
     numerics numerical stability report
 
 A command only parses, checks and prints: the work is done by the layers below it (asm/, isa/,
-host/, emulator/ through its engine interface, debugger/, reports/, netsushisen/render.py,
+host/, emulator/ through its engine interface, debugger/, reports/, netsushisen/pipeline.py,
 netsushisen/accuracy.py, netsushisen/numerics.py).
 """

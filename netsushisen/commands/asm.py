@@ -58,7 +58,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def scene_defines(args: argparse.Namespace) -> dict[str, int | float]:
     """The symbols `render` gives the kernels for `args.scene`, -D on top."""
-    from netsushisen import render as pipeline
+    from netsushisen import pipeline
 
     check_resolution(args.res)
     slots = pipeline.DEFAULT_SLOTS if args.slots is None else args.slots

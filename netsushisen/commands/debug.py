@@ -108,12 +108,12 @@ def _program_advice(err: NetsushisenError) -> NetsushisenError:
 
 
 def scene_factory(args: argparse.Namespace):
-    """Scene mode: `netsushisen.render` prepares the scene as `netsushisen render` does."""
+    """Scene mode: `netsushisen.pipeline` prepares the scene as `netsushisen render` does."""
     if args.program or args.image:
         raise NetsushisenError("scene mode builds its own programs and memory image: --program "
                                "and --image are for raw programs (use --os/--ic/--sc FILE or "
                                "--kernels DIR for your own kernels)")
-    from netsushisen import render as pipeline
+    from netsushisen import pipeline
     from netsushisen.debugger.session import SceneFactory
 
     check_resolution(args.res)

@@ -67,7 +67,7 @@ def export(args: argparse.Namespace) -> int:
                                "overwriting the kernel files)")
     defines = None
     if args.scene:
-        from netsushisen import render as pipeline
+        from netsushisen import pipeline
 
         check_resolution(args.res)
         slots = pipeline.DEFAULT_SLOTS if args.slots is None else args.slots

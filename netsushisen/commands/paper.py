@@ -48,7 +48,7 @@ def machine_check(scene: str, res: int, config, engine: str, corners: bool = Fal
     compare IC's counters with the trace-driven path's for the same images. Runs in a worker
     process: module-level, picklable arguments."""
     from netsushisen.host.golden import render as golden_render
-    from netsushisen.render import render
+    from netsushisen.pipeline import render
     from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
 
     t0 = time.perf_counter()

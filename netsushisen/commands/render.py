@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from netsushisen import render as pipeline
+from netsushisen import pipeline
 from netsushisen.emulator import stats as run_stats
 from netsushisen.host.images import write_png
 from netsushisen.host.nff import scene_warnings

@@ -37,7 +37,8 @@ from pathlib import Path
 
 from netsushisen.errors import Diagnostic
 from netsushisen.options import add_output
-from netsushisen.reports.tables import FORMATS, StatsError, load_stats, render, select, write_csv_dir
+from netsushisen.reports.tables import (FORMATS, StatsError, load_stats, render, report_sections,
+                                       select, write_csv_dir)
 
 REPORTS = {"ilp": "ILP per processor, slot fill, register ports, hottest code",
            "stalls": "cycles by stall cause and by code location; --explain: what the causes mean",
@@ -102,20 +103,15 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def sections_for(args: argparse.Namespace, stats: dict, other: dict | None = None):
     kind, top = args.kind, args.top if "top" in args else None
-    if kind == "ilp":
-        from netsushisen.reports.ilp import ilp_sections
-        return ilp_sections(stats, top if top is not None else 5)
-    if kind == "stalls":
-        from netsushisen.reports.stalls import stall_sections
-        return stall_sections(stats, top if top is not None else 10, explain=args.explain)
+    defaults = {"ilp": 5, "stalls": 10}
+    if kind in defaults:
+        return report_sections(kind, stats, top if top is not None else defaults[kind],
+                               **({"explain": args.explain} if kind == "stalls" else {}))
     if kind == "annotate":
-        from netsushisen.reports.annotate import annotate_sections
-        return annotate_sections(stats, args.proc, top, args.order)
+        return report_sections(kind, stats, args.proc, top, args.order)
     if kind == "diff":
-        from netsushisen.reports.diff import diff_sections
-        return diff_sections(stats, other, args.changed)
-    from netsushisen.reports.memory import memory_sections
-    return memory_sections(stats)
+        return report_sections(kind, stats, other, args.changed)
+    return report_sections(kind, stats)
 
 
 def _check(args: argparse.Namespace) -> None:

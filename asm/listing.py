@@ -144,5 +144,5 @@ def format_static_ilp(s: StaticIlp, name: str = "") -> str:
     return (f"{head}{s.proc.upper()}  {s.bundles} bundles, {s.ops} ops, "
             f"{s.ops_per_bundle:.2f} ops/bundle\n"
             f"  slot fill   {fills}\n"
-            f"  read ports  {s.reads_per_bundle:.2f}/bundle ({100 * s.read_port_use:.1f}%, max {s.max_reads})"
-            f"   write ports {s.writes_per_bundle:.2f}/bundle ({100 * s.write_port_use:.1f}%, max {s.max_writes})")
+            f"  read ports  {s.reads_per_bundle:.2f}/bundle ({100 * s.read_port_use:.1f}%, max {s.max_reads})\n"
+            f"  write ports {s.writes_per_bundle:.2f}/bundle ({100 * s.write_port_use:.1f}%, max {s.max_writes})")

@@ -95,6 +95,16 @@ class Results:
         Path(path).write_text(dumps(self.stats), encoding="utf-8")
 
 
+def _document(stats: dict) -> dict:
+    """The statistics as the `--json` file holds them (keys sorted, as `load_stats` reads them
+    back), so a result's tables are the same as the report's on that file."""
+    import json
+
+    from netsushisen.emulator.stats import dumps
+
+    return json.loads(dumps(stats))
+
+
 def _config(config: MachineConfig | str | Path | None, sets: dict | list | None,
             **shorthands: Any) -> MachineConfig:
     """A configuration (or a TOML file, or the defaults) with `set` and the shorthands
@@ -148,7 +158,7 @@ def render(scene: str | Path | Scene, res: int = 32, pes: int | None = None,
     result = pipeline.render(s, cfg, res, corners, generic,
                              pipeline.DEFAULT_SLOTS if slots is None else slots, kernels,
                              progress=progress, engine=name)
-    return Results(result.stats, result.image_u8, result.hit_ids, dict(result.rays),
+    return Results(_document(result.stats), result.image_u8, result.hit_ids, dict(result.rays),
                    {"engine": result.engine})
 
 
@@ -203,7 +213,7 @@ def run(programs: dict[str, Program | str | Path] | list[Program],
     eng = make_engine(check_engine(engine) if engine else default_engine(), cfg, progs, image)
     eng.run()
     frame = np.asarray(eng.frame)
-    return Results(eng.statistics(), to_u8(frame) if frame.size else None,
+    return Results(_document(eng.statistics()), to_u8(frame) if frame.size else None,
                    np.array(eng.ids, copy=True) if frame.size else None, None,
                    {"engine": eng, "frame": frame})
 

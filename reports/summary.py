@@ -110,7 +110,13 @@ def render_headline(stats: dict, seconds: float, output: str) -> list[str]:
 
 def print_render_summary(stats: dict, seconds: float, output: str,
                          width: int | None = None) -> None:
-    """The whole summary `render` prints: the headline, then the ILP / stall and memory tables."""
+    """The whole summary `render` prints: the headline (wrapped between words at the width),
+    then the ILP / stall and memory tables."""
+    import textwrap
+
+    from netsushisen.reports.tables import report_width
+
     for line in render_headline(stats, seconds, output):
-        print(line)
+        print(textwrap.fill(line, width or report_width(), subsequent_indent="  ",
+                            break_long_words=False, break_on_hyphens=False))
     print(summary_tables(stats, width), end="")

@@ -16,12 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from netsushisen.emulator.engine import engine_names
 
 pytest.importorskip("pty")
 from test_long_runs import Terminal  # noqa: E402  (tests/ is on sys.path: conftest.py)
 
-COMPILED = "compiled" in engine_names()
 
 
 class Piped(Terminal):
@@ -67,7 +65,6 @@ def interrupted_after(run: Terminal, pattern: str, timeout: float) -> str:
     return err
 
 
-@pytest.mark.skipif(not COMPILED, reason="the compiled engine does not import here")
 def test_ctrl_c_during_a_compiled_render_writes_the_partial_image_and_statistics(tmp_path):
     """The compiled engine stops between chunks, writes its state back and the render writes
     what was done (the reference engine's run: tests/test_long_runs.py)."""

@@ -20,7 +20,7 @@ from netsushisen.isa.config import load_config
 from netsushisen.pipeline import render
 from netsushisen.sweep import evaluate, load_spec, points
 
-pytest.importorskip("distributed")
+import distributed  # noqa: F401,E402  a dependency (dask[distributed]): never skipped
 
 SMALL = """\
 scenes = ["tetra", "balls"]

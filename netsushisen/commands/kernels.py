@@ -98,8 +98,11 @@ def export(args: argparse.Namespace) -> int:
 def run(args: argparse.Namespace) -> int:
     if args.action == "export":
         return export(args)
+    from netsushisen.reports.tables import report_width
+
+    room = report_width() - 19  # one line a file, within the terminal (80 when not one)
     for path in kernel_files():
         first = next((line.lstrip("# ").strip() for line in path.read_text().splitlines()
                       if line.startswith("#") and line.strip("# ")), "")
-        print(f"{path.name:18s} {first if len(first) <= 72 else first[:71] + '…'}")
+        print(f"{path.name:18s} {first if len(first) <= room else first[:room - 1] + '…'}")
     return 0

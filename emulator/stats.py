@@ -13,7 +13,9 @@ Schema `netsushisen-stats` version 1:
                  against, without the source files
     run          status (halted/finished/deadlock/fault/max_cycles, or interrupted: stopped by
                  Ctrl-C, the counters so far), cycles, message,
-                 left_in_flight (words still in FIFOs at the end)
+                 left_in_flight (words still in FIFOs at the end), engine (the engine that
+                 ran: reference, compiled or tandem — set by the engine interface, the one
+                 field in which two engines' statistics differ)
     processors   keyed "pe0.os", "pe0.ic", "pe0.sc", "pe1.os", ...: present, halted, pc,
                  cycles, bundles, ops, ops_by_unit, ops_by_mnemonic, stalls {cause: cycles},
                  stall_cycles, stalls_by_pc {"pc": {label, stalls {cause: cycles}}}

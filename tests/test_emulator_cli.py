@@ -212,7 +212,7 @@ def test_config_check_reports_every_error_at_its_line(tmp_path, capsys):
     # the same through --config of a command, before any work; a --set value is not the file's
     assert main(["render", "tetra", "--config", f, "--set", "pes=0"]) == 1
     err = _err(capsys).splitlines()
-    assert len(err) == 7 and err[-1] == "error: pes must be at least 1, got 0"
+    assert len(err) == 7 and err[-1] == "netsushisen render: error: pes must be at least 1, got 0"
     # fixed, the file passes; on the command line a bool may be written yes/no
     fixed = BAD_CONFIG.replace("precison", "precision").replace("[rnig]", "[render]").replace(
         "fifo_depth = 8", "max_depth = 3").replace('"no"', "false").replace(

@@ -76,7 +76,9 @@ def _one_line_error(cli, *argv) -> str:
     code, out, err = cli(*argv)
     assert code == 1 and out == "" and "Traceback" not in err
     assert len(err.strip().splitlines()) == 1, err
-    return err.strip()
+    prefix = f"netsushisen {argv[0]}: "  # the convention: the command names itself
+    line = err.strip()
+    return line[len(prefix):] if line.startswith(prefix + "error: ") else line
 
 
 def test_resolution_out_of_range_is_one_line_before_any_work(cli, tmp_path, no_work):

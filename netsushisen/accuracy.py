@@ -419,7 +419,8 @@ def reference_row(setup: RenderSetup, full: RenderResult, full_seconds: float, t
         other = full
     else:
         other, _ = run_machine(setup, engine, budget)
-    same = run_stats.dumps(ref.stats) == run_stats.dumps(other.stats)
+    same = (run_stats.dumps(run_stats.without_engine(ref.stats))
+            == run_stats.dumps(run_stats.without_engine(other.stats)))
     point = machine_point(ref.stats)
     errors = fidelity_errors(point, machine_point(other.stats)) | {"differs": 0.0 if same else 1.0}
     estimate = seconds if whole else seconds * truth["cycles"] / budget

@@ -423,7 +423,7 @@ def _state(engine) -> dict:
     """Everything a reader of the engine interface can see after a run."""
     out = {"status": engine.status, "cycle": engine.cycle, "exit_code": engine.exit_code,
            "error": engine.result().error.format() if engine.result().error else None,
-           "statistics": engine_neutral(run_stats.dumps(engine.statistics()), engine.name),
+           "statistics": run_stats.dumps(run_stats.without_engine(engine.statistics())),
            "summary": engine.summary(),
            "frame": engine.frame.tobytes(), "ids": engine.ids.tobytes()}
     for proc in engine.processors():

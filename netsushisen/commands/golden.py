@@ -19,9 +19,9 @@ from netsushisen.host.catalog import load_scene
 from netsushisen.host.golden import render
 from netsushisen.host.images import write_png
 from netsushisen.host.nff import scene_warnings
-from netsushisen.options import (add_config_options, add_json, add_output, add_resolution, check_footprint,
-                                 check_output_folders, check_resolution, config_from_args,
-                                 write_output, write_text)
+from netsushisen.options import (add_config_options, add_json, add_output, add_resolution,
+                                 check_footprint, check_output_folders, check_resolution,
+                                 config_from_args, write_output, write_text)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:

@@ -185,7 +185,7 @@ def stats_file(tmp_path_factory):
 def test_every_table_fits_80_columns(cli, monkeypatch, tmp_path, stats_file):
     monkeypatch.delenv("COLUMNS", raising=False)
     commands = [
-        ("render", "tetra", "--res", "4", "-o", tmp_path / "t.png"),
+        ("render", "tetra", "--res", "2", "-o", tmp_path / "t.png"),
         ("scene", "info", "tetra"), ("scene", "list"), ("kernels", "list"),
         ("asm", "--scene", "tetra", "--proc", "ic", "--stats"),
         ("golden", "tetra", "--res", "4"),

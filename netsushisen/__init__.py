@@ -34,8 +34,8 @@ __all__ = ["render", "golden", "run", "assemble", "scene", "Config", "load_stats
 
 def __getattr__(name: str):
     """The API's names, imported on first use (PEP 562). `netsushisen.render` is the API's
-    function; the render pipeline module is `netsushisen.render` only once imported as a
-    module, which the API does for you."""
+    function (the render pipeline module is `netsushisen.pipeline`: no submodule may take an
+    API name, or importing it would replace the function)."""
     if name == "NetsushisenError":
         from netsushisen.errors import NetsushisenError
         return NetsushisenError

@@ -6,9 +6,9 @@
     r.image, r.ids, r.rays, r.stats          # uint8 H×W×3, hit ids, ray counts, statistics
     r.table("ilp")                           # a pandas DataFrame: `report ilp --format csv`
 
-Each function is the command's path, not a second one: `render` is `netsushisen.render`'s
-pipeline (what `netsushisen render` runs), `golden` the golden model, `run` the engine
-interface, `assemble` the assembler, `scene` the scene catalog, `Config` the machine
+Each function is the command's path, not a second one: `render` is the render pipeline
+(`netsushisen.pipeline`, what `netsushisen render` runs), `golden` the golden model, `run` the
+engine interface, `assemble` the assembler, `scene` the scene catalog, `Config` the machine
 configuration (`isa/config.py`), `load_stats` the reports' reader (JSON or a flat dump), and a
 result's `.table(name)` the report's own sections, so its DataFrame has the CSV output's columns.
 Bad input raises `NetsushisenError` with the message the command line would print.

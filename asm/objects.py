@@ -163,7 +163,9 @@ class Program:
         }
 
     def save(self, path: str | Path) -> None:
-        Path(path).write_text(json.dumps(self.to_json(), indent=None, separators=(",", ":")) + "\n")
+        from netsushisen.outputs import write_text
+
+        write_text(path, json.dumps(self.to_json(), indent=None, separators=(",", ":")) + "\n")
 
     @classmethod
     def from_json(cls, obj: dict[str, Any], where: str = "<object>") -> "Program":

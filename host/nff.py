@@ -36,7 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
-from netsushisen.errors import Diagnostic, SceneError
+from netsushisen.errors import Diagnostic, NetsushisenError, SceneError
+from netsushisen.outputs import write_text
 from netsushisen.host.nff_builder import SceneBuilder
 from netsushisen.host.nff_geometry import (FP32_EPS, MAX_WARNINGS, GeometryChecks, fp32_half_spacing,  # noqa: F401
                                            scene_warnings)
@@ -447,7 +448,7 @@ def format_nff(scene: Scene) -> str:
 def write_nff(scene: Scene, path: str | Path) -> None:
     """Write `format_nff(scene)` to `path`; an unwritable path is a `SceneError`."""
     try:
-        Path(path).write_text(format_nff(scene), encoding="ascii")
-    except OSError as err:
-        raise SceneError(Diagnostic(f"cannot write NFF file: {err.strerror or err}",
-                                    file=str(path))) from None
+        write_text(path, format_nff(scene), encoding="ascii")
+    except NetsushisenError as err:
+        message = err.diagnostics[0].message.replace("cannot write:", "cannot write NFF file:")
+        raise SceneError(Diagnostic(message, file=str(path))) from None

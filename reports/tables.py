@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.outputs import write_text
 
 FORMATS = ("table", "json", "csv", "md")
 SCHEMA_NAME = "netsushisen-stats"
@@ -211,7 +212,7 @@ def write_csv_dir(sections: list[Section], report: str, folder: str | Path) -> l
     paths = []
     for s in sections:
         path = d / f"{report}_{s.key}.csv"
-        path.write_text(render_csv(s), encoding="utf-8")
+        write_text(path, render_csv(s))
         paths.append(path)
     return paths
 

@@ -5,8 +5,8 @@ The output reassembles to the identical program (bundles, data and labels)."""
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
+from netsushisen.outputs import write_text
 from netsushisen.asm.disasm import disassemble
 from netsushisen.asm.objects import Program
 
@@ -21,7 +21,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     text = disassemble(Program.load(args.object))
     if args.out:
-        Path(args.out).write_text(text)
+        write_text(args.out, text)
     else:
         print(text, end="")
     return 0

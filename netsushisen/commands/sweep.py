@@ -26,6 +26,7 @@ import sys
 import time
 from pathlib import Path
 
+from netsushisen.outputs import write_all, write_text
 from netsushisen.errors import NetsushisenError
 from netsushisen.options import add_output, add_quiet
 from netsushisen.sweep import Point, Spec, load_spec, point_config, points, run_point, tidy_row, with_keys
@@ -111,10 +112,7 @@ def _task(spec: Spec, p: Point, engine: str) -> dict:
 
 def _write_point(folder: Path, result: dict) -> None:
     """Atomically: a killed sweep leaves whole files only."""
-    path = folder / f"{result['key']}.json"
-    tmp = path.with_suffix(f".{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(result, default=str), encoding="utf-8")
-    os.replace(tmp, path)
+    write_text(folder / f"{result['key']}.json", json.dumps(result, default=str))
 
 
 def _warm(spec: Spec, pts: list[Point], engine: str) -> None:
@@ -206,12 +204,15 @@ def write_tables(spec: Spec, pts: list[Point], folder: Path, out: Path) -> list[
     tail = ["seconds", "error", "key"]
     middle = sorted({k for r in rows for k in r} - set(head) - set(tail))
     columns = head + middle + tail
-    with open(out / "results.csv", "w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow(columns)
-        for r in rows:
-            w.writerow(["" if r.get(c) is None else r.get(c) for c in columns])
-    _write_parquet(out / "results.parquet", columns, rows)
+    def write_csv(path: Path) -> None:
+        with open(path, "w", newline="", encoding="utf-8") as f:
+            w = csv.writer(f)
+            w.writerow(columns)
+            for r in rows:
+                w.writerow(["" if r.get(c) is None else r.get(c) for c in columns])
+    # one set: a failure leaves the earlier results.csv and results.parquet as they were
+    write_all([(out / "results.csv", write_csv),
+               (out / "results.parquet", lambda p: _write_parquet(p, columns, rows))])
     return rows
 
 

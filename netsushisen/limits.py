@@ -72,6 +72,91 @@ LARGE_RAYS = 1 << 18
 """A run past either of these prints its size when it starts (unless quiet)."""
 
 
+MAX_LATENCY = 4096
+"""Cycles of any unit latency, memory access time (t_r, t_c, t_g), link latency or branch
+penalty: the compiled engine's write-back ring has a slot (72 bytes) per cycle of the longest
+latency in every processor (a latency of 10^9 asked for 48 GiB); the paper's slowest access,
+t_g, is 8 cycles."""
+
+MAX_CYCLES = (1 << 62) - 1
+"""Cycles a run may be given (`max_cycles`, `ring.deadlock_cycles`): cycle counts are 64-bit
+integers in both engines."""
+
+MAX_FIFO_WORDS = 1 << 20
+"""Words of one ring FIFO or link channel (`ring.fifo_depth`, `ring.link_buffer_words`): the
+compiled engine allocates all 56 FIFOs of a PE at the deepest one's depth, 8 bytes a word (at
+this limit 470 MB a PE); the paper's CMU buffers hold tens of words."""
+
+MAX_GRID_RESOLUTION = 256
+"""Voxels per axis of either grid level (`grid.top_resolution`, `grid.sub_resolution`): a
+level has resolution³ cells (256³ = 16.8 M cells, two words each of OS memory, already 500×
+the default OS memory), built on the host at tens of bytes a cell (100,000 asked for 914 TiB)."""
+
+MAX_DEPTH = 64
+"""Levels of the ray tree (`render.max_depth`): the golden model keeps every sample's path, one
+word a level, and SC's kernel counts depth in a word; after a few dozen reflections a ray's
+weight is far below fp32's resolution (the SPD conventions use 5)."""
+
+FIELD_LIMITS: dict[str, tuple[float, float, str]] = {
+    "max_cycles": (0, MAX_CYCLES, "cycles; 0: no limit, cycle counts are 64-bit"),
+    "ring.deadlock_cycles": (1, MAX_CYCLES, "cycles; cycle counts are 64-bit"),
+    "ring.fifo_depth": (1, MAX_FIFO_WORDS, "words; the compiled engine's FIFO buffers"),
+    "ring.link_buffer_words": (1, MAX_FIFO_WORDS, "words; the compiled engine's FIFO buffers"),
+    "ring.link_latency": (1, MAX_LATENCY, "cycles; the compiled engine's write-back ring"),
+    "grid.top_resolution": (0, MAX_GRID_RESOLUTION,
+                            "voxels a side; 0: automatic, resolution³ cells on the host"),
+    "grid.sub_resolution": (0, MAX_GRID_RESOLUTION,
+                            "voxels a side; 0: automatic, resolution³ cells on the host"),
+    "grid.subdivide_threshold": (0, MAX_WORDS, "primitives"),
+    "render.max_depth": (1, MAX_DEPTH, "levels; a word a level for every sample"),
+    "render.min_weight": (0.0, 1.0, "as a ray's weight"),
+    "render.epsilon": (0.0, 1.0, "scene units; unused, kept for older files"),
+    **{f"{m}.{t}": (1, MAX_LATENCY, "cycles; the compiled engine's write-back ring")
+       for m in ("ic_memory", "sc_memory") for t in ("t_r", "t_c", "t_g")},
+    **{f"{c}.taken_branch_penalty": (0, MAX_LATENCY, "cycles; the compiled engine's write-back ring")
+       for c in ("os", "ic", "sc")},
+}
+"""Every configuration field that sizes memory or time, with its allowed range (both ends
+included), unit and reason; `{os,ic,sc}.latency.OP` share ring.link_latency's range."""
+
+
+def _fmt(v: float) -> str:
+    return f"{v:,}" if isinstance(v, int) else f"{v:g}"
+
+
+def range_problem(path: str, value: float, low: float, high: float, what: str) -> str | None:
+    """The one-line problem of a field outside low..high (NaN and infinities included)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return f"{path} must be a finite number (allowed {_fmt(low)}..{_fmt(high)} {what}), got {value}"
+    if value < low:
+        return f"{path} must be at least {_fmt(low)}, got {_fmt(value)} (allowed {_fmt(low)}.." \
+               f"{_fmt(high)} {what})"
+    if value > high:
+        return f"{path} must be at most {_fmt(high)}, got {_fmt(value)} (allowed {_fmt(low)}.." \
+               f"{_fmt(high)} {what})"
+    return None
+
+
+def field_problems(config: MachineConfig) -> list[str]:
+    """Every field of FIELD_LIMITS (and every latency override) outside its range."""
+    problems = []
+    for path, (low, high, what) in FIELD_LIMITS.items():
+        obj = config
+        for part in path.split("."):
+            obj = getattr(obj, part)
+        problem = range_problem(path, obj, low, high, what)
+        if problem:
+            problems.append(problem)
+    low, high, what = FIELD_LIMITS["ring.link_latency"]
+    for stage in ("os", "ic", "sc"):
+        for op, lat in getattr(config, stage).latency.items():
+            if isinstance(lat, int):
+                problem = range_problem(f"{stage}.latency.{op}", lat, low, high, what)
+                if problem:
+                    problems.append(problem)
+    return problems
+
+
 def machine_problems(config: MachineConfig) -> list[str]:
     """The configuration's fields that exceed what the machine's words can address."""
     problems = []

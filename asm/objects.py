@@ -217,11 +217,13 @@ class Program:
     def load(cls, path: str | Path) -> "Program":
         p = Path(path)
         try:
-            text = p.read_text(encoding="utf-8")
+            from netsushisen.limits import read_input
+
+            text = read_input(p, "object file").decode("utf-8")
             obj = json.loads(text)
-        except FileNotFoundError:
+        except (FileNotFoundError, IsADirectoryError):
             raise NetsushisenError(Diagnostic("no such object file", file=str(p))) from None
-        except (UnicodeDecodeError, json.JSONDecodeError):
+        except (UnicodeDecodeError, json.JSONDecodeError, RecursionError):
             raise NetsushisenError(Diagnostic(
                 f"not a {OBJECT_FORMAT} file (assemble the source with `netsushisen asm`)",
                 file=str(p))) from None

@@ -68,13 +68,17 @@ _MAX_SHOWN = 160  # longest source line quoted in a diagnostic
 def read_nff(path: str | Path) -> Scene:
     """Read an NFF file. Any problem with the file (missing, unreadable, malformed) is a
     `SceneError` located at the offending record."""
+    from netsushisen.limits import check_primitives, read_input
+
     path = Path(path)
     try:
-        data = path.read_bytes()
+        data = read_input(path, "scene file")
     except OSError as err:
         raise SceneError(Diagnostic(f"cannot read scene file: {err.strerror or err}",
                                     file=str(path))) from None
-    return parse_nff(data, filename=str(path))
+    scene = parse_nff(data, filename=str(path))
+    check_primitives(scene.n_primitives, str(path))
+    return scene
 
 
 def parse_nff(text: str | bytes, filename: str = "<string>") -> Scene:

@@ -389,12 +389,16 @@ def load_config(path: str | Path | None = None, overrides: list[str] | None = No
     if path is not None:
         p = Path(path)
         try:
-            text = p.read_text(encoding="utf-8")
+            from netsushisen.limits import read_input  # late: limits types against this module
+
+            text = read_input(p, "configuration file").decode("utf-8")
             data = tomllib.loads(text)
         except (FileNotFoundError, IsADirectoryError):
             raise ConfigError(Diagnostic("no such configuration file", file=source)) from None
         except UnicodeDecodeError:
             raise ConfigError(Diagnostic("not valid TOML: not UTF-8 text", file=source)) from None
+        except RecursionError:
+            raise ConfigError(Diagnostic("not valid TOML: nested too deeply", file=source)) from None
         except tomllib.TOMLDecodeError as err:
             where = re.search(r"\(at line (\d+), column (\d+)\)", str(err))
             message = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(err))

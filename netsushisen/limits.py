@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from netsushisen.errors import NetsushisenError
+from netsushisen.errors import Diagnostic, NetsushisenError
 
 if TYPE_CHECKING:
     from netsushisen.isa.config import MachineConfig
@@ -118,6 +118,78 @@ FIELD_LIMITS: dict[str, tuple[float, float, str]] = {
 }
 """Every configuration field that sizes memory or time, with its allowed range (both ends
 included), unit and reason; `{os,ic,sc}.latency.OP` share ring.link_latency's range."""
+
+
+MAX_EXPANDED_LINES = 1 << 20
+"""Statements one assembly may produce through macros and `.rept` together (1,048,576): more
+than any processor's program memory holds many times over; counted across every level, so
+nested `.rept`s (each within its own 65,536) or a macro invoking the previous one twice, 40
+deep, stop here at once instead of running for hours."""
+
+MAX_EXPANDED_CHARS = 64 << 20
+"""Characters of source one assembly may produce through macro substitution (64 MiB): a macro
+argument that doubles at each level of nesting reaches it after about 26 levels."""
+
+MAX_STATEMENT_CHARS = 1 << 16
+"""Characters of one statement after substitution (65,536)."""
+
+MAX_CONSTANT_BITS = 1024
+"""Bits of an integer in a constant expression (`.equ`, `-D`, operands): the machine's words
+are 32 or 64 bits; the margin lets intermediate results overflow and be masked, not grow
+without end."""
+
+MAX_EXPRESSION_DEPTH = 256
+"""Levels of one expression's tree (operators and parentheses): `1+1+…+1` with 200,000 terms is
+200,000 levels deep, and the assembler walks an expression recursively."""
+
+
+MAX_INPUT_BYTES = 256 * MiB
+"""Bytes of one input file (scene, source, object, configuration, statistics, spec): the
+project's largest inputs are a few MB; reading is bounded so `/dev/zero` or a runaway file
+cannot fill memory."""
+
+MAX_PRIMITIVES = 1 << 18
+"""Primitives of one scene (262,144): the host builds the grid, the databases and the
+pre-pass at hundreds of bytes a primitive and more where primitives overlap many voxels (1 M
+spheres, or 20,000 coincident ones, ran the host out of memory); the SPD scenes at size 4
+have under 10,000."""
+
+
+def read_input(path: str | Path, what: str = "input") -> bytes:
+    """The bytes of an input file, refused (one located line) when it is not a regular file
+    (`render /dev/zero`, a FIFO, a socket) or is larger than MAX_INPUT_BYTES. A missing file
+    or a folder raises FileNotFoundError / IsADirectoryError, for the caller's own message."""
+    import errno
+    import os
+    import stat
+
+    p = Path(path)
+    st = os.stat(p)
+    if stat.S_ISDIR(st.st_mode):
+        raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), str(p))
+    if not stat.S_ISREG(st.st_mode):
+        raise NetsushisenError(Diagnostic(f"this {what} is not a regular file (a device, pipe "
+                                          "or socket)", file=str(p)))
+    if st.st_size > MAX_INPUT_BYTES:
+        raise NetsushisenError(Diagnostic(f"{what} of {size_text(st.st_size)}, more than "
+                                          f"{size_text(MAX_INPUT_BYTES)} (limits.MAX_INPUT_BYTES)",
+                                          file=str(p)))
+    with open(p, "rb") as f:
+        return f.read(MAX_INPUT_BYTES + 1)
+
+
+MAX_SWEEP_POINTS = 100_000
+"""Points of one sweep (scenes × the product of the axes) and values of one range: a point is
+a render of seconds to minutes, so 100,000 is already months of one core (9 axes of 10
+values asked for 10^9 points)."""
+
+
+def check_primitives(n: int, where: str) -> None:
+    """One line when a scene has more primitives than MAX_PRIMITIVES."""
+    if n > MAX_PRIMITIVES:
+        raise NetsushisenError(Diagnostic(f"{n:,} primitives, more than {MAX_PRIMITIVES:,} "
+                                          "(limits.MAX_PRIMITIVES: the host's grid and databases)",
+                                          file=where))
 
 
 def _fmt(v: float) -> str:

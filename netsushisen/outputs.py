@@ -4,7 +4,7 @@ A command that fails half-way (a full disk, a read-only folder, Ctrl-C, a fault)
 truncated file where a good one was, nor a new PNG beside the old statistics. So every writer goes
 through this module:
 
-- each file is written to a temporary file in the same folder (`.NAME.XXXXXX.tmp.SUFFIX`), flushed to
+- each file is written to a temporary file in the same folder (`.NAME.XXXXXX.tmp`), flushed to
   disk (fsync) and renamed over the target — rename within a folder is atomic on POSIX, so a
   reader sees the old file or the new one, never a part;
 - a failure removes the temporary and leaves any earlier file untouched, and is reported as one
@@ -60,8 +60,9 @@ def _mode(target: Path) -> int:
 
 
 def _temporary(target: Path) -> Path:
-    # the target's suffix last: writers that choose a format by it (matplotlib) still can
-    fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=f".tmp{target.suffix}",
+    # ends in .tmp, never the target's suffix: a reader globbing `*.json` must not see it
+    # (writers that choose a format by the suffix are told the format: savefig(format=...))
+    fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp",
                                 dir=target.parent if str(target.parent) else ".")
     os.close(fd)
     return Path(name)

@@ -212,7 +212,7 @@ def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
     ax.legend(handles=set_h, loc="upper left", bbox_to_anchor=(1.01, 1), fontsize=8, title="setting")
     ax.grid(True, which="major", alpha=0.3)
     fig.tight_layout()
-    write_file(path, lambda p: fig.savefig(p))
+    write_file(path, lambda p: fig.savefig(p, format=Path(path).suffix[1:] or None))
     plt.close(fig)
 
 

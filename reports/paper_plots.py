@@ -124,7 +124,7 @@ def figure3(scenes: list[SceneData], path: Path) -> None:
     ax.grid(alpha=0.3)
     ax.legend(loc="lower right", fontsize=7)
     fig.tight_layout()
-    write_file(path, lambda p: fig.savefig(p))
+    write_file(path, lambda p: fig.savefig(p, format=Path(path).suffix[1:] or None))
     plt.close(fig)
 
 
@@ -148,7 +148,7 @@ def figure4(scenes: list[SceneData], path: Path) -> None:
     fig.suptitle(f"Figure 4: cache miss rate, cache-only local memory ({_suffix(scenes)}, direct-mapped, "
                  f"{scenes[0].block_bytes}-byte blocks)\n{scenes[0].options.describe()}", fontsize=10)
     fig.tight_layout()
-    write_file(path, lambda p: fig.savefig(p))
+    write_file(path, lambda p: fig.savefig(p, format=Path(path).suffix[1:] or None))
     plt.close(fig)
 
 
@@ -199,7 +199,7 @@ def figure5(scenes: list[SceneData], path: Path, what: str = "ref") -> None:
                  "axis clipped above the curves; clipped 100 %-resident points: arrow and value",
                  fontsize=9)
     fig.tight_layout()
-    write_file(path, lambda p: fig.savefig(p))
+    write_file(path, lambda p: fig.savefig(p, format=Path(path).suffix[1:] or None))
     plt.close(fig)
 
 

@@ -11,14 +11,19 @@ on the cluster whose scheduler listens at ADDRESS (`dask scheduler`, then `dask 
 on each machine). Each finished point is written at once to DIR/points/KEY.json (DIR default
 `sweep/`); a rerun computes only the missing points. A failed point (fault, deadlock, cycle
 limit, bad configuration, a worker lost too often) is recorded with its error and the sweep goes
-on. At the end, and on Ctrl-C (exit 130), DIR/results.csv and DIR/results.parquet hold one row
-per finished point; the last line says `sweep: P points, C computed, K cached, F failed`.
+on; the next run computes it again (`--no-retry` keeps it). Each point file carries a checksum of
+its content and the hash of the spec that wrote it: a point file that is truncated, not JSON,
+edited or written for another key is named in one line and computed again. At the end, and on
+Ctrl-C (exit 130), DIR/results.csv and DIR/results.parquet hold one row per finished point; the
+last line says `sweep: P points, C computed, K cached, F failed` (P distinct points: C + K = P
+unless interrupted, when the rest are counted as not run).
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import hashlib
 import json
 import logging
 import os
@@ -46,6 +51,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_output(parser, "output folder (default sweep/); with plot: the image file (default next "
                        "to RESULTS)", metavar="PATH", aliases=("--output",))
     parser.add_argument("--engine", help="engine of every point (default: the spec's, else compiled)")
+    parser.add_argument("--no-retry", dest="retry", action="store_false",
+                        help="keep failed points as they are (default: compute them again)")
     add_quiet(parser, "no progress bar")
     plot = parser.add_argument_group("plot")
     plot.add_argument("--x", help="(plot) field on the x axis (default: the first varied field)")
@@ -71,7 +78,8 @@ def run(args: argparse.Namespace) -> int:
     engine = _engine(args.engine or spec.engine)
     _check_footprint(spec, engine, args.quiet)
     summary = run_sweep(spec, Path(args.out or "sweep"), engine, scheduler=args.scheduler,
-                        workers=args.workers, show=not args.quiet and sys.stderr.isatty())
+                        workers=args.workers, show=not args.quiet and sys.stderr.isatty(),
+                        retry=args.retry)
     print(summary.line())
     if summary.interrupted:
         return 130
@@ -96,13 +104,17 @@ def _engine(name: str | None) -> str:
 
 
 class Summary:
-    def __init__(self, total: int) -> None:
+    def __init__(self, total: int, duplicates: int = 0) -> None:
         self.total, self.computed, self.cached, self.failed = total, 0, 0, 0
+        self.duplicates = duplicates
         self.interrupted = False
 
     def line(self) -> str:
-        return (f"sweep: {self.total} points, {self.computed} computed, {self.cached} cached, "
-                f"{self.failed} failed" + (" (interrupted)" if self.interrupted else ""))
+        dup = f" ({self.duplicates} more repeat one)" if self.duplicates else ""
+        rest = self.total - self.computed - self.cached
+        return (f"sweep: {self.total} points{dup}, {self.computed} computed, {self.cached} cached, "
+                f"{self.failed} failed" + (f", {rest} not run" if rest else "")
+                + (" (interrupted)" if self.interrupted else ""))
 
 
 def _task(spec: Spec, p: Point, engine: str) -> dict:
@@ -110,9 +122,25 @@ def _task(spec: Spec, p: Point, engine: str) -> dict:
             "config_file": spec.config_file, "res": spec.res, "engine": engine}
 
 
-def _write_point(folder: Path, result: dict) -> None:
-    """Atomically: a killed sweep leaves whole files only."""
-    write_text(folder / f"{result['key']}.json", json.dumps(result, default=str))
+def _checksum(result: dict) -> str:
+    body = {k: v for k, v in result.items() if k != "checksum"}
+    return hashlib.sha256(json.dumps(body, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def _write_point(folder: Path, result: dict, spec_hash: str = "") -> None:
+    """Atomically (a killed sweep leaves whole files only), with the spec's hash and a
+    checksum of the content (`_load` verifies it)."""
+    result = json.loads(json.dumps(result, default=str))  # as it will read back
+    result["spec"] = spec_hash
+    result["checksum"] = _checksum(result)
+    write_text(folder / f"{result['key']}.json", json.dumps(result))
+
+
+def _spec_hash(spec: Spec) -> str:
+    try:
+        return hashlib.sha256(spec.path.read_bytes()).hexdigest()[:16]
+    except OSError:
+        return ""
 
 
 def _warm(spec: Spec, pts: list[Point], engine: str) -> None:
@@ -139,19 +167,28 @@ def _client(scheduler: str | None, workers: int | None):
 
 
 def run_sweep(spec: Spec, out: Path, engine: str, scheduler: str | None = None,
-              workers: int | None = None, show: bool = False) -> Summary:
-    """Run every point not already in out/points; write the results tables (also on Ctrl-C)."""
+              workers: int | None = None, show: bool = False, retry: bool = True) -> Summary:
+    """Run every point not already in out/points (a corrupt point file again, and a failed
+    point again unless `retry` is False); write the results tables (also on Ctrl-C)."""
     pts = with_keys(spec, points(spec), engine)
     folder = out / "points"
     folder.mkdir(parents=True, exist_ok=True)
-    summary = Summary(len(pts))
-    todo: dict[str, Point] = {}
+    distinct: dict[str, Point] = {}
     for p in pts:
-        if (folder / f"{p.key}.json").exists():
+        distinct.setdefault(p.key, p)  # the first point of each key
+    summary = Summary(len(distinct), len(pts) - len(distinct))
+    spec_hash = _spec_hash(spec)
+    todo: dict[str, Point] = {}
+    for key, p in distinct.items():
+        found = _load(folder, key) if (folder / f"{key}.json").exists() else None
+        if isinstance(found, str):
+            print(f"sweep: point {key} ({p.scene}, {_shown(p)}) {found}: computing it again",
+                  file=sys.stderr)
+        elif found is not None and (found["status"] not in FAILED or not retry):
             summary.cached += 1
-            summary.failed += _load(folder, p.key)["status"] in FAILED
-        else:
-            todo.setdefault(p.key, p)
+            summary.failed += found["status"] in FAILED
+            continue
+        todo[key] = p
     client = cluster = None
     progress = None
     try:
@@ -170,7 +207,7 @@ def run_sweep(spec: Spec, out: Path, engine: str, scheduler: str | None = None,
                     result = {"key": p.key, "scene": p.scene, "values": list(p.values),
                               "status": "lost", "error": f"{type(err).__name__}: {err}",
                               "stats": None, "seconds": 0.0, "engine": engine}
-                _write_point(folder, result)
+                _write_point(folder, result, spec_hash)
                 summary.computed += 1
                 summary.failed += result["status"] in FAILED
                 if progress:
@@ -188,8 +225,24 @@ def run_sweep(spec: Spec, out: Path, engine: str, scheduler: str | None = None,
     return summary
 
 
-def _load(folder: Path, key: str) -> dict:
-    return json.loads((folder / f"{key}.json").read_text(encoding="utf-8"))
+def _shown(p: Point) -> str:
+    return ", ".join(f"{k} = {v!r}" for k, v in p.values) or "base configuration"
+
+
+def _load(folder: Path, key: str) -> dict | str:
+    """A point's result, or what is wrong with its file: not readable JSON (truncated), no
+    checksum or one that does not match (edited), or written for another key."""
+    try:
+        result = json.loads((folder / f"{key}.json").read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError):
+        return "is not whole JSON (truncated?)"
+    if not isinstance(result, dict) or "checksum" not in result:
+        return "has no checksum"
+    if result["checksum"] != _checksum(result):
+        return "does not match its checksum (edited or damaged)"
+    if result.get("key") != key or "status" not in result:
+        return "was written for another point"
+    return result
 
 
 def write_tables(spec: Spec, pts: list[Point], folder: Path, out: Path) -> list[dict]:
@@ -199,7 +252,9 @@ def write_tables(spec: Spec, pts: list[Point], folder: Path, out: Path) -> list[
         if p.key in seen or not (folder / f"{p.key}.json").exists():
             continue
         seen.add(p.key)
-        rows.append(tidy_row(spec.fields, _load(folder, p.key)))
+        result = _load(folder, p.key)
+        if isinstance(result, dict):
+            rows.append(tidy_row(spec.fields, result))
     head = ["scene", *spec.fields, "status", "cycles"]
     tail = ["seconds", "error", "key"]
     middle = sorted({k for r in rows for k in r} - set(head) - set(tail))

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Union
@@ -104,6 +105,47 @@ class SourceLoc:
     via: str = ""
     """The macro / .rept expansions the bundle came from (`file:line: invocation`, outermost
     first, joined by ` > `); "" for a bundle written out."""
+
+
+_INT32 = range(-(1 << 31), 1 << 31)
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.$]*\Z")
+
+
+def _problem(proc: str, bundles: list, data: list, labels: dict, defines: dict) -> str | None:
+    """What makes a decoded object impossible for its processor, or None: the checks the
+    assembler made (registers, immediates and offsets to their 32-bit fields, branch targets
+    inside the program, ports the processor has, opcodes it runs, names that are names), so
+    that a hand-edited object cannot run differently on the two engines."""
+    processor = PROCESSORS[proc]
+    for i, bundle in enumerate(bundles):
+        for op in bundle:
+            opcode = op.opcode
+            if proc not in opcode.procs:
+                return f"bundle {i}: {op.mnemonic} does not run on {proc.upper()}"
+            for spec, a in zip(opcode.operands, op.args):
+                if spec.kind in ("rd", "rs") and not 0 <= a < processor.registers:
+                    return f"bundle {i}: {op.mnemonic}: register {a} (registers are r0..r{processor.registers - 1})"
+                if spec.kind == "mem" and (not 0 <= a[0] < processor.registers or a[1] not in _INT32):
+                    return f"bundle {i}: {op.mnemonic}: memory operand {list(a)} (a register and a 32-bit offset)"
+                if spec.kind == "imm" and a not in _INT32:
+                    return f"bundle {i}: {op.mnemonic}: immediate {a} does not fit its 32-bit field"
+                if spec.kind == "label" and not 0 <= a < len(bundles):
+                    return f"bundle {i}: {op.mnemonic}: branch target {a} outside the program (0..{len(bundles) - 1})"
+                if spec.kind == "port":
+                    ports = processor.send_ports if opcode.sends_to_port else processor.recv_ports
+                    if a not in ports:
+                        return f"bundle {i}: {op.mnemonic}: port {a!r} ({proc.upper()} has {', '.join(ports)})"
+    for k, v in data:
+        if k not in ("i", "f") or (k == "i" and v not in _INT32):
+            return f"data word {k!r} {v!r} (a 32-bit integer 'i' or a float 'f')"
+    for name, (section, at) in labels.items():
+        size = len(bundles) if section == "text" else len(data)
+        if not _NAME.match(name) or section not in ("text", "data") or not 0 <= at <= size:
+            return f"label {name!r} at {section} {at}"
+    for name, v in defines.items():
+        if not _NAME.match(name) or isinstance(v, bool) or not isinstance(v, (int, float)):
+            return f"define {name!r} = {v!r}"
+    return None
 
 
 @dataclass
@@ -209,8 +251,11 @@ class Program:
             defines = dict(obj.get("defines", {}))
         except NetsushisenError:
             raise
-        except (KeyError, TypeError, ValueError, IndexError) as err:
+        except (KeyError, TypeError, ValueError, IndexError, OverflowError) as err:
             raise bad(f"malformed content ({type(err).__name__}: {err})") from None
+        problem = _problem(proc, bundles, data, labels, defines)
+        if problem:
+            raise bad(problem)
         return cls(proc, bundles, data, labels, smap, defines)
 
     @classmethod

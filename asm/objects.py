@@ -216,10 +216,10 @@ class Program:
 
         if not isinstance(obj, dict) or obj.get("format") != OBJECT_FORMAT:
             raise bad(f"not a {OBJECT_FORMAT} file")
-        if obj.get("version") != OBJECT_VERSION:
+        if obj.get("version") != OBJECT_VERSION or isinstance(obj.get("version"), bool):
             raise bad(f"version {obj.get('version')!r} is not {OBJECT_VERSION}")
         proc = obj.get("proc")
-        if proc not in PROCESSORS:
+        if not isinstance(proc, str) or proc not in PROCESSORS:
             raise bad(f"unknown processor {proc!r}")
         try:
             bundles = []
@@ -227,7 +227,7 @@ class Program:
                 ops = []
                 for item in raw:
                     mnemonic, *args = item
-                    if mnemonic not in OPCODES:
+                    if not isinstance(mnemonic, str) or mnemonic not in OPCODES:
                         raise bad(f"bundle {i}: unknown mnemonic {mnemonic!r}")
                     opcode = OPCODES[mnemonic]
                     if len(args) != len(opcode.operands):
@@ -251,7 +251,7 @@ class Program:
             defines = dict(obj.get("defines", {}))
         except NetsushisenError:
             raise
-        except (KeyError, TypeError, ValueError, IndexError, OverflowError) as err:
+        except (KeyError, TypeError, ValueError, IndexError, OverflowError, AttributeError) as err:
             raise bad(f"malformed content ({type(err).__name__}: {err})") from None
         problem = _problem(proc, bundles, data, labels, defines)
         if problem:

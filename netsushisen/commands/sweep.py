@@ -27,6 +27,7 @@ import hashlib
 import json
 import logging
 import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -74,6 +75,8 @@ def run(args: argparse.Namespace) -> int:
         raise NetsushisenError(f"sweep: unexpected argument {args.results!r} (only `sweep plot` takes RESULTS)")
     if args.workers is not None and args.workers < 1:
         raise NetsushisenError(f"--workers {args.workers}: give at least 1")
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
     spec = load_spec(args.spec)
     engine = _engine(args.engine or spec.engine)
     _check_footprint(spec, engine, args.quiet)
@@ -153,13 +156,27 @@ def _warm(spec: Spec, pts: list[Point], engine: str) -> None:
         load(precision)
 
 
+_ADDRESS = re.compile(r"(tcp|tls)://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):(\d{1,5})\Z")
+
+
+def check_scheduler(address: str) -> None:
+    """A Dask scheduler address, `tcp://HOST:PORT` (or tls://), refused in one line before
+    anything starts otherwise."""
+    m = _ADDRESS.match(address)
+    if m is None or not 1 <= int(m.group(3)) <= 65535:
+        raise NetsushisenError(f"--scheduler {address!r}: expected tcp://HOST:PORT (a Dask "
+                               "scheduler's address, port 1..65535)")
+
+
 def _client(scheduler: str | None, workers: int | None):
     from dask.distributed import Client, LocalCluster
     if scheduler:
         try:
             return Client(scheduler, timeout="10s"), None
-        except (OSError, TimeoutError) as err:
-            raise NetsushisenError(f"--scheduler {scheduler}: cannot connect ({err})") from None
+        except (OSError, TimeoutError, ValueError, TypeError, MemoryError) as err:
+            # MemoryError: a server that is not Dask's (its reply read as a frame length)
+            raise NetsushisenError(f"--scheduler {scheduler}: cannot connect "
+                                   f"({type(err).__name__}: {str(err)[:200]})") from None
     n = workers or os.cpu_count() or 1
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                            dashboard_address=None, silence_logs=logging.ERROR)

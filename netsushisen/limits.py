@@ -178,6 +178,11 @@ def read_input(path: str | Path, what: str = "input") -> bytes:
         return f.read(MAX_INPUT_BYTES + 1)
 
 
+MAX_GRID_CANDIDATES = 1 << 23
+"""(primitive, voxel) pairs the grid builder tests at once (8,388,608; about 100 bytes each on
+the host): primitives that overlap many voxels each — 20,000 coincident spheres asked for 300 M
+pairs, 3.2 GB — are refused; tetra:8 (65,536 triangles) needs 2.4 M."""
+
 MAX_SWEEP_POINTS = 100_000
 """Points of one sweep (scenes × the product of the axes) and values of one range: a point is
 a render of seconds to minutes, so 100,000 is already months of one core (9 axes of 10

@@ -104,3 +104,14 @@ def test_deeply_nested_toml_and_json_are_one_line(tmp_path, capsys):
         assert main(argv) == 1
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "error:" in err[0] and "internal" not in err[0], (argv, err)
+
+
+def test_coincident_primitives_are_refused_by_the_grid_pairs_they_imply(tmp_path, capsys):
+    """20,000 coincident spheres (220 KB) asked the grid builder for 300 M pairs (3.2 GB)."""
+    head = ("v\nfrom 0 0 -10\nat 0 0 0\nup 0 1 0\nangle 40\nhither 1\nresolution 8 8\n"
+            "b 0 0 0\nl 1 1 1\nf 1 0 0 0.5 0.5 0 0 0\n")
+    scene = tmp_path / "same.nff"
+    scene.write_text(head + "s 0 0 0 1\n" * 20000)
+    assert main(["golden", str(scene), "--res", "2"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "limits.MAX_GRID_CANDIDATES" in err[0], err

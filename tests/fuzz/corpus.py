@@ -56,7 +56,7 @@ hither 1
 resolution 8 8
 b 0.1 0.1 0.1
 l 5 5 -5
-f 1 0 0 0.6 0.3 20 0.2 0 1
+f 1 0 0 0.6 0.3 20 0.2 1
 s 0 0 0 1
 p 3
 -1 -1 2
@@ -145,8 +145,10 @@ REGRESSIONS = [
     Case("set", "t-g", ("config", "--set", "ic_memory.t_g=2000000000")),
     Case("set", "max-depth", ("config", "--set", "render.max_depth=100000000")),
     Case("set", "epsilon-nan", ("config", "--set", "render.epsilon=nan")),
-    Case("nff", "many-coincident", ("golden", "scene.nff", "--res", "2"),
+    Case("nff", "many-spheres", ("golden", "scene.nff", "--res", "2"),
          {"scene.nff": NFF + b"s 0 0 0 1\n" * 300000}),
+    Case("nff", "coincident", ("golden", "scene.nff", "--res", "2"),
+         {"scene.nff": NFF + b"s 0 0 0 1\n" * 20000}),
     Case("object", "2**70", ("disasm", "prog.o"), {}),  # files filled in by _objects()
 ]
 

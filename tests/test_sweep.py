@@ -218,15 +218,16 @@ def test_ctrl_c_keeps_every_finished_point(tmp_path):
     spec = write(tmp_path, SMALL.replace("res = 8", "res = 24").format(extra=""))
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "netsushisen.cli", "sweep", str(spec), "--out",
-                             str(out), "--workers", "1"], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                             str(out), "--workers", "2"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
     deadline = time.time() + 180
     while time.time() < deadline and not list((out / "points").glob("*.json")):
         time.sleep(0.05)
-    proc.send_signal(signal.SIGINT)
+    os.killpg(proc.pid, signal.SIGINT)  # as Ctrl-C at a terminal: the whole process group
     stdout, stderr = proc.communicate(timeout=120)
     assert proc.returncode == 130, stderr
     assert "(interrupted)" in stdout.strip().splitlines()[-1]
+    assert len(stderr.strip().splitlines()) <= 1, stderr  # no worker's traceback
     finished = list((out / "points").glob("*.json"))
     assert 1 <= len(finished) < 6
     assert len(rows(out)) == len(finished)

@@ -28,6 +28,7 @@ import json
 import logging
 import os
 import re
+import signal
 import sys
 import time
 from pathlib import Path
@@ -178,8 +179,14 @@ def _client(scheduler: str | None, workers: int | None):
             raise NetsushisenError(f"--scheduler {scheduler}: cannot connect "
                                    f"({type(err).__name__}: {str(err)[:200]})") from None
     n = workers or os.cpu_count() or 1
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=logging.ERROR)
+    # the workers ignore SIGINT (inherited; Python keeps an ignored SIGINT ignored): Ctrl-C at
+    # a terminal reaches the whole process group, and only this process should answer it
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=logging.ERROR)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     return Client(cluster), cluster
 
 

@@ -136,7 +136,10 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet and rows:
         print(tables_text(rows), end="")
     if interrupted:
-        print(f"netsushisen accuracy: interrupted; wrote what was finished to {out}/", file=sys.stderr)
+        done = ", ".join(f"{axis} ({len({r.scene for r in r_})} scenes)" for axis, r_ in rows.items())
+        print("netsushisen accuracy: interrupted; " + (
+            f"wrote the finished scene × axis rows to {out}/: {done}" if paths else
+            "no scene × axis had finished: nothing written"), file=sys.stderr)
         return 130
     if not args.quiet:
         print(f"{len(scenes)} scenes, axes {', '.join(axes)} at {args.res}x{args.res} in "

@@ -32,7 +32,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from netsushisen.errors import SceneError
 from netsushisen.host.rays import dtype_of
 from netsushisen.host.scenes import Kind, Scene
 from netsushisen.isa.config import GridConfig, MachineConfig
@@ -283,15 +282,11 @@ def _overlap(units: _Units, u: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np
 
 def _expand(lo_idx: np.ndarray, hi_idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """All integer cells of K index boxes: (owner row (M,), cell index (M, 3))."""
-    from netsushisen.limits import MAX_GRID_CANDIDATES
+    from netsushisen.limits import check_grid_candidates
 
     n = np.maximum(hi_idx - lo_idx + 1, 0)
     cnt = n.prod(axis=1)
-    total = int(cnt.sum())
-    if total > MAX_GRID_CANDIDATES:
-        raise SceneError(f"the grid would test {total:,} (primitive, voxel) pairs, more than "
-                         f"{MAX_GRID_CANDIDATES:,} (limits.MAX_GRID_CANDIDATES: primitives that "
-                         "overlap many voxels each, e.g. coincident or very large ones)")
+    check_grid_candidates(int(cnt.sum()))
     rep = np.repeat(np.arange(len(cnt)), cnt)
     local = np.arange(len(rep)) - np.repeat(np.cumsum(cnt) - cnt, cnt)
     nx, ny = n[rep, 0], n[rep, 1]

@@ -178,10 +178,27 @@ def read_input(path: str | Path, what: str = "input") -> bytes:
         return f.read(MAX_INPUT_BYTES + 1)
 
 
-MAX_GRID_CANDIDATES = 1 << 23
-"""(primitive, voxel) pairs the grid builder tests at once (8,388,608; about 100 bytes each on
-the host): primitives that overlap many voxels each — 20,000 coincident spheres asked for 300 M
-pairs, 3.2 GB — are refused; tetra:8 (65,536 triangles) needs 2.4 M."""
+MAX_GRID_CANDIDATES = 1 << 26
+"""(primitive, voxel) pairs the grid builder tests at once (67,108,864), and no more than the
+host's memory holds at GRID_BYTES_PER_CANDIDATE: primitives that overlap many voxels each —
+20,000 coincident spheres asked for 300 M pairs — are refused; tetra:8 (65,536 triangles)
+needs 2.4 M, the accuracy study's bfloat16-rounded balls 25 M."""
+
+GRID_BYTES_PER_CANDIDATE = 200
+"""Host bytes a candidate pair takes while the grid builder tests it (its owner, cell index,
+cell box and the temporaries of their computation)."""
+
+
+def check_grid_candidates(total: int) -> None:
+    """One line when the grid builder would test more pairs than MAX_GRID_CANDIDATES or than
+    the memory available holds."""
+    available = available_bytes()
+    need = total * GRID_BYTES_PER_CANDIDATE
+    if total > MAX_GRID_CANDIDATES or (available is not None and need > available):
+        raise NetsushisenError(
+            f"the grid would test {total:,} (primitive, voxel) pairs, about {size_text(need)} "
+            f"(limits.MAX_GRID_CANDIDATES {MAX_GRID_CANDIDATES:,} and the memory available: "
+            "primitives that overlap many voxels each, e.g. coincident or very large ones)")
 
 MAX_SWEEP_POINTS = 100_000
 """Points of one sweep (scenes × the product of the axes) and values of one range: a point is

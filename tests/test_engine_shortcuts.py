@@ -358,6 +358,13 @@ def test_tetra_depth_24_regression():
     _render_both("tetra", 8, ["ring.fifo_depth=24"])
 
 
+def test_rings_depth_26_link_3_regression():
+    """rings 3x3 at depth 26 with 3-cycle links diverged at cycle 20,216: SC popped its full
+    receive FIFO and ran ahead, and the cycle's issue was judged from the last cycle it ran
+    ahead through (a hold: not issued), so the quiet skip jumped over the CMU's move."""
+    _render_both("rings", 3, ["ring.fifo_depth=26", "ring.link_latency=3"], max_cycles=24_576)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("scene", PAPER)
 @pytest.mark.parametrize("depth,link", FIFO_GRID, ids=[f"d{d}-l{l}" for d, l in FIFO_GRID])

@@ -815,11 +815,11 @@ def run_cycles(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn,
             rr = c % rn
         rr_c = c
         dis_changed = False
-        # a processor that issued in cycle c and then ran ahead reads as not issued (its
-        # C_LAST_ISSUED speaks for the cycle it reached); its bundle in cycle c may still have
-        # popped a FIFO — a slot free from c + 1, which a CMU or a sender may take — so the
-        # cycle is not quiet (skip_quiet)
-        issued_before_ahead = False
+        # whether some processor issued in cycle c itself: one that then ran ahead reads as not
+        # issued (its C_LAST_ISSUED speaks for the last cycle it stepped), yet its bundle in
+        # cycle c may have popped a FIFO — a slot free from c + 1 for a CMU or a sender to
+        # take — so the cycle is not quiet (skip_quiet)
+        issued_in_c = False
         # DIS (machine.Dis.step)
         if dis[D_DYNAMIC] and dis[D_NEXT] < nmsgs:
             best = -1
@@ -886,6 +886,8 @@ def run_cycles(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn,
                             wake_all(cs, stpc, npes * 3, c, p)
                             g[G_CYCLE] = c + 1
                             return S_FAULT
+                        if t == c and cs[p, C_LAST_ISSUED]:
+                            issued_in_c = True
                         t += 1
                         if not ahead or cs[p, C_SLEEP] or cs[p, C_HALTED]:
                             break
@@ -897,8 +899,6 @@ def run_cycles(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn,
                         if pc < 0 or pc >= cs[p, C_NB] or not bun[p, pc, B_PRIVATE]:
                             break
                     if t > c + 1:
-                        if cs[p, C_LAST_ISSUED]:
-                            issued_before_ahead = True
                         cs[p, C_AHEAD] = 1
                         cs[p, C_AHEAD_ISSUED] = cs[p, C_LAST_ISSUED]
                         cs[p, C_AHEAD_CAUSE] = cs[p, C_CAUSE]
@@ -1020,7 +1020,7 @@ def run_cycles(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn,
         sp = g[G_STOP_P]
         if sp >= 0 and cs[sp, C_PC] == g[G_STOP_PC] and not cs[sp, C_HALTED]:
             return S_STOPPED
-        if not any_issued and not dis_changed and not issued_before_ahead:
+        if not any_issued and not dis_changed and not issued_in_c:
             skip_quiet(c, until, limit, npes, W, cs, regs, wbn, wbr, wbw, stpc, pes, pw, cflags,
                        g)
     return S_RUNNING

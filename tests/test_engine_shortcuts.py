@@ -23,6 +23,7 @@ from hypothesis import strategies as st
 
 from netsushisen.asm.assembler import assemble_text
 from netsushisen.emulator.engine import engine_names, make_engine
+from netsushisen.emulator.stats import without_engine
 from netsushisen.emulator.harness import ProcessorView, run_machine
 from netsushisen.isa.config import load_config
 from netsushisen.isa.ring import DESTS, make_header
@@ -160,7 +161,8 @@ def test_deadlock_after_long_latency_wait(engine_name):
     assert r.status == "deadlock" and e.exit_code == 3
     assert "never sent" in r.error.format()
     ref, _ = run("reference", ("ring.deadlock_cycles=40",), **sources)
-    assert e.cycle == ref.cycle and e.statistics() == ref.statistics()
+    assert e.cycle == ref.cycle
+    assert without_engine(e.statistics()) == without_engine(ref.statistics())
 
 
 # -- 4. A stop point (debugger fast-forward) inside a long wait ---------------------------------
@@ -278,7 +280,7 @@ def _compare_through_tandem(sets, sources, chunk) -> None:
     comp = make_engine("compiled", config, programs)
     comp.run(3000)
     assert (comp.status, comp.cycle) == (tandem.status, tandem.cycle)
-    assert comp.statistics() == tandem.statistics()
+    assert without_engine(comp.statistics()) == without_engine(tandem.statistics())
     assert comp.summary() == tandem.summary()
 
 
@@ -316,15 +318,14 @@ def test_random_shortcut_programs_agree_more(case):
 
 PAPER = ("tetra", "balls", "mount", "rings")
 FIFO_GRID = [(d, lat) for d in range(21, 65) for lat in range(1, 5)]
-FIFO_SAMPLE = [(21, 1, "balls"), (24, 1, "tetra"), (22, 3, "mount"), (37, 2, "rings"),
-               (64, 4, "tetra")]
-"""The default run's sample: the two depths that diverged (21 on balls, 24 on tetra), a
-non-power-of-two depth with slow links, and the extremes."""
+FIFO_SAMPLE = [(22, 3, "mount")]
+"""The default run's sample beside the three regressions below (depths 21, 24 and 26, links of 1
+and 3 cycles): a non-power-of-two depth with slow links on a scene of its own."""
 
 
 def _render_both(scene: str, res: int, sets: list[str], max_cycles: int | None = None) -> None:
     from netsushisen.isa.config import MachineConfig, apply_override
-    from netsushisen.render import prepare
+    from netsushisen.pipeline import prepare
 
     config = MachineConfig()
     for item in sets:
@@ -335,7 +336,7 @@ def _render_both(scene: str, res: int, sets: list[str], max_cycles: int | None =
     comp = setup.engine("compiled")
     comp.run(max_cycles)
     assert (comp.status, comp.cycle) == (tandem.status, tandem.cycle)
-    assert comp.statistics() == tandem.statistics()
+    assert without_engine(comp.statistics()) == without_engine(tandem.statistics())
     assert comp.frame.tobytes() == tandem.frame.tobytes()
     assert comp.ids.tobytes() == tandem.ids.tobytes()
 
@@ -354,8 +355,8 @@ def test_balls_depth_21_regression():
 
 def test_tetra_depth_24_regression():
     """tetra 8x8 at depth 24: a word of pe0.recv.ic became visible one cycle late on the
-    compiled engine (cycle 11,870); the whole run in tandem."""
-    _render_both("tetra", 8, ["ring.fifo_depth=24"])
+    compiled engine (cycle 11,870); tandem past that cycle."""
+    _render_both("tetra", 8, ["ring.fifo_depth=24"], max_cycles=12_288)
 
 
 def test_rings_depth_26_link_3_regression():

@@ -45,6 +45,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--listing", metavar="PATH|-", help="write a listing (- for stdout)")
     parser.add_argument("--stats", action="store_true", help="print static ILP statistics")
     parser.add_argument("--json", action="store_true", help="with --stats: print them as JSON")
+    parser.add_argument("--no-schedule", action="store_true",
+                        help="leave .sched regions one operation per bundle, as written (their "
+                             "serial form)")
     scene = parser.add_argument_group("kernels for a scene (the symbols `render` uses)")
     scene.add_argument("--scene", metavar="SCENE",
                        help="built-in scene name (tetra, balls, ...) or .nff file")
@@ -115,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
     programs: list[tuple[Path, Program]] = []
     infos: dict[str, str] = {}
     for proc, path in sources:
-        asm = Assembler(proc, defines, includes, config)
+        asm = Assembler(proc, defines, includes, config, schedule=not args.no_schedule)
         programs.append((path, asm.assemble_file(path)))
         infos[str(path)] = "".join(r.format() + "\n" for r in asm.pipeline_reports)
         for r in asm.pipeline_reports:

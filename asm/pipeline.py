@@ -428,6 +428,20 @@ def _copies_needed(g: DependenceGraph, reads, time: list[int], ii: int) -> dict[
     return need
 
 
+def _join(bundle: list[Placed], items: list[Placed], ops, proc: Processor) -> bool:
+    """Add the exit's moves and jump to the epilogue's last bundle if they fit there and read
+    nothing it writes (a bundle sees none of its own results)."""
+    from netsushisen.asm.checker import check_bundle
+
+    made = [materialize(p, ops) for p in bundle]
+    extra = [materialize(p, ops) for p in items]
+    written = {r for op in made for r in op.writes()}
+    if any(r in written for op in extra for r in op.reads()) or check_bundle(proc, made + extra):
+        return False
+    bundle.extend(items)
+    return True
+
+
 def pipeline_loop(ops: list[Op], proc: Processor, config: MachineConfig, temps: list[int],
                   report: PipelineReport) -> Layout | None:
     """The pipelined layout of a loop body (serial order, its back edge last), or None with
@@ -548,6 +562,7 @@ def _emit(ops, g, reads, time, ii, stages, unroll, names, shape: _Loop, proc, co
     for k, c in enumerate(order):
         if c != unroll - 1:
             out.add_label(f"epilogue{c}")
+        first = len(out.bundles)
         for e in range(stages - 1):
             emit_rows(rows_of(lambda s, e=e: s >= e + 1, lambda s, c=c, e=e: c + stages + e - s))
         items = []
@@ -558,7 +573,7 @@ def _emit(ops, g, reads, time, ii, stages, unroll, names, shape: _Loop, proc, co
                 items.append(Placed(-1, op=Op(move, (r, final)), source=d))
         if k < len(order) - 1 or stages > 1:
             items.append(Placed(-1, op=Op("j", (0,)), target="done", source=br))
-        if items:
+        if items and not (len(out.bundles) > first and _join(out.bundles[-1], items, ops, proc)):
             emit_block(items)
     if stages > 1:
         out.add_label("fallback")

@@ -262,7 +262,7 @@ def critical_recurrence(g: DependenceGraph, edges) -> str:
 @dataclass
 class _Loop:
     branch: int
-    induction: int | None  # register
+    induction: int  # register
     step: int
     addi: int  # op index of the induction update, -1 if none
 
@@ -291,6 +291,8 @@ def analyse(ops: list[Op]) -> _Loop | str:
         if induction is not None:
             return "its branch tests two induction registers"
         induction, step, addi = r, op.args[2], ws[0]
+    if induction is None:
+        return "its branch tests no induction register (the loop would run once or forever)"
     return _Loop(br, induction, step, addi)
 
 

@@ -91,6 +91,9 @@ done:   halt
      "its branch tests r5, which is not an induction"),
     ("ldr r5, [r1]\naddi r1, r1, 1\nblt r1, r9, elsewhere\nelsewhere: j loop",
      "not a single-block loop"),
+    ("ldr r5, [r1]\naddi r1, r1, 1\nbnez r9, loop", "tests no induction register"),
+    ("ldr r5, [r1]\naddi r1, r1, 1\naddi r9, r9, -1\nblt r1, r9, loop", "two induction registers"),
+    ("ldr r5, [r1]\naddi r1, r1, 1\nj loop", "not a conditional branch"),
 ])
 def test_a_loop_that_cannot_be_pipelined_says_why_and_is_list_scheduled(body, reason):
     asm = Assembler("ic")

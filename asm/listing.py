@@ -111,13 +111,14 @@ def _other_lines(program: Program, addr: int) -> list:
     return out
 
 
-def source_bundles(program: Program) -> dict[tuple[str, int], tuple[str, list[int]]]:
-    """(file, line) -> (its text, the bundles its operations landed in), for every line with an
-    operation: how a scheduled region's lines map to bundles (`report annotate`, the listing)."""
-    out: dict[tuple[str, int], tuple[str, list[int]]] = {}
+def source_bundles(program: Program) -> dict[tuple[str, int, str], tuple[str, list[int]]]:
+    """(file, line, expansion) -> (its text, the bundles its operations landed in), for every
+    line with an operation (a macro body line once per expansion): how a scheduled region's
+    lines map to bundles."""
+    out: dict[tuple[str, int, str], tuple[str, list[int]]] = {}
     for addr, sources in enumerate(program.op_sources):
         for s in sources:
-            entry = out.setdefault((s.file, s.line), (s.text, []))
+            entry = out.setdefault((s.file, s.line, s.via), (s.text, []))
             if not entry[1] or entry[1][-1] != addr:
                 entry[1].append(addr)
     return out
@@ -125,17 +126,18 @@ def source_bundles(program: Program) -> dict[tuple[str, int], tuple[str, list[in
 
 def _source_map_rows(program: Program) -> list[str]:
     """For every source line that shares a bundle with another line or landed in several
-    bundles (the lines of `.sched` regions), the bundles it landed in."""
-    shared = {(s.file, s.line) for addr, sources in enumerate(program.op_sources)
-              if len({(t.file, t.line) for t in sources}) > 1 for s in sources}
+    bundles (the lines of `.sched` regions; a macro body line counts once per expansion), the
+    bundles it landed in."""
+    shared = {(s.file, s.line, s.via) for addr, sources in enumerate(program.op_sources)
+              if len({(t.file, t.line, t.via) for t in sources}) > 1 for s in sources}
     rows = []
-    for (file, line), (text, addrs) in source_bundles(program).items():
-        if (file, line) in shared or len(addrs) > 1:
-            rows.append((file, line, text, addrs))
+    for key, (text, addrs) in source_bundles(program).items():
+        if key in shared or len(addrs) > 1:
+            rows.append((*key, text, addrs))
     if not rows:
         return []
     out = ["; scheduled source lines -> bundles"]
-    for file, line, text, addrs in sorted(rows, key=lambda r: (r[0], r[1])):
+    for file, line, via, text, addrs in sorted(rows, key=lambda r: (r[0], r[1], r[2])):
         where = f"{file}:{line}"
         out.append(f";   {where:<24s} {text:<40s} -> {', '.join(map(str, addrs))}")
     return out

@@ -152,7 +152,7 @@ after:  halt
     assert [op.mnemonic for op in p.bundles[labels["again"]]][0] == "fadd"
     assert p.bundles[labels["after"]][0].mnemonic == "halt"
     # every operation of the region is in exactly one bundle, with its own source line
-    lines = {line for (f, line) in source_bundles(p)}
+    lines = {line for (f, line, via) in source_bundles(p)}
     assert lines == set(range(2, 11)) - {3}
 
 
@@ -212,3 +212,10 @@ def test_run_schedules_a_source_for_the_run_configuration(cli, tmp_path):
         bundles[fmul] = json.loads(out.read_text())["programs"]["ic"]["bundles"]
     assert bundles[9] == len(build(16, load_config(None, ["ic.latency.fmul=9"]))[0].bundles)
     assert bundles[3] == len(build(16)[0].bundles) != bundles[9]
+
+
+def test_hand_written_code_has_no_scheduled_lines_map():
+    text = ".proc ic\n.rept 3\nfadd r1, r1, r1\n.endr\n{ li r2, 1 ; lf r3, 1.0 }\nhalt\n"
+    assert "scheduled source lines" not in listing(Assembler("ic").assemble_text(text))
+    scheduled = ".proc ic\n.sched\n.rept 3\nfadd r1, r1, r1\n.endr\nli r2, 1\nlf r3, 1.0\nhalt\n.endsched\n"
+    assert "scheduled source lines" in listing(Assembler("ic").assemble_text(scheduled))

@@ -176,6 +176,8 @@ class Assembler(MacroExpansion):
         """False: `.sched` regions stay one operation per bundle, as written (the serial form)."""
         self.pipeline_reports: list[PipelineReport] = []
         """The software pipelining information of every `.pipeline` loop, in source order."""
+        self.region_lines: set[tuple[str, int, str]] = set()
+        """(file, line, expansion) of every operation in a `.sched` region (for the listing)."""
         self.st = _State(proc, proc is not None, [Path(d) for d in include_dirs or []])
         for name, value in predefined_symbols().items():
             self.st.symbols[name] = _Symbol(value, "predefined", None)
@@ -639,6 +641,8 @@ class Assembler(MacroExpansion):
                 addr, i = addr + 1, i + 1
                 continue
             ops = [resolved[k][0] for k in range(r.first, r.end)]
+            self.region_lines |= {(s.file, s.line, s.via) for k in range(r.first, r.end)
+                                  for s in sources[k]}
             targets = []
             for op in ops:
                 t = next((a for o, a in zip(op.opcode.operands, op.args) if o.kind == "label"), None)

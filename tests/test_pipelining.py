@@ -193,6 +193,11 @@ def test_asm_prints_the_pipelining_information_for_the_configuration_given(cli, 
     assert "stages                  : 3" in slow[1]  # rescheduled for the longer fmul
     bad = tmp_path / "bad.s"
     bad.write_text(loop_source("ldr r5, [r1]\naddi r1, r1, 1\nbnez r5, loop"))
+    code, out, _ = cli("asm", EXAMPLE, "--listing", "-", "-D", "N=8")
+    lines = out.split("; scheduled source lines -> bundles")[1]
+    for n in range(26, 38):  # every line of the region, alone in a bundle or not
+        assert (f"dot_ic.s:{n} " in lines) == (n != 30), n
+    assert "li end, PAIRS + 2 * N" in lines and "# N = 0" not in lines
     code, out, err = cli("asm", bad, "--stats")
     assert code == 0
     assert f"{bad}:8: warning: loop 'loop' not pipelined: its branch tests r5" in err

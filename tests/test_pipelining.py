@@ -224,3 +224,21 @@ def test_hand_written_code_has_no_scheduled_lines_map():
     assert "scheduled source lines" not in listing(Assembler("ic").assemble_text(text))
     scheduled = ".proc ic\n.sched\n.rept 3\nfadd r1, r1, r1\n.endr\nli r2, 1\nlf r3, 1.0\nhalt\n.endsched\n"
     assert "scheduled source lines" in listing(Assembler("ic").assemble_text(scheduled))
+
+
+def test_annotate_names_the_source_lines_of_a_scheduled_bundle(cli, tmp_path):
+    image = tmp_path / "pairs.json"
+    image.write_text(json.dumps({"ic.resident": PAIRS}))
+    stats = tmp_path / "stats.json"
+    code, _, err = cli("run", "--ic", EXAMPLE, "--image", image, "-D", "N=16", "--engine",
+                       "reference", "--json", stats)
+    assert code == 0, err
+    code, out, err = cli("report", "annotate", stats, "--proc", "ic", "--order", "program",
+                         "--format", "json")
+    rows = [r for s in json.loads(out)["sections"] if s["key"] == "bundles" for r in s["rows"]]
+    program = build(16)[0]
+    assert len(rows) == len(program.bundles)
+    for row in rows:
+        lines = dict.fromkeys(s.line for s in program.op_sources[row["pc"]])
+        assert row["source lines"] == "dot_ic.s:" + ", ".join(map(str, lines))
+    assert any("," in (row["source lines"] or "") for row in rows)  # a bundle of several lines

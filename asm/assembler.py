@@ -3,8 +3,11 @@
 Pass 1 walks the statements in order — expanding `.include`, following `.if`/`.elif`/`.else`/
 `.endif`, defining `.equ` constants and `.reg` aliases, placing labels (code labels count bundles,
 data labels count local words). Pass 2 resolves each operation's operands against the complete
-symbol table and runs the resource checker on every bundle. Diagnostics from both passes are
-reported in source order as `file:line:col: error: message` with the line and a caret.
+symbol table and runs the resource checker on every bundle; then, if the source has `.sched`
+regions (one operation per line in pass 1), it schedules them for `config`, moves the code labels
+to where their blocks landed and resolves the operations again (asm/regions.py). Diagnostics
+from both passes are reported in source order as `file:line:col: error: message` with the line
+and a caret.
 """
 
 from __future__ import annotations

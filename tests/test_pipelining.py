@@ -242,3 +242,35 @@ def test_annotate_names_the_source_lines_of_a_scheduled_bundle(cli, tmp_path):
         lines = dict.fromkeys(s.line for s in program.op_sources[row["pc"]])
         assert row["source lines"] == "dot_ic.s:" + ", ".join(map(str, lines))
     assert any("," in (row["source lines"] or "") for row in rows)  # a bundle of several lines
+
+
+LOOPS = {  # more loop shapes: counting down to zero, local stores and loads, unpipelined fdiv
+    "countdown": ("li r1, {n}\nlf r10, 0.0\nbeqz r1, done", "ldr r2, [r1]\nfmul r3, r2, r2\n"
+                  "fadd r10, r10, r3\naddi r1, r1, -1\nbnez r1, loop"),
+    "stores": ("li r1, 0\nli r9, {n}\nlf r10, 1.0\nbge r1, r9, done",
+               "ldr r2, [r1]\nfmul r3, r2, r10\nst r3, [r1 + 100]\nld r4, [r1 + 99]\n"
+               "fadd r10, r4, r2\naddi r1, r1, 1\nblt r1, r9, loop"),
+    "fdiv": ("li r1, 0\nli r9, {n}\nlf r10, 0.0\nbge r1, r9, done",
+             "ldr r2, [r1]\nldr r3, [r1 + 1]\nfdiv r4, r2, r3\nfadd r10, r10, r4\n"
+             "addi r1, r1, 1\nblt r1, r9, loop"),
+}
+
+
+@pytest.mark.parametrize("shape", sorted(LOOPS))
+@pytest.mark.parametrize("trips", [0, 1, 2, 3, 11])
+def test_loop_shapes_at_small_trip_counts(engine_name, shape, trips):
+    head, body = LOOPS[shape]
+    text = f".proc ic\n.sched\n.temps r40-r50\n{head.format(n=trips)}\n.pipeline\nloop:\n{body}\ndone: halt\n.endsched\n"
+    config = load_config(None, ["ic.latency.fmul=6", "ic.latency.fadd=3"])
+    results = []
+    for schedule in (True, False):
+        asm = Assembler("ic", config=config, schedule=schedule)
+        p = asm.assemble_text(text)
+        if schedule:
+            assert not asm.pipeline_reports[0].reason and asm.pipeline_reports[0].stages >= 2
+        e = run_machine(engine_name, config, {"ic": p}, image_from_json({"ic.resident": PAIRS}),
+                        max_cycles=100_000)
+        assert e.result().status == "halted"
+        regs = [w for r, w in enumerate(e.registers("pe0.ic")) if not 40 <= r <= 50]  # not .temps
+        results.append((regs, list(e.memory("pe0.ic", "local")[:120])))
+    assert results[0] == results[1]

@@ -172,7 +172,7 @@ PROCS = ["ic", "os", "sc"]
 
 
 @pytest.mark.parametrize("proc", PROCS)
-@settings(max_examples=12, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=6, deadline=None, suppress_health_check=list(HealthCheck))
 @given(data=st.data())
 def test_straight_line_serial_equals_scheduled(engine_name, proc, data):
     lines = data.draw(straight_programs(proc))
@@ -180,7 +180,7 @@ def test_straight_line_serial_equals_scheduled(engine_name, proc, data):
 
 
 @pytest.mark.parametrize("proc", PROCS)
-@settings(max_examples=12, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=6, deadline=None, suppress_health_check=list(HealthCheck))
 @given(data=st.data())
 def test_loops_serial_equals_pipelined(engine_name, proc, data):
     trips, lines = data.draw(loop_programs(proc))

@@ -37,7 +37,7 @@ from netsushisen.asm.dependences import DependenceGraph, dependences
 from netsushisen.asm.modulo import (critical_recurrence, modulo_schedule, port_bound,
                                     recurrence_bound, resource_bound, value_of_reads)
 from netsushisen.asm.objects import Op
-from netsushisen.asm.scheduler import list_schedule
+from netsushisen.asm.scheduler import issue_times, list_schedule
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.processors import Processor, register_name
 
@@ -197,6 +197,15 @@ def _copies_needed(g: DependenceGraph, reads, time: list[int], ii: int) -> dict[
     return need
 
 
+def _list_scheduled_pass(ops, g: DependenceGraph, edges, proc, config,
+                         report: PipelineReport) -> int:
+    """Cycles a pass of the loop takes list-scheduled, at least: its bundles' span, its resources
+    (ResMII), each loop-carried dependence between two passes, and the taken-branch penalty."""
+    t = issue_times(ops, proc, config, g)
+    carried = [t[e.src] + e.latency - t[e.dst] for e in edges if e.distance]
+    return max([max(t) + 1, report.res_mii] + carried) + report.penalty
+
+
 def _join(bundle: list[Placed], items: list[Placed], ops, proc: Processor) -> bool:
     """Add the exit's moves and jump to the epilogue's last bundle if they fit there and read
     nothing it writes (a bundle sees none of its own results)."""
@@ -235,7 +244,12 @@ def pipeline_loop(ops: list[Op], proc: Processor, config: MachineConfig, temps: 
         return None
     reads = value_of_reads(g)
     reason = "no schedule found"
+    plain = _list_scheduled_pass(ops, g, edges, proc, config, report)
     for ii in range(report.mii, report.mii + MAX_II_TRIES):
+        if ii + report.penalty / 2 >= plain:
+            reason = (f"pipelining gains nothing: II {ii} against {plain} cycles a pass "
+                      f"list-scheduled")
+            break
         time = modulo_schedule(g, edges, ii, shape.branch, proc, config)
         if time is None:
             reason = f"no modulo schedule within II {report.mii}..{ii}"

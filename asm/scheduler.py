@@ -123,6 +123,16 @@ def list_schedule(ops: list[Op] | tuple[Op, ...], proc: Processor, config: Machi
                   graph: DependenceGraph | None = None) -> list[list[int]]:
     """One block's operations (serial order; a control transfer or halt only last) as bundles of
     operation indices, each bundle in serial order."""
+    time = issue_times(ops, proc, config, graph)
+    by_cycle: dict[int, list[int]] = {}
+    for i, t in enumerate(time):
+        by_cycle.setdefault(t, []).append(i)
+    return [sorted(by_cycle[t]) for t in sorted(by_cycle)]
+
+
+def issue_times(ops: list[Op] | tuple[Op, ...], proc: Processor, config: MachineConfig,
+                graph: DependenceGraph | None = None) -> list[int]:
+    """The cycle the list scheduler issues each operation in (empty cycles kept)."""
     g = graph or dependences(ops, proc, config)
     n = len(g.ops)
     if n == 0:
@@ -154,7 +164,4 @@ def list_schedule(ops: list[Op] | tuple[Op, ...], proc: Processor, config: Machi
                for i in ready):
             continue
         cycle += 1
-    by_cycle: dict[int, list[int]] = {}
-    for i, t in enumerate(time):
-        by_cycle.setdefault(t, []).append(i)
-    return [sorted(by_cycle[t]) for t in sorted(by_cycle)]
+    return time  # type: ignore[return-value]

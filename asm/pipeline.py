@@ -95,6 +95,14 @@ class PipelineReport:
     def mii(self) -> int:
         return max(self.res_mii, self.port_mii, self.rec_mii)
 
+    def as_dict(self) -> dict:
+        """The information as JSON-ready data (`asm --stats --json`)."""
+        return {"loop": self.name, "where": self.where, "ops": self.ops,
+                "res_mii": self.res_mii, "port_mii": self.port_mii, "rec_mii": self.rec_mii,
+                "mii": self.mii, "pipelined": not self.reason, "reason": self.reason,
+                "ii": self.ii, "stages": self.stages, "kernel_copies": self.unroll,
+                "registers": [register_name(r) for r in self.registers]}
+
     def format(self) -> str:
         head = f";* software pipelining information: loop '{self.name}' ({self.where}), {self.ops} operations"
         if not self.ops:

@@ -199,6 +199,10 @@ def test_asm_prints_the_pipelining_information_for_the_configuration_given(cli, 
         assert "software pipelining information: loop 'loop'" in out
         assert "recurrence bound        : 2   (fadd r10: 2 cycles over 1 iteration)" in out
         assert "resource bound (units)  : 4" in out and "II achieved             : 4" in out
+    code, out, _ = cli("asm", EXAMPLE, "--stats", "--json", "-D", "N=8")
+    info = json.loads(out)["pipelines"]
+    assert code == 0 and [(p["loop"], p["pipelined"], p["ii"], p["res_mii"]) for p in info] == \
+        [("loop", True, 4, 4)]
     assert "stages                  : 2" in fast[1]
     assert "stages                  : 3" in slow[1]  # rescheduled for the longer fmul
     bad = tmp_path / "bad.s"

@@ -117,12 +117,14 @@ def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     programs: list[tuple[Path, Program]] = []
     infos: dict[str, str] = {}
+    reports: dict[str, list] = {}
     region_lines: dict[str, set] = {}
     for proc, path in sources:
         asm = Assembler(proc, defines, includes, config, schedule=not args.no_schedule)
         programs.append((path, asm.assemble_file(path)))
         infos[str(path)] = "".join(r.format() + "\n" for r in asm.pipeline_reports)
         region_lines[str(path)] = asm.region_lines
+        reports[str(path)] = [r.as_dict() for r in asm.pipeline_reports]
         for r in asm.pipeline_reports:
             if r.reason:
                 print(f"{r.where}: warning: loop '{r.name}' not pipelined: {r.reason}",
@@ -148,7 +150,9 @@ def run(args: argparse.Namespace) -> int:
     if args.stats:
         stats = {program.proc: static_ilp(program) for _, program in programs}
         if args.json:
-            body = {p: s.as_dict() for p, s in stats.items()}
+            body = {program.proc: stats[program.proc].as_dict() |
+                    ({"pipelines": reports[str(path)]} if reports[str(path)] else {})
+                    for path, program in programs}
             print(json.dumps(body[programs[0][1].proc] if args.source else body, indent=2,
                              sort_keys=True))
         else:

@@ -288,3 +288,30 @@ def test_loop_shapes_at_small_trip_counts(engine_name, shape, trips):
         regs = [w for r, w in enumerate(e.registers("pe0.ic")) if not 40 <= r <= 50]  # not .temps
         results.append((regs, list(e.memory("pe0.ic", "local")[:120])))
     assert results[0] == results[1]
+
+
+def test_calls_and_returns_inside_a_region(engine_name):
+    text = """.proc ic
+.sched
+        li r2, 5
+        lf r3, 1.5
+        fmul r4, r3, r3
+        call twice
+        fadd r5, r4, r3
+        addi r2, r2, 1
+        call twice
+        halt
+twice:  add r2, r2, r2
+        fadd r4, r4, r4
+        ret
+.endsched
+"""
+    results = []
+    for schedule in (True, False):
+        p = Assembler("ic", schedule=schedule).assemble_text(text)
+        e = run_machine(engine_name, MachineConfig(), {"ic": p}, max_cycles=10_000)
+        assert e.result().status == "halted"
+        results.append([e.registers("pe0.ic")[r] for r in (2, 3, 4, 5)])
+        if schedule:
+            assert len(p.bundles) < 11
+    assert results[0] == results[1]

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 from netsushisen.asm.checker import bundle_usage
 from netsushisen.asm.objects import Op, Program, format_float
+from netsushisen.asm.parser import _code_part
 
 
 def slot_assignment(program: Program, bundle: tuple[Op, ...]) -> list[tuple[str, Op | None]]:
@@ -54,10 +55,13 @@ def target_names(program: Program) -> dict[int, str]:
     return out
 
 
-def listing(program: Program) -> str:
+def listing(program: Program, region_lines: set | None = None) -> str:
     """Address, slots and source of every bundle; then the data words. A bundle a macro or
     `.rept` produced shows the body line it was written at, as substituted, under a row naming
-    the expansion (invocation line and text), as GNU as's `-alm` listing shows macro lines."""
+    the expansion (invocation line and text), as GNU as's `-alm` listing shows macro lines.
+    Then the scheduled source lines and the bundles each landed in (`region_lines`: the
+    assembler's `(file, line, expansion)` of every `.sched` line, else those whose operations
+    share a bundle with another line's or landed in several)."""
     labels = target_names(program)
     rows = [f"; listing of a {program.processor.title} program: "
             f"{len(program.bundles)} bundles, {len(program.data)} data words"]
@@ -80,6 +84,9 @@ def listing(program: Program) -> str:
             text = " ; ".join(op.format(labels) for op in bundle) or "nop"
         where = f"{loc.file}:{loc.line}" if loc else ""
         rows.append(f"{addr:5d}  {text:<60s} ; {where}  {loc.text if loc else ''}".rstrip())
+        for other in _other_lines(program, addr):
+            rows.append(f"{'':5s}  {'':<60s} ; {other.file}:{other.line}  {other.text}".rstrip())
+    rows += _source_map_rows(program, region_lines)
     if program.data:
         rows.append("; data (local memory)")
         data_labels: dict[int, list[str]] = {}
@@ -92,6 +99,53 @@ def listing(program: Program) -> str:
             shown = format_float(value) if kind == "f" else str(value)
             rows.append(f"{addr:5d}  .{'float' if kind == 'f' else 'word'} {shown}")
     return "\n".join(rows) + "\n"
+
+
+def _other_lines(program: Program, addr: int) -> list:
+    """The source lines of a bundle's operations besides the bundle's own (a scheduled bundle
+    gathers several), first occurrence order."""
+    if addr >= len(program.op_sources) or addr >= len(program.source_map):
+        return []
+    own = program.source_map[addr]
+    out, seen = [], {(own.file, own.line)}
+    for s in program.op_sources[addr]:
+        if (s.file, s.line) not in seen:
+            seen.add((s.file, s.line))
+            out.append(s)
+    return out
+
+
+def source_bundles(program: Program) -> dict[tuple[str, int, str], tuple[str, list[int]]]:
+    """(file, line, expansion) -> (its text, the bundles its operations landed in), for every
+    line with an operation (a macro body line once per expansion): how a scheduled region's
+    lines map to bundles."""
+    out: dict[tuple[str, int, str], tuple[str, list[int]]] = {}
+    for addr, sources in enumerate(program.op_sources):
+        for s in sources:
+            entry = out.setdefault((s.file, s.line, s.via), (s.text, []))
+            if not entry[1] or entry[1][-1] != addr:
+                entry[1].append(addr)
+    return out
+
+
+def _source_map_rows(program: Program, region_lines: set | None = None) -> list[str]:
+    """For every source line that shares a bundle with another line or landed in several
+    bundles (the lines of `.sched` regions; a macro body line counts once per expansion), the
+    bundles it landed in."""
+    shared = {(s.file, s.line, s.via) for addr, sources in enumerate(program.op_sources)
+              if len({(t.file, t.line, t.via) for t in sources}) > 1 for s in sources}
+    rows = []
+    for key, (text, addrs) in source_bundles(program).items():
+        if (key in region_lines) if region_lines is not None else (key in shared or len(addrs) > 1):
+            rows.append((*key, text, addrs))
+    if not rows:
+        return []
+    out = ["; scheduled source lines -> bundles"]
+    for file, line, via, text, addrs in sorted(rows, key=lambda r: (r[0], r[1], r[2])):
+        where = f"{file}:{line}"
+        code = _code_part(text).strip()
+        out.append(f";   {where:<24s} {code:<40s} -> {', '.join(map(str, addrs))}")
+    return out
 
 
 @dataclass

@@ -9,7 +9,9 @@ docs/scheduling.md, "Bounds", works two examples by hand):
 - **units**: per unit class, the issue cycles its operations need (`ceil(ops / units)`), plus
   the cycles nothing can issue — a load with access time T holds issue T − 1 cycles (T6; ldg
   counted as a cache hit, t_c), a loop's taken back edge costs `taken_branch_penalty` (T7) —
-  or, if larger, the cycles an unpipelined unit class stays busy (`ceil(Σ latency / units)`, T4).
+  or, if larger, the cycles an unpipelined unit class stays busy (T4): a loop iteration's
+  `ceil(Σ occupancy / units)`; a block's the same less the cycles after the last issue on each
+  unit (its U longest operations count 1 each).
 - **ports**: the issue cycles the register-file ports need: distinct values read (a register
   read twice in one bundle uses one port, but a value and its redefinition are two reads) over
   the read ports, writes over the write ports; plus the same dead cycles.
@@ -36,6 +38,7 @@ import math
 from collections import Counter
 from dataclasses import dataclass, field
 
+from netsushisen.asm.dependences import DependenceGraph, dependences, issue_hold, result_latency, unit_busy
 from netsushisen.asm.listing import bundle_target, loop_ranges
 from netsushisen.asm.objects import Op, Program
 from netsushisen.isa.config import MachineConfig
@@ -44,36 +47,6 @@ from netsushisen.isa.processors import Processor
 
 OPTIMUM_MAX_OPS = 40
 """Blocks up to this many operations get an exact optimum from CP-SAT (`asm.optimum`)."""
-
-
-# ---------------------------------------------------------------------------------------------
-# Timing facts of one operation under a configuration (docs/timing.md T2, T4, T6)
-
-
-def access_time(proc: Processor, op: Op, config: MachineConfig) -> int:
-    """A load's access time T (its result is readable T cycles after issue, and issue is held
-    until then): OS local `ld` its latency; IC/SC `ld`/`ldr` t_r, `ldg` t_c (a hit: a bound
-    cannot know the misses). 1 for every other operation."""
-    oc = op.opcode
-    if oc.kind != "load":
-        return 1
-    if proc.name == "os":
-        return config.os.latency.get(op.mnemonic, oc.latency)
-    mem = config.ic_memory if proc.name == "ic" else config.sc_memory
-    return mem.t_c if oc.space == "global" else mem.t_r
-
-
-def latency(proc: Processor, op: Op, config: MachineConfig) -> int:
-    """Cycles from issue until the op's result is readable: `<proc>.latency.<mnemonic>`, else
-    the opcode table's; a load's access time."""
-    if op.opcode.kind == "load":
-        return access_time(proc, op, config)
-    return getattr(config, proc.name).latency.get(op.mnemonic, op.opcode.latency)
-
-
-def occupancy(proc: Processor, op: Op, config: MachineConfig) -> int:
-    """Cycles the op keeps its unit: its latency on an unpipelined unit, else 1."""
-    return 1 if op.opcode.pipelined else latency(proc, op, config)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -219,13 +192,18 @@ def resource_bounds(proc: Processor, ops: list[tuple[int, Op]], config: MachineC
                     loop: bool) -> dict:
     """The units and ports bounds' parts (see the module's docstring)."""
     by_unit = Counter(proc.unit(op.opcode.unit) for _, op in ops)
-    busy_by_unit: Counter = Counter()
+    occupied: dict[str, list[int]] = {}
     for _, op in ops:
-        busy_by_unit[proc.unit(op.opcode.unit)] += occupancy(proc, op, config)
+        occupied.setdefault(proc.unit(op.opcode.unit), []).append(unit_busy(op, proc, config))
     slots = max((math.ceil(n / proc.units[u]) for u, n in by_unit.items()), default=0)
-    busy = max((math.ceil(n / proc.units[u]) for u, n in busy_by_unit.items()), default=0)
+    busy = 0
+    for u, occ in occupied.items():
+        # a block is over once its last op issues: the last op on each unit counts one cycle
+        # (the U longest do best); a loop's next iteration needs the units again: all of it
+        spare = 0 if loop else sum(o - 1 for o in sorted(occ)[-proc.units[u]:])
+        busy = max(busy, math.ceil((sum(occ) - spare) / proc.units[u]))
     load_unit = proc.unit("int")
-    hold = sum(access_time(proc, op, config) - 1 for _, op in ops if op.opcode.kind == "load")
+    hold = sum(issue_hold(op, proc, config) - 1 for _, op in ops if op.opcode.kind == "load")
     dead = math.ceil(hold / proc.units[load_unit])
     if loop:
         dead += getattr(config, proc.name).taken_branch_penalty
@@ -241,22 +219,23 @@ def resource_bounds(proc: Processor, ops: list[tuple[int, Op]], config: MachineC
 
 
 def written_timing(proc: Processor, bundles: list[tuple[Op, ...]], config: MachineConfig,
-                   iterations: int = 1) -> list[int]:
-    """The cycle after each pass over `bundles` in which the next bundle could issue, by the
-    interlock rules: in order, one bundle a cycle, not before its sources and destinations are
-    written (T2, T3), its units free (T4), its results' write cycles within the write ports
-    (T5), a load's hold over (T6); each pass after the first follows a taken back edge (T7).
-    Every load hits; registers are ready at the start. The static twin of the emulator's issue
-    stage for straight-line code (no FIFO, no memory state), so a schedule can be judged
-    without a run."""
+                   iterations: int = 1) -> tuple[list[int], list[int]]:
+    """When each bundle of the last pass over `bundles` issues, and the cycle after each pass in
+    which the next bundle could issue, by the interlock rules: in order, one bundle a cycle, not
+    before its sources and destinations are written (T2, T3), its units free (T4), its results'
+    write cycles within the write ports (T5), a load's hold over (T6); each pass after the first
+    follows a taken back edge (T7). Every load hits; registers are ready at the start. The
+    static twin of the emulator's issue stage for straight-line code (no FIFO, no memory
+    state), so a schedule can be judged without a run."""
     penalty = getattr(config, proc.name).taken_branch_penalty
     ready: dict[int, int] = {}
     busy: dict[str, list[int]] = {u: [] for u in proc.units}  # release cycles of unpipelined units
     writes_at: Counter = Counter()
-    c_next, ends = 0, []
+    c_next, ends, issued = 0, [], []
     for it in range(iterations):
         if it:
             c_next += penalty
+        issued = []
         for bundle in bundles:
             real = [op for op in bundle if op.opcode.kind != "nop"]
             c = c_next
@@ -264,7 +243,7 @@ def written_timing(proc: Processor, bundles: list[tuple[Op, ...]], config: Machi
                 for r in op.reads() + op.writes():
                     c = max(c, ready.get(r, 0))
             need = Counter(proc.unit(op.opcode.unit) for op in real)
-            lats = [(op, latency(proc, op, config)) for op in real]
+            lats = [(op, result_latency(op, proc, config)) for op in real]
             while True:
                 free_ok = all(sum(1 for t in busy[u] if t > c) + n <= proc.units[u]
                               for u, n in need.items())
@@ -279,9 +258,10 @@ def written_timing(proc: Processor, bundles: list[tuple[Op, ...]], config: Machi
                     writes_at[c + lat] += 1
                 if not op.opcode.pipelined:
                     busy[proc.unit(op.opcode.unit)].append(c + lat)
-            c_next = c + max([1] + [access_time(proc, op, config) for op in real])
+            issued.append(c)
+            c_next = c + max([1] + [issue_hold(op, proc, config) for op in real])
         ends.append(c_next)
-    return ends
+    return issued, ends
 
 
 def written_cycles(proc: Processor, bundles: list[tuple[Op, ...]], config: MachineConfig,
@@ -289,9 +269,154 @@ def written_cycles(proc: Processor, bundles: list[tuple[Op, ...]], config: Machi
     """A block's cycles as written, or a loop's cycles per iteration in the steady state (the
     third pass over the body minus the second)."""
     if not loop:
-        return written_timing(proc, bundles, config)[0]
-    ends = written_timing(proc, bundles, config, iterations=3)
+        return written_timing(proc, bundles, config)[1][0]
+    ends = written_timing(proc, bundles, config, iterations=3)[1]
     return ends[2] - ends[1]
+
+
+# ---------------------------------------------------------------------------------------------
+# Dependence-graph bounds (the graph is asm.dependences')
+
+
+def serial_order(bundle: tuple[Op, ...]) -> list[Op]:
+    """A bundle's operations in an order that, run one at a time, means what the bundle means:
+    a bundle reads before it writes, and its loads read before its stores write (T2, T6), so a
+    reader of a register goes before the bundle's writer of it and loads before stores. (A
+    bundle that swaps two registers has no such order: it keeps its written order.)"""
+    real = [op for op in bundle if op.opcode.kind != "nop"]
+    after = {i: {j for j, b in enumerate(real) if j != i and (
+        set(a.reads()) & set(b.writes()) or (a.opcode.kind == "load" and b.opcode.kind == "store"))}
+        for i, a in enumerate(real)}  # i must come before every j in after[i]
+    order, left = [], list(range(len(real)))
+    while left:
+        free = [i for i in left if not any(i in after[k] for k in left if k != i)]
+        if not free:
+            return real
+        order.append(free[0])
+        left.remove(free[0])
+    return [real[i] for i in order]
+
+
+def region_graph(program: Program, region: Region, config: MachineConfig
+                 ) -> tuple[list[tuple[int, Op]], DependenceGraph]:
+    """The region's operations in serial order (bundle by bundle, `serial_order`) and their
+    dependence graph (a loop's with its loop-carried edges)."""
+    ops = [(pc, op) for pc in region.pcs() for op in serial_order(program.bundles[pc])]
+    graph = dependences([op for _, op in ops], program.processor, config,
+                        loop=region.kind == "loop")
+    return ops, graph
+
+
+def earliest_starts(graph: DependenceGraph) -> list[int]:
+    """ASAP issue cycles over the edges of one pass (distance 0: they run forward in serial
+    order), resources aside."""
+    est = [0] * len(graph.ops)
+    for i in range(len(graph.ops)):
+        for e in graph.succs(i):
+            if e.distance == 0:
+                est[e.dst] = max(est[e.dst], est[i] + e.latency)
+    return est
+
+
+def issue_path(graph: DependenceGraph) -> int:
+    """The longest dependence chain in issue cycles: from the first issue to the cycle after
+    the chain's last operation issues (after its hold, for a load): no schedule of the block
+    is shorter."""
+    est = earliest_starts(graph)
+    return max((t + h for t, h in zip(est, graph.holds)), default=0)
+
+
+RECURRENCE_KINDS = ("true", "memory", "fifo")
+"""Loop-carried dependences a renaming cannot remove (register anti and output dependences
+can: modulo variable expansion, docs/scheduling.md), as TI's RecMII counts them."""
+
+
+def recurrence_bound(graph: DependenceGraph) -> int | None:
+    """RecMII: the smallest II with no dependence cycle c of Σ latency(c) > II · Σ distance(c)
+    (true, memory and FIFO edges), None when the loop carries no such cycle."""
+    edges = [e for e in graph.edges if e.kind in RECURRENCE_KINDS]
+    if not any(e.distance for e in edges):
+        return None
+    n = len(graph.ops)
+
+    def positive_cycle(ii: int) -> bool:
+        dist = [0] * n  # longest paths from a virtual source joined to every op
+        limit = sum(e.latency for e in edges if e.latency > 0)
+        for _ in range(n + 1):
+            changed = False
+            for e in edges:  # sorted by src: forward edges relax in one sweep
+                w = dist[e.src] + e.latency - ii * e.distance
+                if w > dist[e.dst]:
+                    dist[e.dst], changed = w, True
+            if not changed:
+                return False
+            if max(dist) > limit:  # longer than any path without a cycle
+                return True
+        return True
+
+    if not positive_cycle(0):  # every cycle carries a distance: none has latency
+        return None
+    lo, hi = 1, sum(e.latency for e in edges)
+    while lo < hi:  # the smallest ii without a positive cycle
+        mid = (lo + hi) // 2
+        if positive_cycle(mid):
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+# ---------------------------------------------------------------------------------------------
+# Every region of a program
+
+
+def region_bounds(program: Program, region: Region, config: MachineConfig,
+                  optimum_ops: int = OPTIMUM_MAX_OPS, seconds: float | None = None,
+                  label: str | None = None) -> Bounds:
+    """The bounds of one block or loop; a block of 1..`optimum_ops` operations also gets its
+    optimum from CP-SAT (`asm.optimum`; `seconds` of deterministic time, default its own)."""
+    proc = program.processor
+    loop = region.kind == "loop"
+    ops, graph = region_graph(program, region, config)
+    bundles = program.bundles[region.start:region.end + 1]
+    b = Bounds(proc.name, region.kind, region.start, region.end,
+               label if label is not None else str(region.start), len(bundles),
+               **resource_bounds(proc, ops, config, loop))
+    b.critical_path = issue_path(graph)
+    if loop:
+        b.recurrence = recurrence_bound(graph)
+    b.written = written_cycles(proc, bundles, config, loop)
+    if not loop and 0 < len(ops) <= optimum_ops:
+        add_optimum(program, b, config, seconds, (ops, graph))
+    return b
+
+
+def add_optimum(program: Program, b: Bounds, config: MachineConfig, seconds: float | None = None,
+                graph: tuple | None = None) -> None:
+    """Set a block's optimum (`asm.optimum`: CP-SAT, `seconds` of deterministic time)."""
+    from netsushisen.asm.optimum import DETERMINISTIC_SECONDS, optimum_schedule
+
+    proc = program.processor
+    region = Region(b.kind, b.start, b.end)
+    ops, g = graph or region_graph(program, region, config)
+    bundles = program.bundles[b.start:b.end + 1]
+    issued = written_timing(proc, bundles, config)[0]
+    hint = [issued[pc - b.start] for pc, _ in ops]
+    best = optimum_schedule(g, value_reads(ops), proc, config, lower=b.bound, upper=b.written,
+                            hint=hint, seconds=DETERMINISTIC_SECONDS if seconds is None else seconds)
+    if best is not None:
+        b.optimum, b.optimum_proven = best.length, best.proven
+
+
+def program_bounds(program: Program, config: MachineConfig, optimum_ops: int = OPTIMUM_MAX_OPS,
+                   seconds: float | None = None, only: set[int] | None = None) -> list[Bounds]:
+    """The bounds of every loop and block of `program` (`regions`), or of those starting at
+    an address in `only`."""
+    from netsushisen.asm.listing import target_names
+
+    names = target_names(program)
+    return [region_bounds(program, r, config, optimum_ops, seconds, names.get(r.start, str(r.start)))
+            for r in regions(program) if only is None or r.start in only]
 
 
 # ---------------------------------------------------------------------------------------------

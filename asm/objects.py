@@ -118,6 +118,9 @@ class Program:
     source_map: list[SourceLoc] = field(default_factory=list)
     defines: dict[str, int | float] = field(default_factory=dict)
     """The -D symbols the program was assembled with (a specialised kernel records its scene's needs)."""
+    op_sources: list[tuple[SourceLoc, ...]] = field(default_factory=list)
+    """Per bundle, one location per operation in the bundle's order (a scheduled `.sched` bundle
+    gathers operations of several source lines); empty when unknown (an older object file)."""
 
     @property
     def processor(self):
@@ -160,6 +163,8 @@ class Program:
             "source_map": [[s.file, s.line, s.text, *([s.via] if s.via else [])]
                            for s in self.source_map],
             "defines": dict(sorted(self.defines.items())),
+            **({"op_sources": [[[s.file, s.line, s.text, *([s.via] if s.via else [])] for s in ops]
+                               for ops in self.op_sources]} if self.op_sources else {}),
         }
 
     def save(self, path: str | Path) -> None:
@@ -205,11 +210,13 @@ class Program:
             smap = [SourceLoc(str(f), int(l), str(t), *[str(v) for v in via])
                     for f, l, t, *via in obj.get("source_map", [])]
             defines = dict(obj.get("defines", {}))
+            op_sources = [tuple(SourceLoc(str(f), int(l), str(t), *[str(v) for v in via])
+                                for f, l, t, *via in ops) for ops in obj.get("op_sources", [])]
         except NetsushisenError:
             raise
         except (KeyError, TypeError, ValueError, IndexError) as err:
             raise bad(f"malformed content ({type(err).__name__}: {err})") from None
-        return cls(proc, bundles, data, labels, smap, defines)
+        return cls(proc, bundles, data, labels, smap, defines, op_sources)
 
     @classmethod
     def load(cls, path: str | Path) -> "Program":

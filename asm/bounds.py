@@ -281,11 +281,13 @@ def written_cycles(proc: Processor, bundles: list[tuple[Op, ...]], config: Machi
 def serial_order(bundle: tuple[Op, ...]) -> list[Op]:
     """A bundle's operations in an order that, run one at a time, means what the bundle means:
     a bundle reads before it writes, and its loads read before its stores write (T2, T6), so a
-    reader of a register goes before the bundle's writer of it and loads before stores. (A
-    bundle that swaps two registers has no such order: it keeps its written order.)"""
+    reader of a register goes before the bundle's writer of it, loads before stores, and the
+    control transfer last (the whole bundle issues whatever it decides). (A bundle that swaps
+    two registers has no such order: it keeps its written order.)"""
     real = [op for op in bundle if op.opcode.kind != "nop"]
     after = {i: {j for j, b in enumerate(real) if j != i and (
-        set(a.reads()) & set(b.writes()) or (a.opcode.kind == "load" and b.opcode.kind == "store"))}
+        set(a.reads()) & set(b.writes()) or (a.opcode.kind == "load" and b.opcode.kind == "store")
+        or b.opcode.is_control)}
         for i, a in enumerate(real)}  # i must come before every j in after[i]
     order, left = [], list(range(len(real)))
     while left:
@@ -328,36 +330,62 @@ def issue_path(graph: DependenceGraph) -> int:
 
 RECURRENCE_KINDS = ("true", "memory", "fifo")
 """Loop-carried dependences a renaming cannot remove (register anti and output dependences
-can: modulo variable expansion, docs/scheduling.md), as TI's RecMII counts them."""
+can: modulo variable expansion, docs/scheduling.md), as TI's RecMII counts them and the modulo
+scheduler (asm/pipeline.py) uses them."""
 
 
-def recurrence_bound(graph: DependenceGraph) -> int | None:
-    """RecMII: the smallest II with no dependence cycle c of Σ latency(c) > II · Σ distance(c)
-    (true, memory and FIFO edges), None when the loop carries no such cycle."""
-    edges = [e for e in graph.edges if e.kind in RECURRENCE_KINDS]
-    if not any(e.distance for e in edges):
-        return None
-    n = len(graph.ops)
+def recurrence_mii(n: int, edges) -> int:
+    """RecMII of `n` operations joined by `edges` (src, dst, latency, distance; an edge of
+    distance 0 runs forward, src < dst): the smallest II ≥ 1 with no cycle c of
+    Σ latency(c) > II · Σ distance(c); 1 when no edge is carried.
+
+    Every cycle passes a carried edge, so the graph shrinks to the carried edges' heads: from
+    each head, the longest forward paths (one sweep in serial order) to each carried edge's
+    source give head → head arcs (weight, distance); then per II a Floyd–Warshall over the
+    heads finds a positive cycle or not, and a binary search finds the least II without one.
+    Fast on a kernel's outer loops of hundreds of operations."""
+    import numpy as np
+
+    carried = [e for e in edges if e.distance]
+    if not carried:
+        return 1
+    forward: list[list] = [[] for _ in range(n)]
+    for e in edges:
+        if not e.distance:
+            forward[e.src].append(e)
+    heads = sorted({e.dst for e in carried})
+    at = {h: k for k, h in enumerate(heads)}
+    arcs: dict[tuple[int, int, int], int] = {}  # (from head, to head, distance) -> max weight
+    for h in heads:
+        longest = [None] * n
+        longest[h] = 0
+        for u in range(h, n):
+            if longest[u] is not None:
+                for e in forward[u]:
+                    w = longest[u] + e.latency
+                    if longest[e.dst] is None or w > longest[e.dst]:
+                        longest[e.dst] = w
+        for e in carried:
+            if longest[e.src] is not None:
+                key = (at[h], at[e.dst], e.distance)
+                arcs[key] = max(arcs.get(key, -1), longest[e.src] + e.latency)
+    if not arcs:
+        return 1
+    k = len(heads)
+    src = np.array([a for a, _, _ in arcs], dtype=np.int64)
+    dst = np.array([b for _, b, _ in arcs], dtype=np.int64)
+    dist = np.array([d for _, _, d in arcs], dtype=np.int64)
+    weight = np.array(list(arcs.values()), dtype=np.int64)
 
     def positive_cycle(ii: int) -> bool:
-        dist = [0] * n  # longest paths from a virtual source joined to every op
-        limit = sum(e.latency for e in edges if e.latency > 0)
-        for _ in range(n + 1):
-            changed = False
-            for e in edges:  # sorted by src: forward edges relax in one sweep
-                w = dist[e.src] + e.latency - ii * e.distance
-                if w > dist[e.dst]:
-                    dist[e.dst], changed = w, True
-            if not changed:
-                return False
-            if max(dist) > limit:  # longer than any path without a cycle
-                return True
-        return True
+        m = np.full((k, k), -np.inf)
+        np.maximum.at(m, (src, dst), (weight - ii * dist).astype(float))
+        for j in range(k):
+            m = np.maximum(m, m[:, j, None] + m[None, j, :])
+        return bool(np.any(np.diag(m) > 0))
 
-    if not positive_cycle(0):  # every cycle carries a distance: none has latency
-        return None
-    lo, hi = 1, sum(e.latency for e in edges)
-    while lo < hi:  # the smallest ii without a positive cycle
+    lo, hi = 1, max(1, int(weight.max()))  # a cycle's mean weight per distance is at most that
+    while lo < hi:
         mid = (lo + hi) // 2
         if positive_cycle(mid):
             lo = mid + 1
@@ -366,8 +394,28 @@ def recurrence_bound(graph: DependenceGraph) -> int | None:
     return lo
 
 
+def recurrence_bound(graph: DependenceGraph) -> int:
+    """A loop's RecMII over its true, memory and FIFO edges (`recurrence_mii`)."""
+    return recurrence_mii(len(graph.ops), [e for e in graph.edges if e.kind in RECURRENCE_KINDS])
+
+
 # ---------------------------------------------------------------------------------------------
 # Every region of a program
+
+
+def list_timing(proc: Processor, graph: DependenceGraph, config: MachineConfig
+                ) -> tuple[int, list[int]]:
+    """The cycles of the block as the list scheduler (asm/scheduler.py) bundles it, by the same
+    interlock rules as the code as written, and each operation's issue cycle."""
+    from netsushisen.asm.scheduler import list_schedule
+
+    groups = list_schedule(graph.ops, proc, config, graph)
+    issued, ends = written_timing(proc, [tuple(graph.ops[i] for i in g) for g in groups], config)
+    starts = [0] * len(graph.ops)
+    for t, g in zip(issued, groups):
+        for i in g:
+            starts[i] = t
+    return ends[0], starts
 
 
 def region_bounds(program: Program, region: Region, config: MachineConfig,
@@ -386,6 +434,8 @@ def region_bounds(program: Program, region: Region, config: MachineConfig,
     if loop:
         b.recurrence = recurrence_bound(graph)
     b.written = written_cycles(proc, bundles, config, loop)
+    if not loop and ops:
+        b.list_scheduled = list_timing(proc, graph, config)[0]
     if not loop and 0 < len(ops) <= optimum_ops:
         add_optimum(program, b, config, seconds, (ops, graph))
     return b
@@ -393,16 +443,18 @@ def region_bounds(program: Program, region: Region, config: MachineConfig,
 
 def add_optimum(program: Program, b: Bounds, config: MachineConfig, seconds: float | None = None,
                 graph: tuple | None = None) -> None:
-    """Set a block's optimum (`asm.optimum`: CP-SAT, `seconds` of deterministic time)."""
+    """Set a block's optimum (`asm.optimum`: CP-SAT, `seconds` of deterministic time), starting
+    from the shorter of the schedule as written and the list scheduler's."""
     from netsushisen.asm.optimum import DETERMINISTIC_SECONDS, optimum_schedule
 
     proc = program.processor
-    region = Region(b.kind, b.start, b.end)
-    ops, g = graph or region_graph(program, region, config)
+    ops, g = graph or region_graph(program, Region(b.kind, b.start, b.end), config)
     bundles = program.bundles[b.start:b.end + 1]
-    issued = written_timing(proc, bundles, config)[0]
-    hint = [issued[pc - b.start] for pc, _ in ops]
-    best = optimum_schedule(g, value_reads(ops), proc, config, lower=b.bound, upper=b.written,
+    issued, ends = written_timing(proc, bundles, config)
+    start = {"written": (ends[0], [issued[pc - b.start] for pc, _ in ops]),
+             "list": list_timing(proc, g, config)}
+    upper, hint = min(start.values(), key=lambda lh: lh[0])
+    best = optimum_schedule(g, value_reads(ops), proc, config, lower=b.bound, upper=upper,
                             hint=hint, seconds=DETERMINISTIC_SECONDS if seconds is None else seconds)
     if best is not None:
         b.optimum, b.optimum_proven = best.length, best.proven

@@ -31,7 +31,7 @@ from netsushisen.asm.dependences import DependenceGraph, unit_busy
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.processors import Processor
 
-DETERMINISTIC_SECONDS = 5.0
+DETERMINISTIC_SECONDS = 2.0
 """CP-SAT's deterministic time limit per block (its own work units, about a second each)."""
 
 

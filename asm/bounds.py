@@ -11,7 +11,8 @@ docs/scheduling.md, "Bounds", works two examples by hand):
   counted as a cache hit, t_c), a loop's taken back edge costs `taken_branch_penalty` (T7) —
   or, if larger, the cycles an unpipelined unit class stays busy (T4): a loop iteration's
   `ceil(Σ occupancy / units)`; a block's the same less the cycles after the last issue on each
-  unit (its U longest operations count 1 each).
+  unit (its U longest operations count 1 each), or, if larger, the k − 1 shortest occupancies
+  + 1 of the unit that runs k = ceil(n / U) of the class's n operations.
 - **ports**: the issue cycles the register-file ports need: distinct values read (a register
   read twice in one bundle uses one port, but a value and its redefinition are two reads) over
   the read ports, writes over the write ports; plus the same dead cycles.
@@ -200,8 +201,15 @@ def resource_bounds(proc: Processor, ops: list[tuple[int, Op]], config: MachineC
     for u, occ in occupied.items():
         # a block is over once its last op issues: the last op on each unit counts one cycle
         # (the U longest do best); a loop's next iteration needs the units again: all of it
-        spare = 0 if loop else sum(o - 1 for o in sorted(occ)[-proc.units[u]:])
-        busy = max(busy, math.ceil((sum(occ) - spare) / proc.units[u]))
+        units = proc.units[u]
+        if loop:
+            busy = max(busy, math.ceil(sum(occ) / units))
+            continue
+        occ.sort()
+        spare = sum(o - 1 for o in occ[-units:])
+        # and some unit runs k = ceil(n / U) of them: its first k - 1 at least the shortest
+        k = math.ceil(len(occ) / units)
+        busy = max(busy, math.ceil((sum(occ) - spare) / units), sum(occ[:k - 1]) + 1)
     load_unit = proc.unit("int")
     hold = sum(issue_hold(op, proc, config) - 1 for _, op in ops if op.opcode.kind == "load")
     dead = math.ceil(hold / proc.units[load_unit])
@@ -482,20 +490,10 @@ def program_from_listing(listing: dict, proc: str, source: str = "<statistics>")
     listing, and the bounds do not need them."""
     from netsushisen.asm.assembler import assemble_text
 
-    labels, texts, targets = listing["label"], listing["text"], listing["target"]
-    n = len(texts)
+    labels, texts = listing["label"], listing["text"]
     lines = [f".proc {proc}"]
     for pc, (label, text) in enumerate(zip(labels, texts)):
         if "+" not in label and not label.isdigit():
             lines.append(f"{label}:")
         lines.append("    { " + ("" if text == "nop" else text) + " }")
-    for text, target in zip(texts, targets):
-        if target is None or target < n:
-            continue
-        # a branch to the end of the program names a label the label column cannot show
-        for part in text.split(" ; "):
-            words = part.replace(",", " ").split()
-            if words and words[0] in OPCODES and OPCODES[words[0]].kind in ("branch", "jump"):
-                if f"{words[-1]}:" not in lines:
-                    lines.append(f"{words[-1]}:")
     return assemble_text("\n".join(lines) + "\n", proc=proc, filename=source)

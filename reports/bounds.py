@@ -21,23 +21,25 @@ from netsushisen.reports.annotate import (BundleCounts, bundle_counts, choose_pr
                                           find_loops, stalls_text)
 from netsushisen.reports.tables import Section, StatsError
 
-STATIC = ["loop", "pcs", "ops", "units", "ports", "rec", "path", "bound", "written"]
-BLOCK_STATIC = ["block", "pcs", "ops", "units", "ports", "path", "bound", "written", "list",
+STATIC = ["loop", "pcs", "ops", "units", "ports", "rec", "path", "bound", "by", "written"]
+BLOCK_STATIC = ["block", "pcs", "ops", "units", "ports", "path", "bound", "by", "written", "list",
                 "optimum"]
+SHOWN_CAUSES = 3
+"""Stall causes named per row (the rest summed as `other`; JSON and CSV alike)."""
 ACHIEVED = ["runs", "achieved", "issued", "stalls per run"]
-FORMATS = {"units": "int", "ports": "int", "rec": "int", "path": "int", "written": "int",
+FORMATS = {"bound": "int", "units": "int", "ports": "int", "rec": "int", "path": "int", "written": "int",
            "list": "int", "runs": "int", "achieved": "f2", "issued": "f2"}
 CAPTION = ("cycles (a loop's: per iteration); units: issue cycles the unit slots need plus the "
            "cycles nothing issues (load holds, a loop's taken back edge), or an unpipelined "
            "class's busy cycles; ports: the same for the register ports; rec: RecMII (loop-"
            "carried true, memory, FIFO cycles); path: the longest dependence chain; bound: the "
            "largest that applies (a loop: units, ports, rec; a block: units, ports, path), "
-           "its name after it; written: the code as written by the interlock rules, registers "
+           "by: which; written: the code as written by the interlock rules, registers "
            "ready and loads hitting; list: list-scheduled; optimum: CP-SAT's shortest schedule "
            f"(blocks up to {OPTIMUM_MAX_OPS} ops); docs/scheduling.md, \"Bounds\"")
 RUN_CAPTION = ("; runs: iterations (times the first bundle issued); achieved: cycles spent in "
-               "the bundles per run, = issued (bundles per run) + stalls per run by cause "
-               "(docs/stalls.md)")
+               "the bundles per run, = issued (bundles per run) + stalls per run by cause, the "
+               f"{SHOWN_CAUSES} largest named (docs/stalls.md)")
 
 
 def ops_text(b: Bounds) -> str:
@@ -45,12 +47,11 @@ def ops_text(b: Bounds) -> str:
 
 
 def static_cells(b: Bounds) -> list:
-    bound = f"{b.bound} {b.binding}"
     if b.kind == "loop":
         return [b.label, f"{b.start}-{b.end}", ops_text(b), b.units, b.ports, b.recurrence,
-                b.critical_path, bound, b.written]
-    return [b.label, f"{b.start}-{b.end}", ops_text(b), b.units, b.ports, b.critical_path, bound,
-            b.written, b.list_scheduled, b.optimum_text]
+                b.critical_path, b.bound, b.binding, b.written]
+    return [b.label, f"{b.start}-{b.end}", ops_text(b), b.units, b.ports, b.critical_path, b.bound,
+            b.binding, b.written, b.list_scheduled, b.optimum_text]
 
 
 def bounds_sections(rows: list[tuple[str, list[Bounds], dict[int, BundleCounts] | None]]
@@ -60,8 +61,8 @@ def bounds_sections(rows: list[tuple[str, list[Bounds], dict[int, BundleCounts] 
     extra = ACHIEVED if with_run else []
     caption = CAPTION + (RUN_CAPTION if with_run else "")
     loops = Section("loops", "Loops: bounds per iteration" + (" and the run" if with_run else ""),
-                    ["processor"] + STATIC + extra, formats=FORMATS, caption=caption,
-                    group_by="processor")
+                    ["processor"] + STATIC + extra, formats=FORMATS,
+                    caption="columns explained below the blocks table", group_by="processor")
     blocks = Section("blocks", "Blocks: bounds" + (" and the run, hottest first" if with_run else ""),
                      ["processor"] + BLOCK_STATIC + extra, formats=FORMATS, caption=caption,
                      group_by="processor")
@@ -85,9 +86,11 @@ def run_cells(b: Bounds, counts: dict[int, BundleCounts]) -> list:
     for c in body:
         for cause, n in c.stalls.items():
             stalls[cause] = stalls.get(cause, 0) + n
-    per = {cause: n / runs for cause, n in stalls.items()}
-    shown = ", ".join(f"{c} {v:.2f}" for c, v in sorted(per.items(), key=lambda kv: (-kv[1], kv[0]))
-                      if v >= 0.005)
+    ranked = sorted(((c, n / runs) for c, n in stalls.items()), key=lambda kv: (-kv[1], kv[0]))
+    shown = ", ".join(f"{c} {v:.2f}" for c, v in ranked[:SHOWN_CAUSES])
+    rest = sum(v for _, v in ranked[SHOWN_CAUSES:])
+    if rest:
+        shown += f", other {rest:.2f}"
     return [runs, sum(c.cycles for c in body) / runs, sum(c.issued for c in body) / runs,
             shown or None]
 

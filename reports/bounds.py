@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from netsushisen.asm.bounds import (OPTIMUM_MAX_OPS, Bounds, add_optimum, program_bounds,
                                     program_from_listing)
+from netsushisen.asm.objects import Program
 from netsushisen.errors import NetsushisenError
 from netsushisen.isa.config import config_from_dict
 from netsushisen.reports.annotate import (BundleCounts, bundle_counts, choose_processors,
@@ -27,7 +28,7 @@ BLOCK_STATIC = ["block", "pcs", "ops", "units", "ports", "path", "bound", "by", 
 SHOWN_CAUSES = 3
 """Stall causes named per row (the rest summed as `other`; JSON and CSV alike)."""
 ACHIEVED = ["runs", "achieved", "issued", "stalls per run"]
-FORMATS = {"bound": "int", "units": "int", "ports": "int", "rec": "int", "path": "int", "written": "int",
+FORMATS = {"units run": "f2", "bound": "int", "units": "int", "ports": "int", "rec": "int", "path": "int", "written": "int",
            "list": "int", "runs": "int", "achieved": "f2", "issued": "f2"}
 CAPTION = ("cycles (a loop's: per iteration); units: issue cycles the unit slots need plus the "
            "cycles nothing issues (load holds, a loop's taken back edge), or an unpipelined "
@@ -37,7 +38,10 @@ CAPTION = ("cycles (a loop's: per iteration); units: issue cycles the unit slots
            "by: which; written: the code as written by the interlock rules, registers "
            "ready and loads hitting; list: list-scheduled; optimum: CP-SAT's shortest schedule "
            f"(blocks up to {OPTIMUM_MAX_OPS} ops); docs/scheduling.md, \"Bounds\"")
-RUN_CAPTION = ("; runs: iterations (times the first bundle issued); achieved: cycles spent in "
+RUN_CAPTION = ("; units run (loops): the issue cycles per iteration the operations the run "
+               "executed there need on their units (the bounds count every bundle of a loop "
+               "with inner branches once)"
+               "; runs: iterations (times the first bundle issued); achieved: cycles spent in "
                "the bundles per run, = issued (bundles per run) + stalls per run by cause, the "
                f"{SHOWN_CAUSES} largest named (docs/stalls.md)")
 
@@ -54,34 +58,56 @@ def static_cells(b: Bounds) -> list:
             b.binding, b.written, b.list_scheduled, b.optimum_text]
 
 
-def bounds_sections(rows: list[tuple[str, list[Bounds], dict[int, BundleCounts] | None]]
-                    ) -> list[Section]:
-    """The `loops` and `blocks` tables of (processor, its bounds, its counters by pc or None)."""
+def bounds_sections(rows: list[tuple[str, list[Bounds], dict[int, BundleCounts] | None]],
+                    programs: dict[str, Program] | None = None) -> list[Section]:
+    """The `loops` and `blocks` tables of (processor, its bounds, its counters by pc or None);
+    with counters, `programs` (by stage) gives a loop's executed operations."""
     with_run = any(counts is not None for _, _, counts in rows)
-    extra = ACHIEVED if with_run else []
     caption = CAPTION + (RUN_CAPTION if with_run else "")
     loops = Section("loops", "Loops: bounds per iteration" + (" and the run" if with_run else ""),
-                    ["processor"] + STATIC + extra, formats=FORMATS,
-                    caption="columns explained below the blocks table", group_by="processor")
+                    ["processor"] + STATIC + (["units run"] + ACHIEVED if with_run else []),
+                    formats=FORMATS, caption="columns explained below the blocks table",
+                    group_by="processor")
     blocks = Section("blocks", "Blocks: bounds" + (" and the run, hottest first" if with_run else ""),
-                     ["processor"] + BLOCK_STATIC + extra, formats=FORMATS, caption=caption,
-                     group_by="processor")
+                     ["processor"] + BLOCK_STATIC + (ACHIEVED if with_run else []),
+                     formats=FORMATS, caption=caption, group_by="processor")
     for name, bounds, counts in rows:
         for b in bounds:
             row = [name] + static_cells(b)
             if counts is not None:
+                if b.kind == "loop":
+                    row.append(executed_units(b, counts, programs[b.proc]))
                 row += run_cells(b, counts)
             (loops if b.kind == "loop" else blocks).rows.append(row)
     return [loops, blocks]
+
+
+def executed_units(b: Bounds, counts: dict[int, BundleCounts], program: Program) -> float | None:
+    """The issue cycles per iteration the operations the run executed in the loop need on their
+    units: max over classes of (Σ over its bundles of times issued × the bundle's ops of the
+    class) / (iterations × units). The `units` bound of the path the run took, where `units`
+    counts every bundle of the body once."""
+    first = counts.get(b.start)
+    if not first or not first.issued:
+        return None
+    proc = program.processor
+    by_unit: dict[str, int] = {}
+    for pc in range(b.start, b.end + 1):
+        if pc in counts:
+            for op in program.bundles[pc]:
+                if op.opcode.kind != "nop":
+                    u = proc.unit(op.opcode.unit)
+                    by_unit[u] = by_unit.get(u, 0) + counts[pc].issued
+    return max((n / (first.issued * proc.units[u]) for u, n in by_unit.items()), default=0.0)
 
 
 def run_cells(b: Bounds, counts: dict[int, BundleCounts]) -> list:
     """Runs, cycles per run, bundles issued per run and stalls per run by cause."""
     first = counts.get(b.start)
     runs = first.issued if first else 0
-    body = [counts[pc] for pc in range(b.start, b.end + 1) if pc in counts]
     if not runs:
         return [0, None, None, None]
+    body = [counts[pc] for pc in range(b.start, b.end + 1) if pc in counts]
     stalls: dict[str, int] = {}
     for c in body:
         for cause, n in c.stalls.items():
@@ -129,4 +155,4 @@ def bounds_report(stats: dict, proc: str | None = None, top: int | None = None,
             if b.optimum is None and 0 < b.ops <= optimum_ops:
                 add_optimum(program, b, config)
         rows.append((name, chosen_loops + blocks, counts))
-    return bounds_sections(rows)
+    return bounds_sections(rows, {stage: program for stage, (program, _) in programs.items()})

@@ -231,6 +231,7 @@ def test_report_bounds_joins_the_run(cli, tmp_path, engine_name):
         ("pe0.ic", "loop", 3, "units", 7)
     # 10 iterations: 4 bundles each, fadd waits 2 on fmul, 9 taken back edges
     assert (loop["runs"], loop["achieved"], loop["issued"]) == (10, 6.9, 4.0)
+    assert loop["units run"] == 2.0  # addi + bne on the one int unit, every iteration
     assert loop["stalls per run"] == "operand:fmul 2.00, branch 0.90"
     blocks = {r["block"]: r for r in rows["blocks"]}
     assert blocks["start"]["optimum"] == "2" and blocks["start"]["runs"] == 1

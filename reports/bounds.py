@@ -25,6 +25,8 @@ from netsushisen.reports.tables import Section, StatsError
 STATIC = ["loop", "pcs", "ops", "units", "ports", "rec", "path", "bound", "by", "written"]
 BLOCK_STATIC = ["block", "pcs", "ops", "units", "ports", "path", "bound", "by", "written", "list",
                 "optimum"]
+BY = {"recurrence": "rec"}
+"""The binding bound by its column's name."""
 SHOWN_CAUSES = 3
 """Stall causes named per row (the rest summed as `other`; JSON and CSV alike)."""
 ACHIEVED = ["runs", "achieved", "issued", "stalls per run"]
@@ -53,9 +55,10 @@ def ops_text(b: Bounds) -> str:
 def static_cells(b: Bounds) -> list:
     if b.kind == "loop":
         return [b.label, f"{b.start}-{b.end}", ops_text(b), b.units, b.ports, b.recurrence,
-                b.critical_path, b.bound, b.binding, b.written]
+                b.critical_path, b.bound, BY.get(b.binding, b.binding), b.written]
     return [b.label, f"{b.start}-{b.end}", ops_text(b), b.units, b.ports, b.critical_path, b.bound,
-            b.binding, b.written, b.list_scheduled, b.optimum_text]
+            BY.get(b.binding, b.binding), b.written, b.list_scheduled, b.optimum_text]
+
 
 
 def bounds_sections(rows: list[tuple[str, list[Bounds], dict[int, BundleCounts] | None]],
@@ -71,6 +74,10 @@ def bounds_sections(rows: list[tuple[str, list[Bounds], dict[int, BundleCounts] 
     blocks = Section("blocks", "Blocks: bounds" + (" and the run, hottest first" if with_run else ""),
                      ["processor"] + BLOCK_STATIC + (ACHIEVED if with_run else []),
                      formats=FORMATS, caption=caption, group_by="processor")
+    run = ["units run"] + ACHIEVED
+    loops.panels = [loops.columns[:len(STATIC) + 1]] + ([["processor", "loop"] + run] if with_run else [])
+    split = BLOCK_STATIC.index("written") + 1
+    blocks.panels = [blocks.columns[:split], ["processor", "block"] + blocks.columns[split:]]
     for name, bounds, counts in rows:
         for b in bounds:
             row = [name] + static_cells(b)

@@ -237,6 +237,22 @@ def test_report_bounds_joins_the_run(cli, tmp_path, engine_name):
     assert blocks["start"]["optimum"] == "2" and blocks["start"]["runs"] == 1
 
 
+def test_report_bounds_fits_80_columns(cli, tmp_path):
+    """Too wide for the terminal, a table is printed as its column groups, one under the other."""
+    src = tmp_path / "loop.s"
+    src.write_text(LOOP)
+    stats = tmp_path / "s.json"
+    assert cli("run", "--ic", src, "--json", stats, "-q", "--engine", "reference")[0] == 0
+    code, out, err = cli("report", "bounds", stats, "--width", "80")
+    assert code == 0, err
+    assert max(len(line) for line in out.splitlines()) <= 80
+    rules = [line for line in out.splitlines() if line.startswith("─")]
+    assert len(rules) == 4 and "operand:fmul 2.00" in out  # loops and blocks, two groups each
+    code, wide, _ = cli("report", "bounds", stats, "--width", "200")
+    assert code == 0 and max(len(line) for line in wide.splitlines()) > 80
+    assert len([line for line in wide.splitlines() if line.startswith("─")]) == 2
+
+
 def test_report_bounds_needs_the_listing(cli, tmp_path):
     src = tmp_path / "loop.s"
     src.write_text(LOOP)

@@ -135,7 +135,8 @@ def bounds_report(stats: dict, proc: str | None = None, top: int | None = None,
     try:
         config = config_from_dict(stats["config"], source)
     except NetsushisenError as err:
-        raise StatsError(f"{source}: the statistics' configuration: {err}") from None
+        raise StatsError(f"{source}: the statistics' configuration: "
+                         f"{err.diagnostics[0].message}") from None
     programs: dict[str, tuple] = {}
     rows = []
     for name, p in choose_processors(stats, proc):
@@ -148,7 +149,11 @@ def bounds_report(stats: dict, proc: str | None = None, top: int | None = None,
         loops = {(lp.start, lp.end) for lp in find_loops(list(counts.values()))
                  if counts[lp.start].issued}
         if stage not in programs:
-            program = program_from_listing(listing, stage, f"{source}: {stage} listing")
+            try:
+                program = program_from_listing(listing, stage, f"{source}: {stage} listing")
+            except NetsushisenError as err:
+                raise StatsError(f"{source}: the {stage} program's listing does not assemble "
+                                 f"again: {err.diagnostics[0].message}") from None
             programs[stage] = (program, program_bounds(program, config, optimum_ops=0))
         program, all_bounds = programs[stage]
         chosen_loops = [b for b in all_bounds if b.kind == "loop" and (b.start, b.end) in loops]

@@ -266,6 +266,34 @@ def test_report_bounds_needs_the_listing(cli, tmp_path):
     assert err.count("\n") == 1 and "carry no program listing" in err
 
 
+@pytest.mark.parametrize("spoil, says", [
+    (lambda d: d["programs"]["ic"]["listing"]["text"].__setitem__(5, "fadd r6, r6"),
+     "listing does not assemble again: 'fadd' takes 3 operands"),
+    (lambda d: d["config"]["ic"]["latency"].__setitem__("fadd", 0),
+     "configuration: ic.latency.fadd must be a whole number of cycles"),
+])
+def test_report_bounds_on_spoilt_statistics(cli, tmp_path, spoil, says):
+    src = tmp_path / "loop.s"
+    src.write_text(LOOP)
+    stats = tmp_path / "s.json"
+    assert cli("run", "--ic", src, "--json", stats, "-q", "--engine", "reference")[0] == 0
+    data = json.loads(stats.read_text())
+    spoil(data)
+    stats.write_text(json.dumps(data))
+    code, out, err = cli("report", "bounds", stats)
+    assert code == 1 and out == "" and err.count("\n") == 1 and says in err
+
+
+def test_asm_bounds_of_a_scenes_kernels(cli):
+    code, out, err = cli("asm", "--bounds", "--scene", "tetra", "--proc", "ic", "--res", "4",
+                         "--optimum-ops", "0", "--format", "json")
+    assert code == 0, err
+    loops = {r["loop"]: r for s in json.loads(out)["sections"] if s["key"] == "loops"
+             for r in s["rows"]}
+    assert "cell_loop" in loops  # IC's walk of a voxel's primitive list
+    assert all(r["bound"] <= r["written"] for r in loops.values())
+
+
 def test_asm_bounds_from_a_source(cli, tmp_path):
     src = tmp_path / "sumsq.s"
     src.write_text(SUMSQ)

@@ -165,12 +165,15 @@ def _read_source(path: Path, display: str) -> str:
 
 class Assembler(MacroExpansion):
     def __init__(self, proc: str | None = None, defines: dict[str, int | float] | None = None,
-                 include_dirs: list[str | Path] | None = None, config: MachineConfig | None = None):
+                 include_dirs: list[str | Path] | None = None, config: MachineConfig | None = None,
+                 schedule: bool = True):
         if proc is not None and proc not in PROCESSORS:
             raise NetsushisenError(f"unknown processor {proc!r}: choose os, ic or sc")
         self.defines = dict(defines or {})
         self.config = config or MachineConfig()
         """The machine `.sched` regions are scheduled for (latencies, memory times, penalty)."""
+        self.schedule = schedule
+        """False: `.sched` regions stay one operation per bundle, as written (the serial form)."""
         self.pipeline_reports: list[PipelineReport] = []
         """The software pipelining information of every `.pipeline` loop, in source order."""
         self.st = _State(proc, proc is not None, [Path(d) for d in include_dirs or []])
@@ -571,7 +574,8 @@ class Assembler(MacroExpansion):
         sources = [self._op_sources(pb) for pb in st.bundles]
         smap = [SourceLoc(pb.loc.file, pb.loc.line, pb.text, describe(pb.loc.via, st.lines))
                 for pb in st.bundles]
-        if any(r.end > r.first for r in st.regions) and proc is not None and not st.diags:
+        if self.schedule and any(r.end > r.first for r in st.regions) and proc is not None \
+                and not st.diags:
             bundles, op_sources, smap = self._schedule(proc, resolved, sources, smap)
         else:
             bundles = [tuple(ops) for ops in resolved]

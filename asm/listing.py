@@ -100,6 +100,9 @@ def listing(program: Program) -> str:
             text = " ; ".join(op.format(labels) for op in bundle) or "nop"
         where = f"{loc.file}:{loc.line}" if loc else ""
         rows.append(f"{addr:5d}  {text:<60s} ; {where}  {loc.text if loc else ''}".rstrip())
+        for other in _other_lines(program, addr):
+            rows.append(f"{'':5s}  {'':<60s} ; {other.file}:{other.line}  {other.text}".rstrip())
+    rows += _source_map_rows(program)
     if program.data:
         rows.append("; data (local memory)")
         data_labels: dict[int, list[str]] = {}
@@ -112,6 +115,50 @@ def listing(program: Program) -> str:
             shown = format_float(value) if kind == "f" else str(value)
             rows.append(f"{addr:5d}  .{'float' if kind == 'f' else 'word'} {shown}")
     return "\n".join(rows) + "\n"
+
+
+def _other_lines(program: Program, addr: int) -> list:
+    """The source lines of a bundle's operations besides the bundle's own (a scheduled bundle
+    gathers several), first occurrence order."""
+    if addr >= len(program.op_sources) or addr >= len(program.source_map):
+        return []
+    own = program.source_map[addr]
+    out, seen = [], {(own.file, own.line)}
+    for s in program.op_sources[addr]:
+        if (s.file, s.line) not in seen:
+            seen.add((s.file, s.line))
+            out.append(s)
+    return out
+
+
+def source_bundles(program: Program) -> dict[tuple[str, int], tuple[str, list[int]]]:
+    """(file, line) -> (its text, the bundles its operations landed in), for every line with an
+    operation: how a scheduled region's lines map to bundles (`report annotate`, the listing)."""
+    out: dict[tuple[str, int], tuple[str, list[int]]] = {}
+    for addr, sources in enumerate(program.op_sources):
+        for s in sources:
+            entry = out.setdefault((s.file, s.line), (s.text, []))
+            if not entry[1] or entry[1][-1] != addr:
+                entry[1].append(addr)
+    return out
+
+
+def _source_map_rows(program: Program) -> list[str]:
+    """For every source line that shares a bundle with another line or landed in several
+    bundles (the lines of `.sched` regions), the bundles it landed in."""
+    shared = {(s.file, s.line) for addr, sources in enumerate(program.op_sources)
+              if len({(t.file, t.line) for t in sources}) > 1 for s in sources}
+    rows = []
+    for (file, line), (text, addrs) in source_bundles(program).items():
+        if (file, line) in shared or len(addrs) > 1:
+            rows.append((file, line, text, addrs))
+    if not rows:
+        return []
+    out = ["; scheduled source lines -> bundles"]
+    for file, line, text, addrs in sorted(rows, key=lambda r: (r[0], r[1])):
+        where = f"{file}:{line}"
+        out.append(f";   {where:<24s} {text:<40s} -> {', '.join(map(str, addrs))}")
+    return out
 
 
 @dataclass

@@ -104,7 +104,7 @@ class PipelineReport:
         if self.reason:
             rows.append(f";*   not pipelined: {self.reason}; the loop is list-scheduled")
             return "\n".join(rows)
-        per_iter = self.ii + self.penalty / self.unroll
+        per_iter = round(self.ii + self.penalty / self.unroll, 2)
         temps = ", ".join(register_name(r) for r in self.registers) or "none"
         rows += [f";*   II achieved             : {self.ii}   ({per_iter:g} cycles per iteration with the "
                  f"taken-branch penalty {self.penalty} once per {self.unroll} kernel "

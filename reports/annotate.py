@@ -36,6 +36,8 @@ class BundleCounts:
     target: int | None
     issued: int = 0
     stalls: dict[str, int] = field(default_factory=dict)
+    lines: str | None = None
+    """The source lines of its operations (a scheduled bundle gathers several)."""
 
     @property
     def stalled(self) -> int:
@@ -56,6 +58,8 @@ def bundle_counts(stats: dict, name: str, p: dict) -> list[BundleCounts]:
     if listing:
         out = [BundleCounts(pc, *row) for pc, row in enumerate(
             zip(listing["label"], listing["text"], listing["ops"], listing["target"]))]
+        for b, lines in zip(out, listing.get("lines") or []):
+            b.lines = lines
     else:
         out = [BundleCounts(pc, (by_pc.get(pc) or {}).get("label", str(pc)), None, None, None)
                for pc in sorted(set(issued) | set(by_pc))]
@@ -129,8 +133,8 @@ def annotate_sections(stats: dict, proc: str | None = None, top: int | None = No
     if order not in ORDERS:
         raise StatsError(f"--order {order}: one of {', '.join(ORDERS)}")
     listing = Section("bundles", "Annotated listing" + (" (hottest first)" if order == "hot" else ""),
-                      ["processor", "pc", "location", "bundle", "issued", "stall cycles", "stalls by cause",
-                       "share", "fill"],
+                      ["processor", "pc", "location", "bundle", "source lines", "issued", "stall cycles",
+                       "stalls by cause", "share", "fill"],
                       formats={"pc": "int", "issued": "int", "stall cycles": "int", "share": "pct",
                                "fill": "pct"},
                       caption="share = (issued + stall cycles) / the processor's cycles; fill = the "
@@ -160,7 +164,8 @@ def annotate_sections(stats: dict, proc: str | None = None, top: int | None = No
             if order == "program":
                 shown.sort(key=lambda b: b.pc)
         for b in shown:
-            listing.rows.append([name, b.pc, b.label, b.text, b.issued, b.stalled, stalls_text(b.stalls),
+            listing.rows.append([name, b.pc, b.label, b.text, b.lines, b.issued, b.stalled,
+                                 stalls_text(b.stalls),
                                  b.cycles / cycles,
                                  b.ops / slots if slots and b.ops is not None else None])
         for lp in find_loops(counts):

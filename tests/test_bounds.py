@@ -294,6 +294,20 @@ def test_asm_bounds_of_a_scenes_kernels(cli):
     assert all(r["bound"] <= r["written"] for r in loops.values())
 
 
+def test_asm_bounds_for_the_configured_machine(cli, tmp_path):
+    src = tmp_path / "loop.s"
+    src.write_text(LOOP)
+
+    def loop_row(*sets: str) -> dict:
+        code, out, err = cli("asm", "--bounds", src, "--optimum-ops", "0", "--format", "json",
+                             *[x for s in sets for x in ("--set", s)])
+        assert code == 0, err
+        return next(s for s in json.loads(out)["sections"] if s["key"] == "loops")["rows"][0]
+
+    assert (loop_row()["bound"], loop_row()["by"]) == (3, "units")
+    assert (loop_row("ic.latency.fadd=4")["bound"], loop_row("ic.latency.fadd=4")["by"]) == (4, "rec")
+
+
 def test_asm_bounds_from_a_source(cli, tmp_path):
     src = tmp_path / "sumsq.s"
     src.write_text(SUMSQ)

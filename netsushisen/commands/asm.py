@@ -1,17 +1,19 @@
 """Assemble a stage kernel: `netsushisen asm SOURCE.s --proc os|ic|sc [-D NAME[=VALUE]]... [-I DIR]...
-[-o OUT] [--listing PATH|-] [--stats] [--config FILE] [--set PATH=VALUE]...`, or the kernels
+[-o OUT] [--listing PATH|-] [--stats] [--bounds] [--config FILE] [--set PATH=VALUE]...`, or the kernels
 `render` runs for a scene:
 `netsushisen asm --scene SCENE [--generic] [--proc os|ic|sc] [--stats] [--listing -] [--show-defines]`.
 
 Writes the object file (default: SOURCE's stem + .o in the current directory; with --stats,
---listing or --show-defines and no -o, nothing is written). With --scene the bundled kernels (or
+--listing, --bounds or --show-defines and no -o, nothing is written). With --scene the bundled kernels (or
 --kernels DIR's, or SOURCE) are assembled with exactly the symbols `render` gives them for that
 scene (`render.kernel_inputs`: the databases' layout, the pre-pass's resident records at --res,
 HAS_* needs, SLOTS, MAX_DEPTH), so --stats prints the static ILP `render`'s statistics report;
 --precision, --depth, --set and --config matter where they change those symbols; -D adds or
 overrides one. `.sched` regions are scheduled for the machine --config and --set describe
 (docs/scheduling.md); every `.pipeline` loop's software pipelining information goes into the
-listing and --stats, and a loop that could not be pipelined is one warning line on stderr. Any
+listing and --stats, and a loop that could not be pipelined is one warning line on stderr.
+--bounds prints every loop's and block's static bounds for that machine (asm/bounds.py; the
+tables of `report bounds` without the run; --optimum-ops N, --format). Any
 error in the source: every error is printed as `file:line:col: error: message` with the line
 and a caret, and the exit code is 1.
 """

@@ -37,13 +37,13 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
-from netsushisen.asm.dependences import DependenceGraph, dependences, issue_hold, result_latency, unit_busy
+from netsushisen.asm.dependences import (DependenceGraph, dependences, issue_hold, result_latency,
+                                         unit_busy)
 from netsushisen.asm.listing import bundle_target, loop_ranges
 from netsushisen.asm.objects import Op, Program
 from netsushisen.isa.config import MachineConfig
-from netsushisen.isa.opcodes import OPCODES
 from netsushisen.isa.processors import Processor
 
 OPTIMUM_MAX_OPS = 40
@@ -123,7 +123,6 @@ class Bounds:
     list_scheduled: int | None = None
     optimum: int | None = None
     optimum_proven: bool = False
-    notes: list[str] = field(default_factory=list)
 
     @property
     def units(self) -> int:
@@ -163,12 +162,6 @@ class Bounds:
         d = {k: v for k, v in self.__dict__.items()}
         d.update(units=self.units, ports=self.ports, bound=self.bound, binding=self.binding)
         return d
-
-
-def region_ops(program: Program, region: Region) -> list[tuple[int, Op]]:
-    """(pc, op) of every operation in the region, in program order (nops left out)."""
-    return [(pc, op) for pc in region.pcs() for op in program.bundles[pc]
-            if op.opcode.kind != "nop"]
 
 
 def value_reads(ops: list[tuple[int, Op]]) -> list[list[tuple[int, int]]]:
@@ -469,14 +462,13 @@ def add_optimum(program: Program, b: Bounds, config: MachineConfig, seconds: flo
 
 
 def program_bounds(program: Program, config: MachineConfig, optimum_ops: int = OPTIMUM_MAX_OPS,
-                   seconds: float | None = None, only: set[int] | None = None) -> list[Bounds]:
-    """The bounds of every loop and block of `program` (`regions`), or of those starting at
-    an address in `only`."""
+                   seconds: float | None = None) -> list[Bounds]:
+    """The bounds of every loop and block of `program` (`regions`)."""
     from netsushisen.asm.listing import target_names
 
     names = target_names(program)
     return [region_bounds(program, r, config, optimum_ops, seconds, names.get(r.start, str(r.start)))
-            for r in regions(program) if only is None or r.start in only]
+            for r in regions(program)]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -492,7 +484,7 @@ def program_from_listing(listing: dict, proc: str, source: str = "<statistics>")
 
     labels, texts = listing["label"], listing["text"]
     lines = [f".proc {proc}"]
-    for pc, (label, text) in enumerate(zip(labels, texts)):
+    for label, text in zip(labels, texts):
         if "+" not in label and not label.isdigit():
             lines.append(f"{label}:")
         lines.append("    { " + ("" if text == "nop" else text) + " }")

@@ -19,7 +19,7 @@ from netsushisen.asm.objects import Program
 from netsushisen.errors import NetsushisenError
 from netsushisen.isa.config import config_from_dict
 from netsushisen.reports.annotate import (BundleCounts, bundle_counts, choose_processors,
-                                          find_loops, stalls_text)
+                                          find_loops)
 from netsushisen.reports.tables import Section, StatsError
 
 STATIC = ["loop", "pcs", "ops", "units", "ports", "rec", "path", "bound", "by", "written"]

@@ -204,8 +204,10 @@ def resource_bounds(proc: Processor, ops: list[tuple[int, Op]], config: MachineC
         k = math.ceil(len(occ) / units)
         busy = max(busy, math.ceil((sum(occ) - spare) / units), sum(occ[:k - 1]) + 1)
     load_unit = proc.unit("int")
-    hold = sum(issue_hold(op, proc, config) - 1 for _, op in ops if op.opcode.kind == "load")
-    dead = math.ceil(hold / proc.units[load_unit])
+    holds = sorted(issue_hold(op, proc, config) - 1 for _, op in ops if op.opcode.kind == "load")
+    if ends_in_halt([op for _, op in ops]):  # loads sharing the halt's bundle hold nothing
+        holds = holds[:-proc.units[load_unit]]
+    dead = math.ceil(sum(holds) / proc.units[load_unit])
     if loop:
         dead += getattr(config, proc.name).taken_branch_penalty
     reads = len({v for vs in value_reads(ops) for v in vs})
@@ -260,7 +262,8 @@ def written_timing(proc: Processor, bundles: list[tuple[Op, ...]], config: Machi
                 if not op.opcode.pipelined:
                     busy[proc.unit(op.opcode.unit)].append(c + lat)
             issued.append(c)
-            c_next = c + max([1] + [issue_hold(op, proc, config) for op in real])
+            halts = any(op.opcode.kind == "halt" for op in real)  # T9: nothing issues after
+            c_next = c + max([1] + [0 if halts else issue_hold(op, proc, config) for op in real])
         ends.append(c_next)
     return issued, ends
 
@@ -326,7 +329,14 @@ def issue_path(graph: DependenceGraph) -> int:
     the chain's last operation issues (after its hold, for a load): no schedule of the block
     is shorter."""
     est = earliest_starts(graph)
+    if ends_in_halt(graph.ops):  # a load may share the halt's bundle: it holds nothing then
+        return max((t + 1 for t in est), default=0)
     return max((t + h for t, h in zip(est, graph.holds)), default=0)
+
+
+def ends_in_halt(ops) -> bool:
+    """A block that halts: its length is the halt's cycle + 1 (T9), whatever its loads hold."""
+    return bool(ops) and ops[-1].opcode.kind == "halt"
 
 
 RECURRENCE_KINDS = ("true", "memory", "fifo")

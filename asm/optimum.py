@@ -15,7 +15,8 @@ graph's edges, asm/dependences.py), time-indexed:
   (T6);
 - per cycle: distinct values read ≤ read ports, writes issued ≤ write ports (the bundle rule)
   and writes landing (s_o + latency) ≤ write ports (T5);
-- the length, minimised: max over operations of s_o + its issue hold (1, a load's T).
+- the length, minimised: max over operations of s_o + its issue hold (1, a load's T); in a
+  block that halts, the halt's cycle + 1 (T9: the processor stops, so no hold matters).
 
 Registers are ready at the block's entry and every load hits, as for the other bounds. The
 solve is deterministic: one worker, a fixed seed and a limit in CP-SAT's *deterministic* time
@@ -82,7 +83,8 @@ def _solve(cp_model, graph: DependenceGraph, reads, proc: Processor, config: Mac
     for i in range(n):
         for e in graph.succs(i):
             est[e.dst] = max(est[e.dst], est[i] + e.latency)
-    tail = list(graph.holds)  # cycles from an op's issue to the end, at least
+    halts = graph.ops[-1].opcode.kind == "halt"  # last (control edges): nothing issues after it
+    tail = [1] * n if halts else list(graph.holds)  # cycles from an op's issue to the end
     for i in reversed(range(n)):
         for e in graph.succs(i):
             tail[i] = max(tail[i], e.latency + tail[e.dst])
@@ -149,7 +151,7 @@ def _solve(cp_model, graph: DependenceGraph, reads, proc: Processor, config: Mac
             m.Add(sum(w * v for w, v in land) <= proc.write_ports)
     length = m.NewIntVar(max(lower, 1), horizon, "length")
     for i in range(n):
-        m.Add(length >= starts[i] + graph.holds[i])
+        m.Add(length >= starts[i] + (1 if halts else graph.holds[i]))
     m.Minimize(length)
     if hint is not None and len(hint) == n:
         for i, t in enumerate(hint):

@@ -7,6 +7,7 @@ here are those. Default timing: fmul 3, fadd 2, int ALU 1, ldr t_r = 1, taken-br
 from __future__ import annotations
 
 import json
+import os
 import random
 
 import pytest
@@ -21,6 +22,8 @@ from netsushisen.asm.objects import Op
 from netsushisen.isa.config import MachineConfig, load_config
 
 OPCODES_HALT = Op("halt")
+SEEDS = int(os.environ.get("BOUNDS_SEEDS", "6"))
+"""Random blocks checked against the emulator (`BOUNDS_SEEDS=80` for a longer look)."""
 
 # Example 1 (docs/scheduling.md): a loop accumulating r1·r2 into r6, r4 times
 LOOP = """
@@ -68,6 +71,13 @@ def test_example_loop_is_bound_by_the_units():
     assert b.critical_path == 4  # fmul 0 -> fadd 3 -> bne 3, + 1
     assert (b.bound, b.binding) == (3, "units")
     assert b.written == 7  # fmul c0, fadd c3, addi c4, bne c5, penalty c6
+
+
+def test_a_recurrence_through_local_memory():
+    # ld -> fadd (1) -> st (fadd 5) -> the next iteration's ld (a store before a load: 1)
+    src = ".proc ic\nloop:\n ld r1, [0]\n fadd r1, r1, r3\n st r1, [0]\n bnez r4, loop\n halt\n"
+    b = bounds_of(src, "ic.latency.fadd=5", optimum_ops=0)["loop", "loop"]
+    assert (b.recurrence, b.units, b.bound, b.binding) == (7, 4, 7, "recurrence")
 
 
 def test_a_slower_fadd_makes_the_loop_recurrence_bound():
@@ -155,7 +165,7 @@ def random_block(rng: random.Random, n: int, proc: str) -> str:
     return "\n".join(lines + ["    halt", ""])
 
 
-@pytest.mark.parametrize("seed", range(int(__import__("os").environ.get("BOUNDS_SEEDS", "6"))))
+@pytest.mark.parametrize("seed", range(SEEDS))
 def test_written_and_list_timing_equal_the_emulator(seed):
     """The static timing of a straight block (and of its list schedule) is the reference
     engine's cycle count, under random latencies; and bound <= optimum <= every schedule."""

@@ -80,6 +80,7 @@ class PipelineReport:
     port_mii: int = 0
     port_detail: str = ""
     rec_mii: int = 0
+    rec_detail: str = ""
     ii: int = 0
     stages: int = 0
     unroll: int = 0
@@ -99,7 +100,8 @@ class PipelineReport:
         rows = [head,
                 f";*   resource bound (units)  : {self.res_mii}   ({self.res_detail})",
                 f";*   port bound              : {self.port_mii}   ({self.port_detail})",
-                f";*   recurrence bound        : {self.rec_mii}",
+                f";*   recurrence bound        : {self.rec_mii}" +
+                (f"   ({self.rec_detail})" if self.rec_detail else ""),
                 f";*   minimum II              : {self.mii}"]
         if self.reason:
             rows.append(f";*   not pipelined: {self.reason}; the loop is list-scheduled")
@@ -202,6 +204,39 @@ def recurrence_bound(n: int, edges) -> int:
     from netsushisen.asm.bounds import recurrence_mii
 
     return recurrence_mii(n, edges)
+
+
+def critical_recurrence(g: DependenceGraph, edges) -> str:
+    """The loop-carried dependence cycle that sets RecMII, in words: its operations and its
+    latency over its distance (cycles closed by one loop-carried edge; the longest path back
+    through the iteration's own edges)."""
+    n = len(g.ops)
+    best = None
+    for e in edges:
+        if not e.distance:
+            continue
+        # longest path e.dst -> e.src over distance-0 edges (they run forward in the body)
+        dist = {e.dst: (0, [e.dst])}
+        for k in range(e.dst, n):
+            if k not in dist:
+                continue
+            for f in edges:
+                if f.src == k and not f.distance and f.dst > k:
+                    cand = dist[k][0] + f.latency
+                    if f.dst not in dist or cand > dist[f.dst][0]:
+                        dist[f.dst] = (cand, dist[k][1] + [f.dst])
+        if e.src not in dist:
+            continue
+        lat, path = dist[e.src][0] + e.latency, dist[e.src][1]
+        key = (math.ceil(lat / e.distance), lat)
+        if best is None or key > best[0]:
+            best = (key, lat, e.distance, path)
+    if best is None:
+        return ""
+    _, lat, d, path = best
+    names = " -> ".join(g.ops[k].mnemonic + " " + ", ".join(register_name(r) for r in g.ops[k].writes())
+                        for k in path)
+    return f"{names.strip()}: {lat} cycles over {d} iteration{'s' if d > 1 else ''}"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -388,6 +423,7 @@ def pipeline_loop(ops: list[Op], proc: Processor, config: MachineConfig, temps: 
     report.res_mii, report.res_detail = resource_bound(g, proc, config)
     report.port_mii, report.port_detail = port_bound(g, proc)
     report.rec_mii = recurrence_bound(len(ops), edges)
+    report.rec_detail = critical_recurrence(g, edges)
     report.temps = tuple(temps)
     report.penalty = getattr(config, proc.name).taken_branch_penalty
     if isinstance(shape, str):

@@ -71,7 +71,7 @@ def test_asm_scene_text_and_choices(cli, tmp_path):
 
 @pytest.mark.parametrize("argv,fragment", [
     (["asm", "--generic", "kernels/ic.s"], "--generic needs --scene"),
-    (["asm", "--set", "ring.fifo_depth=32", "x.s"], "--set needs --scene"),
+    (["asm", "--pes", "2", "x.s"], "--pes needs --scene"),  # --set: the machine .sched is for
     (["asm"], "give a SOURCE.s, or --scene"),
     (["asm", "--scene", "no_such_scene", "--stats"], "no_such_scene"),
     (["asm", "--scene", SCENE, "--res", "0", "--stats"], "--res 0"),

@@ -184,6 +184,7 @@ def test_asm_prints_the_pipelining_information_for_the_configuration_given(cli, 
     assert fast[0] == 0 and slow[0] == 0, fast[2] + slow[2]
     for _, out, _ in (fast, slow):
         assert "software pipelining information: loop 'loop'" in out
+        assert "recurrence bound        : 2   (fadd r10: 2 cycles over 1 iteration)" in out
         assert "resource bound (units)  : 4" in out and "II achieved             : 4" in out
     assert "stages                  : 2" in fast[1]
     assert "stages                  : 3" in slow[1]  # rescheduled for the longer fmul
@@ -194,3 +195,17 @@ def test_asm_prints_the_pipelining_information_for_the_configuration_given(cli, 
     assert f"{bad}:8: warning: loop 'loop' not pipelined: its branch tests r5" in err
     code, _, err = cli("asm", bad, "--stats", "--set", "ic.latency.fmul=0")
     assert code == 1 and "ic.latency.fmul" in err and "Traceback" not in err
+
+
+def test_run_schedules_a_source_for_the_run_configuration(cli, tmp_path):
+    image = tmp_path / "pairs.json"
+    image.write_text(json.dumps({"ic.resident": PAIRS}))
+    bundles = {}
+    for fmul in (3, 9):
+        out = tmp_path / f"stats{fmul}.json"
+        code, _, err = cli("run", "--ic", EXAMPLE, "--image", image, "-D", "N=16", "--engine",
+                           "reference", "--set", f"ic.latency.fmul={fmul}", "--json", out)
+        assert code == 0, err
+        bundles[fmul] = json.loads(out.read_text())["programs"]["ic"]["bundles"]
+    assert bundles[9] == len(build(16, load_config(None, ["ic.latency.fmul=9"]))[0].bundles)
+    assert bundles[3] == len(build(16)[0].bundles) != bundles[9]

@@ -34,12 +34,14 @@ FP_OPS = ["fadd {d}, {a}, {b}", "fmul {d}, {a}, {b}", "fsub {d}, {a}, {b}", "fdi
 
 
 @st.composite
-def statements(draw, proc: str, loop: bool, prev: str | None = None):
+def statements(draw, proc: str, loop: bool, prev: str | None = None, fifo: bool = True):
     """A few source lines: an operation, or a whole FIFO message (header and payload sends);
     `prev` (a register just written) is read first half the time, to make chains."""
     reg = st.sampled_from(REGS)
     kind = draw(st.sampled_from(["int", "fp", "fp", "fp", "fp", "load", "load", "local", "fifo"]
                                 if loop else ["int", "int", "fp", "fp", "fp", "load", "local", "fifo"]))
+    if kind == "fifo" and not fifo:
+        kind = "local"
     d, a, b, c = draw(reg), draw(reg), draw(reg), draw(reg)
     if prev and draw(st.booleans()):
         a = prev
@@ -68,10 +70,21 @@ def _init(proc: str) -> list[str]:
 
 @st.composite
 def straight_programs(draw, proc: str):
+    """Operations in blocks: forward branches to labels further down cut them (FIFO operations
+    only before the first, so that the words received do not depend on the path)."""
     lines = _init(proc)
+    labels = 0
     for _ in range(draw(st.integers(3, 14))):
-        lines += draw(statements(proc, loop=False))
-    return lines + ["halt"]
+        lines += draw(statements(proc, loop=False, fifo=labels == 0))
+        if draw(st.integers(0, 5)) == 0:
+            lines.append(f"{draw(st.sampled_from(['beqz', 'bnez']))} {draw(st.sampled_from(REGS))}, "
+                         f"skip{labels}")
+            labels += 1
+    body = lines[len(_init(proc)):]
+    for k in range(labels):  # each label somewhere after its branch
+        at = next(i for i, line in enumerate(body) if line.endswith(f"skip{k}"))
+        body.insert(draw(st.integers(at + 1, len(body))), f"skip{k}:")
+    return _init(proc) + body + ["halt"]
 
 
 @st.composite

@@ -225,6 +225,30 @@ def bundled(proc: str, ops, starts, holds) -> "Program":
     return assemble_text(f".proc {proc}\n" + "\n".join(lines) + "\n")
 
 
+@pytest.mark.parametrize("seed", range(SEEDS))
+def test_loop_written_is_the_emulators_steady_state(seed):
+    """A loop's `written` (cycles per iteration in the steady state) is what one more iteration
+    costs on the reference engine, and no bound exceeds it."""
+    rng = random.Random(seed)
+    proc = ["ic", "os", "sc"][seed % 3]
+    config = load_config(None, [f"{proc}.latency.fmul={rng.randint(1, 6)}",
+                                f"{proc}.latency.fdiv={rng.randint(2, 14)}"])
+    body = random_block(rng, rng.randint(2, 8), proc).splitlines()[1:-1]  # no .proc, no halt
+
+    def source(n: int) -> str:
+        return "\n".join([f".proc {proc}", f"    li r20, {n}", "loop:", *body,
+                          "    addi r20, r20, -1", "    bnez r20, loop", "    halt", ""])
+
+    def cycles(n: int) -> int:
+        e = run_machine("reference", config, {proc: assemble_text(source(n))}, max_cycles=100_000)
+        return e.statistics()["processors"][f"pe0.{proc}"]["cycles"]
+
+    b = next(x for x in program_bounds(assemble_text(source(8)), config, optimum_ops=0)
+             if x.kind == "loop")
+    assert cycles(9) - cycles(8) == b.written
+    assert b.bound <= b.written
+
+
 def test_optimum_schedule_is_feasible_on_the_machine():
     """CP-SAT's schedule, bundled and run, takes its length on the reference engine."""
     program = assemble_text(SUMSQ)

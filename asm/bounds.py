@@ -350,52 +350,41 @@ def recurrence_mii(n: int, edges) -> int:
     distance 0 runs forward, src < dst): the smallest II ≥ 1 with no cycle c of
     Σ latency(c) > II · Σ distance(c); 1 when no edge is carried.
 
-    Every cycle passes a carried edge, so the graph shrinks to the carried edges' heads: from
-    each head, the longest forward paths (one sweep in serial order) to each carried edge's
-    source give head → head arcs (weight, distance); then per II a Floyd–Warshall over the
-    heads finds a positive cycle or not, and a binary search finds the least II without one.
-    Fast on a kernel's outer loops of hundreds of operations."""
+    Every cycle passes a carried edge, so the graph shrinks to the carried edges' heads: the
+    longest forward paths from every head (one sweep over the edges in serial order, all heads
+    at once) to each carried edge's source give head → head arcs per distance; then per II a
+    Floyd–Warshall over the heads finds a positive cycle or not, and a binary search finds the
+    least II without one. Fast on a kernel's outer loops of hundreds of operations."""
     import numpy as np
 
     carried = [e for e in edges if e.distance]
     if not carried:
         return 1
-    forward: list[list] = [[] for _ in range(n)]
-    for e in edges:
-        if not e.distance:
-            forward[e.src].append(e)
     heads = sorted({e.dst for e in carried})
-    at = {h: k for k, h in enumerate(heads)}
-    arcs: dict[tuple[int, int, int], int] = {}  # (from head, to head, distance) -> max weight
-    for h in heads:
-        longest = [None] * n
-        longest[h] = 0
-        for u in range(h, n):
-            if longest[u] is not None:
-                for e in forward[u]:
-                    w = longest[u] + e.latency
-                    if longest[e.dst] is None or w > longest[e.dst]:
-                        longest[e.dst] = w
-        for e in carried:
-            if longest[e.src] is not None:
-                key = (at[h], at[e.dst], e.distance)
-                arcs[key] = max(arcs.get(key, -1), longest[e.src] + e.latency)
-    if not arcs:
-        return 1
     k = len(heads)
-    src = np.array([a for a, _, _ in arcs], dtype=np.int64)
-    dst = np.array([b for _, b, _ in arcs], dtype=np.int64)
-    dist = np.array([d for _, _, d in arcs], dtype=np.int64)
-    weight = np.array(list(arcs.values()), dtype=np.int64)
+    at = {h: i for i, h in enumerate(heads)}
+    # longest forward paths from every head at once: one sweep over the edges in serial order
+    longest = np.full((k, n), -np.inf)
+    longest[np.arange(k), heads] = 0.0
+    for e in sorted((e for e in edges if not e.distance), key=lambda e: e.src):
+        np.maximum(longest[:, e.dst], longest[:, e.src] + e.latency, out=longest[:, e.dst])
+    # head -> head arcs per distance: the best path to a carried edge's source, then the edge
+    arcs: dict[int, np.ndarray] = {}
+    for e in carried:
+        m = arcs.setdefault(e.distance, np.full((k, k), -np.inf))
+        j = at[e.dst]
+        np.maximum(m[:, j], longest[:, e.src] + e.latency, out=m[:, j])
+    top = max(float(m[np.isfinite(m)].max(initial=1.0)) for m in arcs.values())
 
     def positive_cycle(ii: int) -> bool:
         m = np.full((k, k), -np.inf)
-        np.maximum.at(m, (src, dst), (weight - ii * dist).astype(float))
+        for d, w in arcs.items():
+            np.maximum(m, w - ii * d, out=m)
         for j in range(k):
             m = np.maximum(m, m[:, j, None] + m[None, j, :])
         return bool(np.any(np.diag(m) > 0))
 
-    lo, hi = 1, max(1, int(weight.max()))  # a cycle's mean weight per distance is at most that
+    lo, hi = 1, max(1, int(top))  # a cycle's mean weight per distance is at most that
     while lo < hi:
         mid = (lo + hi) // 2
         if positive_cycle(mid):

@@ -130,8 +130,8 @@ def run_cells(b: Bounds, counts: dict[int, BundleCounts]) -> list:
 
 def bounds_report(stats: dict, proc: str | None = None, top: int | None = None,
                   optimum_ops: int = OPTIMUM_MAX_OPS, source: str = "<statistics>") -> list[Section]:
-    """The bounds of the chosen processors' loops (every loop that ran) and blocks (the `top`
-    hottest, default 20, that ran), each with its run."""
+    """The bounds of the chosen processors' loops (every loop `report annotate` finds that
+    issued a bundle) and blocks (the `top` hottest, default 20, that ran), each with its run."""
     try:
         config = config_from_dict(stats["config"], source)
     except NetsushisenError as err:
@@ -146,8 +146,7 @@ def bounds_report(stats: dict, proc: str | None = None, top: int | None = None,
             raise StatsError(f"{source}: {name}: these statistics carry no program listing "
                              "(written by an older version): rerun to see the bounds")
         counts = {c.pc: c for c in bundle_counts(stats, name, p)}
-        loops = {(lp.start, lp.end) for lp in find_loops(list(counts.values()))
-                 if counts[lp.start].issued}
+        loops = {(lp.start, lp.end) for lp in find_loops(list(counts.values())) if lp.issued}
         if stage not in programs:
             try:
                 program = program_from_listing(listing, stage, f"{source}: {stage} listing")

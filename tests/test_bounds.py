@@ -80,6 +80,34 @@ def test_a_recurrence_through_local_memory():
     assert (b.recurrence, b.units, b.bound, b.binding) == (7, 4, 7, "recurrence")
 
 
+def test_recurrence_mii_is_the_largest_cycle_ratio():
+    """Against the definition on random graphs: the least II ≥ 1 for which no cycle has
+    Σ latency > II · Σ distance (every cycle's ratio by brute force over simple cycles)."""
+    import itertools
+
+    from netsushisen.asm.bounds import recurrence_mii
+    from netsushisen.asm.dependences import Edge
+
+    rng = random.Random(3)
+    for _ in range(300):
+        n = rng.randint(1, 5)
+        edges = []
+        for _ in range(rng.randint(0, 9)):
+            a, b = rng.randrange(n), rng.randrange(n)
+            d = rng.choice([0, 0, 1, 2]) if b > a else rng.choice([1, 2])
+            edges.append(Edge(a, b, rng.randint(0, 6), d, "true"))
+        best = 1  # every simple cycle: a sequence of distinct nodes, the best edge per step
+        for size in range(1, n + 1):
+            for nodes in itertools.permutations(range(n), size):
+                steps = list(zip(nodes, nodes[1:] + nodes[:1]))
+                choices = [[e for e in edges if (e.src, e.dst) == st] for st in steps]
+                for pick in itertools.product(*choices):
+                    lat, dist = sum(e.latency for e in pick), sum(e.distance for e in pick)
+                    if dist:
+                        best = max(best, -(-lat // dist))
+        assert recurrence_mii(n, edges) == best, edges
+
+
 def test_a_slower_fadd_makes_the_loop_recurrence_bound():
     b = bounds_of(LOOP, "ic.latency.fadd=4")["loop", "loop"]
     assert b.recurrence == 4 and b.units == 3
@@ -301,6 +329,35 @@ def test_report_bounds_joins_the_run(cli, tmp_path, engine_name):
     assert loop["stalls per run"] == "operand:fmul 2.00, branch 0.90"
     blocks = {r["block"]: r for r in rows["blocks"]}
     assert blocks["start"]["optimum"] == "2" and blocks["start"]["runs"] == 1
+
+
+@pytest.fixture(scope="module")
+def render_stats(tmp_path_factory):
+    from netsushisen.cli import main
+
+    d = tmp_path_factory.mktemp("bounds")
+    assert main(["render", "tetra", "--res", "4", "-o", str(d / "t.png"), "--json",
+                 str(d / "t.json"), "--quiet"]) == 0
+    return d / "t.json"
+
+
+@pytest.mark.slow
+def test_report_bounds_has_every_loop_annotate_finds(cli, render_stats):
+    def rows(kind: str, *argv) -> dict:
+        code, out, err = cli("report", kind, render_stats, "--format", "json", *argv)
+        assert code == 0, err
+        return {s["key"]: s["rows"] for s in json.loads(out)["sections"]}
+
+    annotated = {(r["processor"], r["pcs"]) for r in rows("annotate")["loops"] if r["bundles"]}
+    got = rows("bounds", "--optimum-ops", "0", "--top", "3")
+    assert {(r["processor"], r["pcs"]) for r in got["loops"]} == annotated
+    assert any(p.endswith(".ic") for p, _ in annotated)
+    for r in got["loops"]:
+        assert r["bound"] <= r["written"] and r["achieved"] is not None or r["runs"] == 0
+    blocks = got["blocks"]
+    assert len({r["processor"] for r in blocks}) == 3 and len(blocks) == 9  # 3 hottest each
+    heat = [r["achieved"] * r["runs"] for r in blocks if r["processor"] == "pe0.ic"]
+    assert heat == sorted(heat, reverse=True)
 
 
 def test_report_bounds_fits_80_columns(cli, tmp_path):

@@ -29,6 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from netsushisen.asm.dependences import DependenceGraph, unit_busy
+from netsushisen.errors import NetsushisenError
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.processors import Processor
 
@@ -62,7 +63,11 @@ def optimum_schedule(graph: DependenceGraph, reads: list[list[tuple[int, int]]],
     """The shortest schedule of the block `graph` (serial order) on `proc`; `reads[o]` the values
     op o reads (asm.bounds.value_reads), `lower` a known bound, `upper` a known feasible length
     (the code as written) with `hint` its start cycles. None when nothing was found in time."""
-    from ortools.sat.python import cp_model
+    try:
+        from ortools.sat.python import cp_model
+    except ImportError:
+        raise NetsushisenError("the optimum schedule needs OR-Tools (a dependency: pip install "
+                               "ortools), or leave it out with --optimum-ops 0") from None
 
     n = len(graph.ops)
     if n == 0:

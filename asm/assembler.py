@@ -3,8 +3,11 @@
 Pass 1 walks the statements in order — expanding `.include`, following `.if`/`.elif`/`.else`/
 `.endif`, defining `.equ` constants and `.reg` aliases, placing labels (code labels count bundles,
 data labels count local words). Pass 2 resolves each operation's operands against the complete
-symbol table and runs the resource checker on every bundle. Diagnostics from both passes are
-reported in source order as `file:line:col: error: message` with the line and a caret.
+symbol table and runs the resource checker on every bundle; then, if the source has `.sched`
+regions (one operation per line in pass 1), it schedules them for `config`, moves the code labels
+to where their blocks landed and resolves the operations again (asm/regions.py). Diagnostics
+from both passes are reported in source order as `file:line:col: error: message` with the line
+and a caret.
 """
 
 from __future__ import annotations
@@ -21,8 +24,8 @@ from netsushisen.asm.expressions import BUILTIN_CONSTANTS, ExprError, evaluate, 
 from netsushisen.asm.macros import (INVOKE_RE, Macro, MacroExpansion, block_directive, describe,
                                     stray_escape)
 from netsushisen.asm.objects import Op, Program, SourceLoc
-from netsushisen.asm.pipeline import PipelineReport, materialize
-from netsushisen.asm.regions import RegionLoop, schedule_region
+from netsushisen.asm.pipeline import PipelineReport
+from netsushisen.asm.regions import Region, RegionAssembly, RegionLoop
 from netsushisen.asm.parser import (CONDITIONAL_RE, Bundle, Chunk, Directive, Expansion, Instr,
                                     Loc, parse_chunk, split_statements)
 from netsushisen.errors import Diagnostic, NetsushisenError
@@ -65,18 +68,6 @@ class _PendingBundle:
 
 
 @dataclass
-class _Region:
-    """A `.sched` ... `.endsched` region: pending bundles first..end (one operation each)."""
-
-    loc: Loc
-    first: int
-    end: int = -1
-    starts: set[int] = field(default_factory=set)  # region-local indices labels point at
-    loops: list[RegionLoop] = field(default_factory=list)
-    temps: list[int] = field(default_factory=list)
-
-
-@dataclass
 class _Cond:
     active: bool  # this branch is being assembled
     taken: bool  # some branch of this .if has been taken
@@ -101,8 +92,8 @@ class _State:
     """(file, line, expansion) -> the source line as assembled (a body line after substitution)."""
     macros: dict[str, Macro] = field(default_factory=dict)
     expansions: int = 0  # macro invocations so far: `\@`
-    regions: list[_Region] = field(default_factory=list)
-    region: _Region | None = None  # the open one
+    regions: list[Region] = field(default_factory=list)
+    region: Region | None = None  # the open one
     pipeline_mark: Loc | None = None  # a `.pipeline` waiting for its loop's label
 
     def error(self, message: str, loc: Loc | None, order: int | None = None) -> None:
@@ -163,7 +154,7 @@ def _read_source(path: Path, display: str) -> str:
     return text
 
 
-class Assembler(MacroExpansion):
+class Assembler(MacroExpansion, RegionAssembly):
     def __init__(self, proc: str | None = None, defines: dict[str, int | float] | None = None,
                  include_dirs: list[str | Path] | None = None, config: MachineConfig | None = None,
                  schedule: bool = True):
@@ -176,6 +167,8 @@ class Assembler(MacroExpansion):
         """False: `.sched` regions stay one operation per bundle, as written (the serial form)."""
         self.pipeline_reports: list[PipelineReport] = []
         """The software pipelining information of every `.pipeline` loop, in source order."""
+        self.region_lines: set[tuple[str, int, str]] = set()
+        """(file, line, expansion) of every operation in a `.sched` region (for the listing)."""
         self.st = _State(proc, proc is not None, [Path(d) for d in include_dirs or []])
         for name, value in predefined_symbols().items():
             self.st.symbols[name] = _Symbol(value, "predefined", None)
@@ -447,54 +440,6 @@ class Assembler(MacroExpansion):
         else:
             self._sched_directive(d)
 
-    def _sched_directive(self, d: Directive) -> None:
-        """`.sched`, `.endsched`, `.pipeline`, `.temps` (docs/scheduling.md)."""
-        st = self.st
-        name, args = d.name, d.args
-        if name != "temps" and args:
-            st.error(f".{name} takes no arguments", d.loc)
-            return
-        if name == "sched":
-            if st.region is not None:
-                st.error(f".sched inside a .sched region (opened at line {st.region.loc.line})", d.loc)
-                return
-            st.region = _Region(d.loc, len(st.bundles))
-            st.regions.append(st.region)
-            return
-        if st.region is None:
-            st.error(f".{name} outside a .sched region", d.loc)
-            return
-        if name == "endsched":
-            if st.pipeline_mark is not None:
-                st.error(".pipeline must be followed by the loop's label", st.pipeline_mark)
-                st.pipeline_mark = None
-            st.region.end = len(st.bundles)
-            st.region = None
-        elif name == "pipeline":
-            st.pipeline_mark = d.loc
-        else:  # temps: rA-rB or registers, comma-separated
-            if not args:
-                st.error(".temps takes registers: .temps r40-r47 or .temps r40, r41", d.loc)
-            for a in args:
-                regs = self._temps_arg(a)
-                if regs is None:
-                    st.error(".temps takes registers: rA-rB (a range) or rA", a.loc)
-                    continue
-                st.region.temps.extend(r for r in regs if r not in st.region.temps)
-
-    def _temps_arg(self, a) -> list[int] | None:
-        aliases = self.st.aliases
-        if a.kind != "expr":
-            return None
-        e = a.value
-        if e[0] == "name" and register_index(e[1], aliases):
-            return [register_index(e[1], aliases)]
-        if e[0] == "bin" and e[1] == "sub" and e[2][0] == "name" and e[3][0] == "name":
-            lo, hi = register_index(e[2][1], aliases), register_index(e[3][1], aliases)
-            if lo and hi and lo <= hi:
-                return list(range(lo, hi + 1))
-        return None
-
     def _name_value(self, d: Directive, what: str):
         args = d.args
         if len(args) == 1 and args[0].kind == "assign":
@@ -620,71 +565,6 @@ class Assembler(MacroExpansion):
             text = (st.lines.get((loc.file, loc.line, loc.via)) or pb.text).strip()
             out.append(SourceLoc(loc.file, loc.line, text, describe(loc.via, st.lines)))
         return out
-
-    def _schedule(self, proc, resolved: list[list[Op]], sources: list[list[SourceLoc]],
-                  smap: list[SourceLoc]):
-        """Lay the `.sched` regions out as scheduled bundles: schedule each region on the
-        serial layout's operations, move every code label to its new address, resolve the
-        operations again against the moved labels, and build the bundles."""
-        st = self.st
-        regions = {r.first: r for r in st.regions if r.end > r.first}
-        old_to_new: dict[int, int] = {}
-        plan = []
-        addr = i = 0
-        while i < len(st.bundles):
-            r = regions.get(i)
-            if r is None:
-                old_to_new[i] = addr
-                plan.append((i, None, None, addr))
-                addr, i = addr + 1, i + 1
-                continue
-            ops = [resolved[k][0] for k in range(r.first, r.end)]
-            targets = []
-            for op in ops:
-                t = next((a for o, a in zip(op.opcode.operands, op.args) if o.kind == "label"), None)
-                targets.append(t - r.first if t is not None and r.first <= t < r.end else None)
-            layout, starts_at, reports = schedule_region(ops, targets, r.starts, r.loops, r.temps,
-                                                         proc, self.config)
-            self.pipeline_reports.extend(reports)
-            for local, off in starts_at.items():
-                old_to_new.setdefault(r.first + local, addr + off)
-            plan.append((i, r, layout, addr))
-            addr, i = addr + len(layout.bundles), r.end
-        old_to_new.setdefault(len(st.bundles), addr)
-        for sym in st.symbols.values():
-            if sym.kind == "text":
-                sym.value = old_to_new[int(sym.value)]
-        final = self._resolve_ops(proc, addr)
-        bundles: list[tuple[Op, ...]] = []
-        op_sources: list[tuple[SourceLoc, ...]] = []
-        new_smap: list[SourceLoc] = []
-        for i, r, layout, at in plan:
-            if r is None:
-                bundles.append(tuple(final[i]))
-                op_sources.append(tuple(sources[i]))
-                new_smap.append(smap[i])
-                continue
-            ops = [final[k][0] for k in range(r.first, r.end)]
-            for bundle in layout.bundles:
-                made, srcs, first = [], [], None
-                for p in bundle:
-                    op = materialize(p, ops)
-                    if p.target:
-                        target = at + layout.labels[p.target]
-                        op = Op(op.mnemonic, tuple(target if o.kind == "label" else a
-                                                   for o, a in zip(op.opcode.operands, op.args)))
-                    made.append(op)
-                    k = r.first + (p.index if p.index >= 0 else p.source)
-                    srcs.append(sources[k][0])
-                    first = k if first is None else min(first, k)
-                for problem in check_bundle(proc, made):
-                    st.error(f"internal error: the scheduler made a bundle that breaks a rule: "
-                             f"{problem}", r.loc)
-                bundles.append(tuple(made))
-                op_sources.append(tuple(srcs))
-                new_smap.append(smap[first])  # the bundle's earliest source line
-        return bundles, op_sources, new_smap
-
 
     def _resolve_op(self, instr: Instr, proc, n_bundles: int, order: int) -> Op | None:
         st = self.st

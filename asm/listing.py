@@ -13,6 +13,7 @@ from typing import Iterable
 
 from netsushisen.asm.checker import bundle_usage
 from netsushisen.asm.objects import Op, Program, format_float
+from netsushisen.asm.parser import _code_part
 
 
 def slot_assignment(program: Program, bundle: tuple[Op, ...]) -> list[tuple[str, Op | None]]:
@@ -74,10 +75,13 @@ def loop_ranges(targets: Iterable[tuple[int, int | None]]) -> list[tuple[int, in
     return sorted(ends.items(), key=lambda se: (se[0], -se[1]))
 
 
-def listing(program: Program) -> str:
+def listing(program: Program, region_lines: set | None = None) -> str:
     """Address, slots and source of every bundle; then the data words. A bundle a macro or
     `.rept` produced shows the body line it was written at, as substituted, under a row naming
-    the expansion (invocation line and text), as GNU as's `-alm` listing shows macro lines."""
+    the expansion (invocation line and text), as GNU as's `-alm` listing shows macro lines.
+    Then the scheduled source lines and the bundles each landed in (`region_lines`: the
+    assembler's `(file, line, expansion)` of every `.sched` line, else those whose operations
+    share a bundle with another line's or landed in several)."""
     labels = target_names(program)
     rows = [f"; listing of a {program.processor.title} program: "
             f"{len(program.bundles)} bundles, {len(program.data)} data words"]
@@ -102,7 +106,7 @@ def listing(program: Program) -> str:
         rows.append(f"{addr:5d}  {text:<60s} ; {where}  {loc.text if loc else ''}".rstrip())
         for other in _other_lines(program, addr):
             rows.append(f"{'':5s}  {'':<60s} ; {other.file}:{other.line}  {other.text}".rstrip())
-    rows += _source_map_rows(program)
+    rows += _source_map_rows(program, region_lines)
     if program.data:
         rows.append("; data (local memory)")
         data_labels: dict[int, list[str]] = {}
@@ -131,33 +135,36 @@ def _other_lines(program: Program, addr: int) -> list:
     return out
 
 
-def source_bundles(program: Program) -> dict[tuple[str, int], tuple[str, list[int]]]:
-    """(file, line) -> (its text, the bundles its operations landed in), for every line with an
-    operation: how a scheduled region's lines map to bundles (`report annotate`, the listing)."""
-    out: dict[tuple[str, int], tuple[str, list[int]]] = {}
+def source_bundles(program: Program) -> dict[tuple[str, int, str], tuple[str, list[int]]]:
+    """(file, line, expansion) -> (its text, the bundles its operations landed in), for every
+    line with an operation (a macro body line once per expansion): how a scheduled region's
+    lines map to bundles."""
+    out: dict[tuple[str, int, str], tuple[str, list[int]]] = {}
     for addr, sources in enumerate(program.op_sources):
         for s in sources:
-            entry = out.setdefault((s.file, s.line), (s.text, []))
+            entry = out.setdefault((s.file, s.line, s.via), (s.text, []))
             if not entry[1] or entry[1][-1] != addr:
                 entry[1].append(addr)
     return out
 
 
-def _source_map_rows(program: Program) -> list[str]:
+def _source_map_rows(program: Program, region_lines: set | None = None) -> list[str]:
     """For every source line that shares a bundle with another line or landed in several
-    bundles (the lines of `.sched` regions), the bundles it landed in."""
-    shared = {(s.file, s.line) for addr, sources in enumerate(program.op_sources)
-              if len({(t.file, t.line) for t in sources}) > 1 for s in sources}
+    bundles (the lines of `.sched` regions; a macro body line counts once per expansion), the
+    bundles it landed in."""
+    shared = {(s.file, s.line, s.via) for addr, sources in enumerate(program.op_sources)
+              if len({(t.file, t.line, t.via) for t in sources}) > 1 for s in sources}
     rows = []
-    for (file, line), (text, addrs) in source_bundles(program).items():
-        if (file, line) in shared or len(addrs) > 1:
-            rows.append((file, line, text, addrs))
+    for key, (text, addrs) in source_bundles(program).items():
+        if (key in region_lines) if region_lines is not None else (key in shared or len(addrs) > 1):
+            rows.append((*key, text, addrs))
     if not rows:
         return []
     out = ["; scheduled source lines -> bundles"]
-    for file, line, text, addrs in sorted(rows, key=lambda r: (r[0], r[1])):
+    for file, line, via, text, addrs in sorted(rows, key=lambda r: (r[0], r[1], r[2])):
         where = f"{file}:{line}"
-        out.append(f";   {where:<24s} {text:<40s} -> {', '.join(map(str, addrs))}")
+        code = _code_part(text).strip()
+        out.append(f";   {where:<24s} {code:<40s} -> {', '.join(map(str, addrs))}")
     return out
 
 

@@ -1,5 +1,6 @@
-"""Software pipelining of `.pipeline` loops: iterative modulo scheduling (Rau 1994), modulo
-variable expansion into the `.temps` registers, prologue, kernel, epilogues and a trip-count guard.
+"""Software pipelining of `.pipeline` loops: a modulo schedule (asm/modulo.py) made into code —
+modulo variable expansion into the `.temps` registers, prologue, kernel, epilogues and a
+trip-count guard.
 
 A pipelinable loop is one block ending in a conditional branch back to its head whose register
 operands are loop invariants and at most one *induction register* i, written in the body only by
@@ -32,10 +33,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-
-from netsushisen.asm.dependences import DependenceGraph, dependences, unit_busy
+from netsushisen.asm.dependences import DependenceGraph, dependences
+from netsushisen.asm.modulo import (critical_recurrence, modulo_schedule, port_bound,
+                                    recurrence_bound, resource_bound, value_of_reads)
 from netsushisen.asm.objects import Op
-from netsushisen.asm.scheduler import Reservations, list_schedule
+from netsushisen.asm.scheduler import list_schedule
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.processors import Processor, register_name
 
@@ -137,108 +139,6 @@ def materialize(p: Placed, ops) -> Op:
         args.append(a)
     return Op(p.mnemonic or op.mnemonic, tuple(args))
 
-
-# ---------------------------------------------------------------------------------------------
-# Bounds
-
-
-def _class_use(ops, proc: Processor, config: MachineConfig) -> dict[str, int]:
-    use: dict[str, int] = {}
-    for op in ops:
-        if op.opcode.kind != "nop":
-            u = proc.unit(op.opcode.unit)
-            use[u] = use.get(u, 0) + unit_busy(op, proc, config)
-    return use
-
-
-def resource_bound(g: DependenceGraph, proc: Processor, config: MachineConfig) -> tuple[int, str]:
-    """ResMII: per unit class, busy cycles over units; plus the cycles loads hold issue."""
-    use = _class_use(g.ops, proc, config)
-    held = sum(h - 1 for h in g.holds)
-    if not proc.vliw:
-        n = sum(1 for op in g.ops if op.opcode.kind != "nop")
-        return n + held, f"{n} operations on 1 unit" + (f", {held} held" if held else "")
-    best = max((math.ceil(n / proc.units[u]) for u, n in use.items()), default=1)
-    detail = ", ".join(f"{u} {use.get(u, 0)}/{proc.units[u]}" for u in proc.units)
-    if held:
-        detail += f", loads hold issue {held}"
-    return max(1, best + held), detail
-
-
-def _value_of_reads(g: DependenceGraph) -> list[list[tuple[int, int, int | None, int]]]:
-    """Per operation, (register, distance, defining op or None, reg) for each register read."""
-    ops = g.ops
-    last: dict[int, int] = {}
-    for j, op in enumerate(ops):
-        for r in op.writes():
-            last[r] = j
-    out = []
-    seen: dict[int, int] = {}
-    for j, op in enumerate(ops):
-        here = []
-        for r in sorted(set(op.reads())):
-            if r in seen:
-                here.append((r, 0, seen[r], r))
-            elif r in last:
-                here.append((r, 1, last[r], r))
-            else:
-                here.append((r, 0, None, r))
-        out.append(here)
-        for r in op.writes():
-            seen[r] = j
-    return out
-
-
-def port_bound(g: DependenceGraph, proc: Processor) -> tuple[int, str]:
-    """Every distinct value read once per iteration, every write through a write port."""
-    values = {(r, d, dist if d is not None else 0) for reads in _value_of_reads(g)
-              for r, dist, d, _ in reads}
-    writes = sum(len(op.writes()) for op in g.ops)
-    b = max(math.ceil(len(values) / proc.read_ports), math.ceil(writes / proc.write_ports), 1)
-    return b, f"reads {len(values)}/{proc.read_ports}, writes {writes}/{proc.write_ports}"
-
-
-def recurrence_bound(n: int, edges) -> int:
-    """RecMII: the least II with no cycle of positive weight latency - II·distance; the one
-    computation `asm --bounds` prints too (`asm.bounds.recurrence_mii`)."""
-    from netsushisen.asm.bounds import recurrence_mii
-
-    return recurrence_mii(n, edges)
-
-
-def critical_recurrence(g: DependenceGraph, edges) -> str:
-    """The loop-carried dependence cycle that sets RecMII, in words: its operations and its
-    latency over its distance (cycles closed by one loop-carried edge; the longest path back
-    through the iteration's own edges)."""
-    n = len(g.ops)
-    best = None
-    for e in edges:
-        if not e.distance:
-            continue
-        # longest path e.dst -> e.src over distance-0 edges (they run forward in the body)
-        dist = {e.dst: (0, [e.dst])}
-        for k in range(e.dst, n):
-            if k not in dist:
-                continue
-            for f in edges:
-                if f.src == k and not f.distance and f.dst > k:
-                    cand = dist[k][0] + f.latency
-                    if f.dst not in dist or cand > dist[f.dst][0]:
-                        dist[f.dst] = (cand, dist[k][1] + [f.dst])
-        if e.src not in dist:
-            continue
-        lat, path = dist[e.src][0] + e.latency, dist[e.src][1]
-        key = (math.ceil(lat / e.distance), lat)
-        if best is None or key > best[0]:
-            best = (key, lat, e.distance, path)
-    if best is None:
-        return ""
-    _, lat, d, path = best
-    names = " -> ".join(g.ops[k].mnemonic + " " + ", ".join(register_name(r) for r in g.ops[k].writes())
-                        for k in path)
-    return f"{names.strip()}: {lat} cycles over {d} iteration{'s' if d > 1 else ''}"
-
-
 # ---------------------------------------------------------------------------------------------
 # The loop's shape
 
@@ -246,7 +146,7 @@ def critical_recurrence(g: DependenceGraph, edges) -> str:
 @dataclass
 class _Loop:
     branch: int
-    induction: int | None  # register
+    induction: int  # register
     step: int
     addi: int  # op index of the induction update, -1 if none
 
@@ -275,124 +175,9 @@ def analyse(ops: list[Op]) -> _Loop | str:
         if induction is not None:
             return "its branch tests two induction registers"
         induction, step, addi = r, op.args[2], ws[0]
+    if induction is None:
+        return "its branch tests no induction register (the loop would run once or forever)"
     return _Loop(br, induction, step, addi)
-
-
-# ---------------------------------------------------------------------------------------------
-# Iterative modulo scheduling
-
-
-def _heights(n: int, edges, ii: int) -> list[int]:
-    h = [0] * n
-    for _ in range(n + 1):
-        changed = False
-        for e in edges:
-            v = e.latency - ii * e.distance + h[e.dst]
-            if v > h[e.src]:
-                h[e.src] = v
-                changed = True
-        if not changed:
-            break
-    return h
-
-
-def _read_keys(reads, t: int, ii: int) -> frozenset:
-    """Names an operation reads when issued at flat time t: a renamed value's copy depends on the
-    iteration (its stage), so reads are told apart by (register, definition, iteration)."""
-    stage = t // ii
-    return frozenset((r, d, -stage - dist) if d is not None else (r,) for r, dist, d, _ in reads)
-
-
-def modulo_schedule(g: DependenceGraph, edges, ii: int, branch: int, proc: Processor,
-                    config: MachineConfig, budget_factor: int = 6) -> list[int] | None:
-    """Flat issue times (stage = time // II) of the body at this II, the branch fixed in the last
-    row of stage 0; None when the budget of placements runs out."""
-    n = len(g.ops)
-    reads = _value_of_reads(g)
-    preds: list[list] = [[] for _ in range(n)]
-    succs: list[list] = [[] for _ in range(n)]
-    for e in edges:
-        preds[e.dst].append(e)
-        succs[e.src].append(e)
-    h = _heights(n, edges, ii)
-    time: list[int | None] = [None] * n
-    time[branch] = ii - 1
-    last_try: dict[int, int] = {}
-
-    def reservations() -> Reservations:
-        res = Reservations(proc, config, ii)
-        for i in range(n):
-            if time[i] is not None:
-                res.place(g.ops[i], time[i], g.latencies[i], g.holds[i],
-                          _read_keys(reads[i], time[i], ii))
-        return res
-
-    def fits(res: Reservations, i: int, t: int) -> bool:
-        return res.fits(g.ops[i], t, g.latencies[i], g.holds[i], _read_keys(reads[i], t, ii))
-
-    res = reservations()
-    if not fits(Reservations(proc, config, ii), branch, ii - 1):
-        return None
-    budget = budget_factor * n
-    while budget > 0:
-        todo = [i for i in range(n) if time[i] is None]
-        if not todo:
-            return [t for t in time]  # type: ignore[misc]
-        budget -= 1
-        i = min(todo, key=lambda k: (-h[k], k))
-        est = 0
-        for e in preds[i]:
-            if time[e.src] is not None:
-                est = max(est, time[e.src] + e.latency - ii * e.distance)
-        ub = math.inf
-        for e in succs[i]:
-            if e.dst == branch:
-                ub = min(ub, time[branch] - e.latency + ii * e.distance)
-        if est > ub:
-            return None
-        slot = next((t for t in range(est, int(min(est + ii - 1, ub)) + 1) if fits(res, i, t)), None)
-        if slot is None:
-            slot = est if last_try.get(i, -1) < est else last_try[i] + 1
-            if slot > ub:
-                slot = est
-            # evict what shares the rows this operation needs, lowest priority first
-            rows = {(slot + k) % ii for k in range(max(unit_busy(g.ops[i], proc, config), g.holds[i]))}
-            rows.add((slot + g.latencies[i]) % ii)
-            victims = sorted((k for k in range(n) if time[k] is not None and k != branch and
-                              (time[k] % ii in rows or
-                               any((time[k] + x) % ii in rows
-                                   for x in range(1, max(g.holds[k], unit_busy(g.ops[k], proc, config))))
-                               or (time[k] + g.latencies[k]) % ii in rows)),
-                             key=lambda k: (h[k], -k))
-            for k in victims:
-                if fits(res, i, slot):
-                    break
-                time[k] = None
-                res = reservations()
-            if not fits(res, i, slot):
-                return None
-        time[i] = slot
-        last_try[i] = slot
-        res.place(g.ops[i], slot, g.latencies[i], g.holds[i], _read_keys(reads[i], slot, ii))
-        evicted = False
-        for e in succs[i]:
-            k = e.dst
-            if k != i and time[k] is not None and time[k] + ii * e.distance < slot + e.latency:
-                if k == branch:
-                    return None
-                time[k] = None
-                evicted = True
-        for e in preds[i]:  # a self-loop or a predecessor placed later can be violated too
-            k = e.src
-            if k != i and time[k] is not None and slot + ii * e.distance < time[k] + e.latency:
-                if k == branch:
-                    return None
-                time[k] = None
-                evicted = True
-        if evicted:
-            res = reservations()
-    return None
-
 
 # ---------------------------------------------------------------------------------------------
 # Modulo variable expansion and code generation
@@ -410,6 +195,20 @@ def _copies_needed(g: DependenceGraph, reads, time: list[int], ii: int) -> dict[
                 span = time[u] + dist * ii - time[d]
                 need[d] = max(need[d], math.ceil(span / ii))
     return need
+
+
+def _join(bundle: list[Placed], items: list[Placed], ops, proc: Processor) -> bool:
+    """Add the exit's moves and jump to the epilogue's last bundle if they fit there and read
+    nothing it writes (a bundle sees none of its own results)."""
+    from netsushisen.asm.checker import check_bundle
+
+    made = [materialize(p, ops) for p in bundle]
+    extra = [materialize(p, ops) for p in items]
+    written = {r for op in made for r in op.writes()}
+    if any(r in written for op in extra for r in op.reads()) or check_bundle(proc, made + extra):
+        return False
+    bundle.extend(items)
+    return True
 
 
 def pipeline_loop(ops: list[Op], proc: Processor, config: MachineConfig, temps: list[int],
@@ -434,7 +233,7 @@ def pipeline_loop(ops: list[Op], proc: Processor, config: MachineConfig, temps: 
     if clash:
         report.reason = f".temps {register_name(clash[0])} is used by the loop"
         return None
-    reads = _value_of_reads(g)
+    reads = value_of_reads(g)
     reason = "no schedule found"
     for ii in range(report.mii, report.mii + MAX_II_TRIES):
         time = modulo_schedule(g, edges, ii, shape.branch, proc, config)
@@ -532,6 +331,7 @@ def _emit(ops, g, reads, time, ii, stages, unroll, names, shape: _Loop, proc, co
     for k, c in enumerate(order):
         if c != unroll - 1:
             out.add_label(f"epilogue{c}")
+        first = len(out.bundles)
         for e in range(stages - 1):
             emit_rows(rows_of(lambda s, e=e: s >= e + 1, lambda s, c=c, e=e: c + stages + e - s))
         items = []
@@ -542,7 +342,7 @@ def _emit(ops, g, reads, time, ii, stages, unroll, names, shape: _Loop, proc, co
                 items.append(Placed(-1, op=Op(move, (r, final)), source=d))
         if k < len(order) - 1 or stages > 1:
             items.append(Placed(-1, op=Op("j", (0,)), target="done", source=br))
-        if items:
+        if items and not (len(out.bundles) > first and _join(out.bundles[-1], items, ops, proc)):
             emit_block(items)
     if stages > 1:
         out.add_label("fallback")

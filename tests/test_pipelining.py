@@ -91,6 +91,9 @@ done:   halt
      "its branch tests r5, which is not an induction"),
     ("ldr r5, [r1]\naddi r1, r1, 1\nblt r1, r9, elsewhere\nelsewhere: j loop",
      "not a single-block loop"),
+    ("ldr r5, [r1]\naddi r1, r1, 1\nbnez r9, loop", "tests no induction register"),
+    ("ldr r5, [r1]\naddi r1, r1, 1\naddi r9, r9, -1\nblt r1, r9, loop", "two induction registers"),
+    ("ldr r5, [r1]\naddi r1, r1, 1\nj loop", "not a conditional branch"),
 ])
 def test_a_loop_that_cannot_be_pipelined_says_why_and_is_list_scheduled(body, reason):
     asm = Assembler("ic")
@@ -149,7 +152,7 @@ after:  halt
     assert [op.mnemonic for op in p.bundles[labels["again"]]][0] == "fadd"
     assert p.bundles[labels["after"]][0].mnemonic == "halt"
     # every operation of the region is in exactly one bundle, with its own source line
-    lines = {line for (f, line) in source_bundles(p)}
+    lines = {line for (f, line, via) in source_bundles(p)}
     assert lines == set(range(2, 11)) - {3}
 
 
@@ -190,6 +193,11 @@ def test_asm_prints_the_pipelining_information_for_the_configuration_given(cli, 
     assert "stages                  : 3" in slow[1]  # rescheduled for the longer fmul
     bad = tmp_path / "bad.s"
     bad.write_text(loop_source("ldr r5, [r1]\naddi r1, r1, 1\nbnez r5, loop"))
+    code, out, _ = cli("asm", EXAMPLE, "--listing", "-", "-D", "N=8")
+    lines = out.split("; scheduled source lines -> bundles")[1]
+    for n in range(26, 38):  # every line of the region, alone in a bundle or not
+        assert (f"dot_ic.s:{n} " in lines) == (n != 30), n
+    assert "li end, PAIRS + 2 * N" in lines and "# N = 0" not in lines
     code, out, err = cli("asm", bad, "--stats")
     assert code == 0
     assert f"{bad}:8: warning: loop 'loop' not pipelined: its branch tests r5" in err
@@ -209,3 +217,28 @@ def test_run_schedules_a_source_for_the_run_configuration(cli, tmp_path):
         bundles[fmul] = json.loads(out.read_text())["programs"]["ic"]["bundles"]
     assert bundles[9] == len(build(16, load_config(None, ["ic.latency.fmul=9"]))[0].bundles)
     assert bundles[3] == len(build(16)[0].bundles) != bundles[9]
+
+
+def test_hand_written_code_has_no_scheduled_lines_map():
+    text = ".proc ic\n.rept 3\nfadd r1, r1, r1\n.endr\n{ li r2, 1 ; lf r3, 1.0 }\nhalt\n"
+    assert "scheduled source lines" not in listing(Assembler("ic").assemble_text(text))
+    scheduled = ".proc ic\n.sched\n.rept 3\nfadd r1, r1, r1\n.endr\nli r2, 1\nlf r3, 1.0\nhalt\n.endsched\n"
+    assert "scheduled source lines" in listing(Assembler("ic").assemble_text(scheduled))
+
+
+def test_annotate_names_the_source_lines_of_a_scheduled_bundle(cli, tmp_path):
+    image = tmp_path / "pairs.json"
+    image.write_text(json.dumps({"ic.resident": PAIRS}))
+    stats = tmp_path / "stats.json"
+    code, _, err = cli("run", "--ic", EXAMPLE, "--image", image, "-D", "N=16", "--engine",
+                       "reference", "--json", stats)
+    assert code == 0, err
+    code, out, err = cli("report", "annotate", stats, "--proc", "ic", "--order", "program",
+                         "--format", "json")
+    rows = [r for s in json.loads(out)["sections"] if s["key"] == "bundles" for r in s["rows"]]
+    program = build(16)[0]
+    assert len(rows) == len(program.bundles)
+    for row in rows:
+        lines = dict.fromkeys(s.line for s in program.op_sources[row["pc"]])
+        assert row["source lines"] == "dot_ic.s:" + ", ".join(map(str, lines))
+    assert any("," in (row["source lines"] or "") for row in rows)  # a bundle of several lines

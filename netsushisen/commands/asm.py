@@ -128,10 +128,12 @@ def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     programs: list[tuple[Path, Program]] = []
     infos: dict[str, str] = {}
+    region_lines: dict[str, set] = {}
     for proc, path in sources:
         asm = Assembler(proc, defines, includes, config, schedule=not args.no_schedule)
         programs.append((path, asm.assemble_file(path)))
         infos[str(path)] = "".join(r.format() + "\n" for r in asm.pipeline_reports)
+        region_lines[str(path)] = asm.region_lines
         for r in asm.pipeline_reports:
             if r.reason:
                 print(f"{r.where}: warning: loop '{r.name}' not pipelined: {r.reason}",
@@ -148,7 +150,8 @@ def run(args: argparse.Namespace) -> int:
             except OSError as err:
                 raise NetsushisenError(f"{out}: cannot write object file: {err.strerror}") from None
     if args.listing:
-        text = "".join(listing(program) + infos[str(path)] for path, program in programs)
+        text = "".join(listing(program, region_lines[str(path)]) + infos[str(path)]
+                       for path, program in programs)
         if args.listing == "-":
             print(text, end="")
         else:

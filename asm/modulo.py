@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 
-
 from netsushisen.asm.dependences import DependenceGraph, unit_busy
 from netsushisen.asm.scheduler import Reservations
 from netsushisen.isa.config import MachineConfig

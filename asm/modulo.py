@@ -17,8 +17,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from netsushisen.asm.dependences import DependenceGraph, unit_busy
 from netsushisen.asm.scheduler import Reservations
 from netsushisen.isa.config import MachineConfig
@@ -83,26 +81,11 @@ def port_bound(g: DependenceGraph, proc: Processor) -> tuple[int, str]:
 
 
 def recurrence_bound(n: int, edges) -> int:
-    """RecMII: the least II with no cycle of positive weight latency - II·distance."""
-    if not any(e.distance for e in edges):
-        return 1
+    """RecMII: the least II with no cycle of positive weight latency - II·distance; the one
+    computation `asm --bounds` prints too (`asm.bounds.recurrence_mii`)."""
+    from netsushisen.asm.bounds import recurrence_mii
 
-    def positive_cycle(ii: int) -> bool:
-        d = np.full((n, n), -np.inf)
-        for e in edges:
-            d[e.src, e.dst] = max(d[e.src, e.dst], e.latency - ii * e.distance)
-        for k in range(n):
-            d = np.maximum(d, d[:, k, None] + d[None, k, :])
-        return bool(np.any(np.diag(d) > 0))
-
-    lo, hi = 1, max(1, sum(e.latency for e in edges) + 1)
-    while lo < hi:
-        mid = (lo + hi) // 2
-        if positive_cycle(mid):
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo
+    return recurrence_mii(n, edges)
 
 
 def critical_recurrence(g: DependenceGraph, edges) -> str:

@@ -1,17 +1,19 @@
 """Assemble a stage kernel: `netsushisen asm SOURCE.s --proc os|ic|sc [-D NAME[=VALUE]]... [-I DIR]...
-[-o OUT] [--listing PATH|-] [--stats] [--config FILE] [--set PATH=VALUE]...`, or the kernels
+[-o OUT] [--listing PATH|-] [--stats] [--bounds] [--config FILE] [--set PATH=VALUE]...`, or the kernels
 `render` runs for a scene:
 `netsushisen asm --scene SCENE [--generic] [--proc os|ic|sc] [--stats] [--listing -] [--show-defines]`.
 
 Writes the object file (default: SOURCE's stem + .o in the current directory; with --stats,
---listing or --show-defines and no -o, nothing is written). With --scene the bundled kernels (or
+--listing, --bounds or --show-defines and no -o, nothing is written). With --scene the bundled kernels (or
 --kernels DIR's, or SOURCE) are assembled with exactly the symbols `render` gives them for that
 scene (`render.kernel_inputs`: the databases' layout, the pre-pass's resident records at --res,
 HAS_* needs, SLOTS, MAX_DEPTH), so --stats prints the static ILP `render`'s statistics report;
 --precision, --depth, --set and --config matter where they change those symbols; -D adds or
 overrides one. `.sched` regions are scheduled for the machine --config and --set describe
 (docs/scheduling.md); every `.pipeline` loop's software pipelining information goes into the
-listing and --stats, and a loop that could not be pipelined is one warning line on stderr. Any
+listing and --stats, and a loop that could not be pipelined is one warning line on stderr.
+--bounds prints every loop's and block's static bounds for that machine (asm/bounds.py; the
+tables of `report bounds` without the run; --optimum-ops N, --format). Any
 error in the source: every error is printed as `file:line:col: error: message` with the line
 and a caret, and the exit code is 1.
 """
@@ -28,9 +30,13 @@ from netsushisen.asm.assembler import Assembler
 from netsushisen.asm.listing import format_static_ilp, listing, static_ilp
 from netsushisen.asm.objects import Program
 from netsushisen.errors import NetsushisenError
+from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.processors import STAGES
+from netsushisen.commands.report import add_optimum_option
+from netsushisen.reports.tables import FORMATS
 from netsushisen.options import (add_config_options, add_defines, add_include_dirs, add_json,
-                                 add_output, add_resolution, write_text, check_resolution, config_from_args, parse_defines)
+                                 add_output, add_resolution, write_text, check_resolution,
+                                 config_from_args, parse_defines)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -45,6 +51,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--listing", metavar="PATH|-", help="write a listing (- for stdout)")
     parser.add_argument("--stats", action="store_true", help="print static ILP statistics")
     add_json(parser, "with --stats: print them as JSON (to FILE if given)")
+    parser.add_argument("--bounds", action="store_true", help="print every loop's and block's "
+                        "static bounds (units, ports, recurrence, critical path, CP-SAT's "
+                        "optimum of small blocks: docs/scheduling.md, \"Bounds\")")
+    parser.add_argument("--format", choices=FORMATS, default="table",
+                        help="with --bounds: table (default), json, csv or md")
+    add_optimum_option(parser)
     parser.add_argument("--no-schedule", action="store_true",
                         help="leave .sched regions one operation per bundle, as written (their "
                              "serial form)")
@@ -129,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
             if r.reason:
                 print(f"{r.where}: warning: loop '{r.name}' not pipelined: {r.reason}",
                       file=sys.stderr)
-    analysis_only = (args.stats or args.listing or args.show_defines) and not args.out
+    analysis_only = (args.stats or args.listing or args.show_defines or args.bounds) and not args.out
     if not analysis_only:
         if args.out and len(programs) > 1:
             raise NetsushisenError("-o names one object file: add --proc os|ic|sc, or leave -o "
@@ -159,4 +171,24 @@ def run(args: argparse.Namespace) -> int:
             print("\n".join(format_static_ilp(stats[program.proc], str(path)) +
                             ("\n" + infos[str(path)].rstrip() if infos[str(path)] else "")
                             for path, program in programs))
+    if args.bounds:
+        print_bounds(args, programs, config)
     return 0
+
+
+def print_bounds(args: argparse.Namespace, programs: list[tuple[Path, Program]],
+                 config: MachineConfig) -> None:
+    """`--bounds`: the static bounds of every loop and block (reports/bounds.py's tables)."""
+    from netsushisen.asm.bounds import program_bounds
+    from netsushisen.reports.bounds import bounds_sections
+    from netsushisen.reports.tables import render
+
+    if args.optimum_ops < 0:
+        raise NetsushisenError("--optimum-ops must not be negative")
+    if args.format == "csv":
+        raise NetsushisenError("--bounds --format csv: CSV holds one table; use json or md, or "
+                               "`report bounds --table loops|blocks`")
+    rows = [(program.proc, program_bounds(program, config, args.optimum_ops), None)
+            for _, program in programs]
+    print(render(bounds_sections(rows), args.format, "bounds",
+                 " ".join(str(path) for path, _ in programs)), end="")

@@ -20,7 +20,7 @@ from netsushisen.asm.checker import check_bundle
 from netsushisen.asm.expressions import BUILTIN_CONSTANTS, ExprError, evaluate, names_in
 from netsushisen.asm.macros import (INVOKE_RE, Macro, MacroExpansion, block_directive, describe,
                                     stray_escape)
-from netsushisen.asm.objects import Op, Program, SourceLoc
+from netsushisen.asm.objects import Op, Program, RegName, SourceLoc
 from netsushisen.asm.parser import (CONDITIONAL_RE, Bundle, Chunk, Directive, Expansion, Instr,
                                     Loc, parse_chunk, split_statements)
 from netsushisen.errors import Diagnostic, NetsushisenError
@@ -58,6 +58,8 @@ class _PendingBundle:
     loc: Loc
     text: str
     order: int
+    aliases: dict[str, tuple[int, Loc]]
+    """The `.reg` names in force at this bundle: pass 2 resolves its operands with them."""
 
 
 @dataclass
@@ -76,6 +78,8 @@ class _State:
     include_dirs: list[Path]
     symbols: dict[str, _Symbol] = field(default_factory=dict)
     aliases: dict[str, tuple[int, Loc]] = field(default_factory=dict)
+    """The `.reg` names in force here (replaced, never mutated, so a bundle keeps its own)."""
+    reg_scopes: list[list] = field(default_factory=list)  # [name, reg, first bundle, end|None]
     bundles: list[_PendingBundle] = field(default_factory=list)
     data: list[tuple[str, object, Loc, int]] = field(default_factory=list)  # kind, expr|value, loc, order
     section: str = "text"
@@ -312,7 +316,8 @@ class Assembler(MacroExpansion):
             st.error("which processor? give --proc os|ic|sc or write `.proc os|ic|sc` "
                      "before the first instruction", loc)
             st.proc = "?"
-        st.bundles.append(_PendingBundle(instrs, loc, chunk.source_lines[0].strip(), st.order))
+        st.bundles.append(_PendingBundle(instrs, loc, chunk.source_lines[0].strip(), st.order,
+                                         st.aliases))
 
     def _directive(self, d: Directive, base_dir: Path, stack: list[str], chunk: Chunk) -> None:
         st = self.st
@@ -361,7 +366,11 @@ class Assembler(MacroExpansion):
                 elif alias in st.symbols:
                     st.error(f"'{alias}' is already a symbol", loc)
                 else:
-                    st.aliases[alias] = (reg, loc)
+                    st.aliases = {**st.aliases, alias: (reg, loc)}
+                    for scope in st.reg_scopes:
+                        if scope[0] == alias and scope[3] is None:
+                            scope[3] = len(st.bundles)
+                    st.reg_scopes.append([alias, reg, len(st.bundles), None])
         elif name == "include":
             if len(args) != 1 or args[0].kind != "string":
                 st.error('.include takes one quoted file name: .include "file.inc"', d.loc)
@@ -474,7 +483,9 @@ class Assembler(MacroExpansion):
         proc = PROCESSORS.get(st.proc or "")
         bundles: list[tuple[Op, ...]] = []
         smap: list[SourceLoc] = []
+        final_aliases = st.aliases
         for pb in st.bundles:
+            st.aliases = pb.aliases  # a name means the register of its latest .reg before here
             ops = []
             for instr in pb.instrs:
                 op = self._resolve_op(instr, proc, len(st.bundles), pb.order)
@@ -485,6 +496,7 @@ class Assembler(MacroExpansion):
                     st.error(problem, pb.loc, pb.order)
             bundles.append(tuple(ops))
             smap.append(SourceLoc(pb.loc.file, pb.loc.line, pb.text, describe(pb.loc.via, st.lines)))
+        st.aliases = final_aliases
         data: list[tuple[str, int | float]] = []
         for kind, expr, loc, order in st.data:
             v = self._eval(expr, loc, allow_labels=True, order=order)
@@ -500,8 +512,10 @@ class Assembler(MacroExpansion):
             else:
                 data.append(("f", float(v)))
         labels = {n: (s.kind, int(s.value)) for n, s in st.symbols.items() if s.kind in ("text", "data")}
+        reg_names = [RegName(n, r, a, len(bundles) if b is None else b)
+                     for n, r, a, b in st.reg_scopes if a < (len(bundles) if b is None else b)]
         return Program(st.proc if proc else "os", bundles, data, labels, smap,
-                       {k: v for k, v in self.defines.items()})
+                       {k: v for k, v in self.defines.items()}, reg_names)
 
     def _resolve_op(self, instr: Instr, proc, n_bundles: int, order: int) -> Op | None:
         st = self.st

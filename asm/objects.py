@@ -106,6 +106,17 @@ class SourceLoc:
     first, joined by ` > `); "" for a bundle written out."""
 
 
+@dataclass(frozen=True)
+class RegName:
+    """A `.reg` name in force over bundles `start..end-1` (the assembler resolves a name to the
+    register of its latest `.reg` before the bundle, so a redefinition ends the scope)."""
+
+    name: str
+    reg: int
+    start: int
+    end: int
+
+
 @dataclass
 class Program:
     proc: str
@@ -118,6 +129,9 @@ class Program:
     source_map: list[SourceLoc] = field(default_factory=list)
     defines: dict[str, int | float] = field(default_factory=dict)
     """The -D symbols the program was assembled with (a specialised kernel records its scene's needs)."""
+    reg_names: list[RegName] = field(default_factory=list)
+    """The `.reg` names by scope, in definition order (asm/regnames.py reads them); an
+    optional key of the object file (`reg_names`), absent in files from before it."""
 
     @property
     def processor(self):
@@ -160,6 +174,8 @@ class Program:
             "source_map": [[s.file, s.line, s.text, *([s.via] if s.via else [])]
                            for s in self.source_map],
             "defines": dict(sorted(self.defines.items())),
+            **({"reg_names": [[r.name, r.reg, r.start, r.end] for r in self.reg_names]}
+               if self.reg_names else {}),
         }
 
     def save(self, path: str | Path) -> None:
@@ -205,11 +221,13 @@ class Program:
             smap = [SourceLoc(str(f), int(l), str(t), *[str(v) for v in via])
                     for f, l, t, *via in obj.get("source_map", [])]
             defines = dict(obj.get("defines", {}))
+            reg_names = [RegName(str(n), int(r), int(a), int(b))
+                         for n, r, a, b in obj.get("reg_names", [])]
         except NetsushisenError:
             raise
         except (KeyError, TypeError, ValueError, IndexError) as err:
             raise bad(f"malformed content ({type(err).__name__}: {err})") from None
-        return cls(proc, bundles, data, labels, smap, defines)
+        return cls(proc, bundles, data, labels, smap, defines, reg_names)
 
     @classmethod
     def load(cls, path: str | Path) -> "Program":

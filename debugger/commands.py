@@ -18,7 +18,8 @@ from rich.text import Text
 
 from netsushisen.debugger import layout, view
 from netsushisen.debugger.breakcommands import BreakpointCommands, Display
-from netsushisen.debugger.expressions import DebugError, format_number, format_word, hex_word
+from netsushisen.debugger.expressions import (DebugError, format_number, format_word, hex_word,
+                                               reg_label)
 from netsushisen.debugger.help import ALIASES, HELP, INFO_ALIASES, INFO_TOPICS, LAYOUTS, MOVES
 from netsushisen.debugger.outcome import Outcome
 from netsushisen.debugger.source import SourceCommands
@@ -175,26 +176,26 @@ class Commands(BreakpointCommands, SourceCommands):
         return getattr(self, "info_" + matches[0])(words[1:])
 
     def info_registers(self, args) -> Outcome:
+        """All registers, or only those named (`info registers pri r5 ic.cell`, gdb's
+        `info registers REG...`), as a table in as many column groups as the width holds."""
         s = self.session
-        core = s.core
-        t = Table(box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 1),
-                  title=f"registers pe{s.pe}.{s.stage} (* changed since the previous stop)")
-        for _ in range(2):
-            for col in ("reg", "int", "hex", "float"):
-                t.add_column(col, justify="left" if col in ("reg", "hex") else "right",
-                             no_wrap=True)
-        prev = s.previous_regs.get(core.name, core.regs)
-        half = len(core.regs) // 2
-
-        def cells(r):
-            w = core.regs[r]
-            mark = "*" if w != prev[r] else " "
-            return [f"{mark}{view._reg_name(r)}", str(wrap32(w)), hex_word(core, w),
-                    str(core.value(w, "f"))]
-
-        for r in range(half):
-            t.add_row(*cells(r), *cells(r + half))
-        return Outcome([t, Text(f"pc {core.pc} ({core.label(core.pc)})")])
+        ctx = s.context()
+        if args:
+            places = []
+            for word in args:
+                place = ctx.place(word)
+                if place is None or place.kind != "reg":
+                    raise DebugError(f"info registers: {word!r} is not a register")
+                places.append(place)
+            core = ctx.core(places[0].pe, places[0].stage)
+            if any((p.pe, p.stage) != (places[0].pe, places[0].stage) for p in places):
+                raise DebugError("info registers: name registers of one processor")
+            regs = [p.index for p in places]
+        else:
+            core, regs = s.core, list(range(len(s.core.regs)))
+        title = f"registers {core.name} (* changed since the previous stop)"
+        return Outcome([view.RegisterTable(s, core, regs, title),
+                        Text(f"pc {core.pc} ({core.label(core.pc)})")])
 
     def info_fifo(self, args) -> Outcome:
         s = self.session

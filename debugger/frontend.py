@@ -234,6 +234,7 @@ def _value_names(session) -> list[str]:
     program = _program(session)
     if program is not None:
         names += list(program.labels) + list(program.defines)
+        names += sorted({r.name for r in program.reg_names})
     return names
 
 

@@ -24,7 +24,8 @@ from rich.table import Table
 from rich.text import Text
 
 from netsushisen.asm.listing import slot_assignment, target_names
-from netsushisen.debugger.expressions import hex_word, looks_float
+from netsushisen.asm.regnames import named_text, register_names
+from netsushisen.debugger.expressions import hex_word, looks_float, reg_label
 from netsushisen.isa.words import wrap32
 
 ISSUED = "bold black on green"
@@ -44,8 +45,6 @@ def _float_text(core, word: int) -> str:
     return str(core.value(word, "f"))
 
 
-def _reg_name(r: int) -> str:
-    return {0: "r0", 63: "lr"}.get(r, f"r{r}")
 
 
 def in_flight(core) -> dict[int, tuple[int, int]]:
@@ -105,8 +104,8 @@ def where_line(session) -> Text:
 
 
 def bundle_text(program, pc: int) -> str:
-    labels = targets(program)
-    return " ; ".join(op.format(labels) for op in program.bundles[pc]) or "nop"
+    """The bundle as one line, branch targets as labels and registers as `pri/r29`."""
+    return named_text(program, pc, targets(program)) or "nop"
 
 
 _TARGETS: dict[int, tuple[object, dict[int, str]]] = {}
@@ -127,10 +126,12 @@ def targets(program) -> dict[int, str]:
 
 def bundle_cells(program, pc: int) -> list[str]:
     labels = targets(program)
+    regs = register_names(program).labels(pc)
     bundle = program.bundles[pc]
     if program.processor.vliw:
-        return [op.format(labels) if op else "-" for _, op in slot_assignment(program, bundle)]
-    return [" ; ".join(op.format(labels) for op in bundle) or "nop"]
+        return [op.format(labels, regs) if op else "-"
+                for _, op in slot_assignment(program, bundle)]
+    return [" ; ".join(op.format(labels, regs) for op in bundle) or "nop"]
 
 
 def slot_names(program) -> list[str]:
@@ -308,7 +309,7 @@ def registers_table(session, core, regs: list[int]) -> Table:
         w = core.regs[r]
         changed = w != prev[r]
         style = CHANGED if changed else (PENDING if r in flying else None)
-        name = ("*" if changed else "~" if r in flying else " ") + _reg_name(r)
+        name = ("*" if changed else "~" if r in flying else " ") + reg_label(core, r)
         t.add_row(name, str(wrap32(w)), hex_word(core, w), _float_text(core, w), style=style)
     return t
 
@@ -323,6 +324,41 @@ def registers_panel(session, rows: int = 11, height: int | None = None) -> Panel
     if left:
         parts.append(Text(f"... {left} more non-zero (info registers)", style=DIM))
     return _panel(Group(*parts), title, height)
+
+
+class RegisterTable:
+    """`info registers`: reg, int, hex and float columns, in as many groups side by side as
+    the width holds (two at 120 columns, one at 80, registers down the columns)."""
+
+    def __init__(self, session, core, regs: list[int], title: str):
+        self.session, self.core, self.regs, self.title = session, core, regs, title
+
+    def __rich_console__(self, console, options):
+        core = self.core
+        prev = self.session.previous_regs.get(core.name, core.regs)
+        rows = []
+        for r in self.regs:
+            w = core.regs[r]
+            rows.append((("*" if w != prev[r] else " ") + reg_label(core, r), str(wrap32(w)),
+                         hex_word(core, w), _float_text(core, w)))
+        widths = [max([len(h)] + [len(row[i]) for row in rows])
+                  for i, h in enumerate(("reg", "int", "hex", "float"))]
+        group_w = sum(widths) + 3 + 3  # gaps, and the space between groups
+        groups = 1 if len(rows) <= 8 else max(1, min(2, options.max_width // group_w))
+        per = -(-len(rows) // groups)
+        title = self.title if groups == 2 else self.title.split(" (")[0] + " (* changed)"
+        t = Table(box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 1), title=title)
+        for _ in range(groups):
+            for col in ("reg", "int", "hex", "float"):
+                t.add_column(col, justify="left" if col in ("reg", "hex") else "right",
+                             no_wrap=True)
+        for i in range(per):
+            cells: list[str] = []
+            for g in range(groups):
+                k = g * per + i
+                cells += list(rows[k]) if k < len(rows) else ["", "", "", ""]
+            t.add_row(*cells)
+        yield t
 
 
 class RegisterCells:
@@ -343,7 +379,7 @@ class RegisterCells:
             changed = w != prev[r]
             mark = "*" if changed else "~" if r in flying else " "
             value = _float_text(core, w) if looks_float(core, w) else str(wrap32(w))
-            out.append((f"{mark}{_reg_name(r)} {value}",
+            out.append((f"{mark}{reg_label(core, r)} {value}",
                         CHANGED if changed else PENDING if r in flying else ""))
         return out
 
@@ -386,7 +422,7 @@ def scoreboard_table(session, core) -> Table | None:
             src = origin.get(r)
             by = f"{core.producer[r]} pc {src[0]}" if src else core.producer[r]
             value = _float_text(core, w) if looks_float(core, w) else str(wrap32(w))
-            rows.append((_reg_name(r), by, str(t), value))
+            rows.append((reg_label(core, r), by, str(t), value))
     if not rows:
         return None
     tab = Table(box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 1), show_edge=False)

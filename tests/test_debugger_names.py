@@ -1,0 +1,198 @@
+"""The debugger in the kernel writer's words: `.reg` names everywhere a register shows or is
+taken (listing, print, display, watch, info registers, conditions, trace, timeline), scoped as
+the assembler scopes them, carried by the object file; `disasm --names`; `--listing`.
+
+NAMED's timing (docs/timing.md): li c0, lf c1, loop c2/c6/c10 (taken bnez: a branch stall),
+st c3/c7/c11, bnez c4/c8/c12, done c13, halt c14. `acc` is r2 up to `done` and r3 from there.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from netsushisen.asm.assembler import assemble_text
+from netsushisen.asm.disasm import disassemble
+from netsushisen.asm.listing import listing
+from netsushisen.asm.objects import Program
+from netsushisen.asm.regnames import register_names
+
+NAMED = """
+.proc ic
+.data
+counter: .word 0
+.text
+.reg cnt = r9
+.reg acc = r2
+start:  li cnt, 3
+        lf r1, 1.5
+loop:   { addi cnt, cnt, -1 ; fadd acc, acc, r1 }
+        st cnt, [counter]
+        bnez cnt, loop
+.reg acc = r3          # redefined: acc is r3 from here
+done:   { ld acc, [counter] ; fmul r4, r1, r1 }
+        halt
+"""
+
+
+@pytest.fixture
+def named(tmp_path):
+    (tmp_path / "named.s").write_text(NAMED)
+    return tmp_path / "named.s"
+
+
+@pytest.fixture
+def debug(cli, tmp_path):
+    def run(commands: list[str], *args, screen: bool = False):
+        script = tmp_path / "commands.txt"
+        script.write_text("\n".join(commands) + "\n")
+        extra = [] if screen else ["--no-screen"]
+        code, out, err = cli("debug", *[str(a) for a in args], "--batch", str(script), *extra)
+        assert "Traceback" not in out + err
+        return code, out
+
+    return run
+
+
+# ---------------------------------------------------------------------------------------------
+# The assembler's name table
+
+
+def test_a_redefined_reg_name_means_its_latest_register_before_each_bundle():
+    p = assemble_text(NAMED)
+    assert p.bundles[2][1].args[0] == 2  # fadd acc: r2 before the redefinition
+    assert p.bundles[5][0].args[0] == 3  # ld acc: r3 after it
+    scopes = [(r.name, r.reg, r.start, r.end) for r in p.reg_names]
+    assert scopes == [("cnt", 9, 0, 7), ("acc", 2, 0, 5), ("acc", 3, 5, 7)]
+    names = register_names(p)
+    assert names.register("acc", 4) == 2 and names.register("acc", 5) == 3
+    assert names.label(2, 1) == "acc/r2" and names.label(2, 5) == "r2"
+    assert names.label(3, 6) == "acc/r3"
+
+
+def test_several_names_of_one_register_show_the_one_the_source_used():
+    p = assemble_text("""
+.proc sc
+.reg a = r5
+.reg b = r5
+        li a, 1
+        addi b, b, 1
+        li r6, 2
+        halt
+""")
+    names = register_names(p)
+    assert names.names(0)[5] == "a"  # the bundle's own line says a
+    assert names.names(1)[5] == "b"
+    assert names.names(2)[5] == "b"  # the nearest line before that names r5
+
+
+def test_the_object_file_carries_the_names_and_loads_without_them(tmp_path):
+    p = assemble_text(NAMED)
+    p.save(tmp_path / "n.o")
+    q = Program.load(tmp_path / "n.o")
+    assert q.reg_names == p.reg_names and q.same_program(p)
+    obj = json.loads((tmp_path / "n.o").read_text())
+    assert obj["version"] == 1 and "reg_names" in obj
+    del obj["reg_names"]  # an object file from before the name table
+    (tmp_path / "old.o").write_text(json.dumps(obj))
+    old = Program.load(tmp_path / "old.o")
+    assert old.reg_names == [] and old.same_program(p)
+    assert "r2" in disassemble(old, names=True)
+
+
+def test_disasm_names_reassembles_identically_and_listing_shows_names(cli, tmp_path):
+    p = assemble_text(NAMED)
+    text = disassemble(p, names=True)
+    assert ".reg acc = r3" in text and "fadd acc, acc, r1" in text and "ld acc, [0]" in text
+    again = assemble_text(text)
+    assert again.same_program(p) and again.reg_names == p.reg_names
+    assert "fadd r2, r2, r1" in disassemble(p)  # without --names: registers as themselves
+    p.save(tmp_path / "n.o")
+    code, out, _ = cli("disasm", "--names", tmp_path / "n.o")
+    assert code == 0 and out == text
+    rows = listing(p).splitlines()
+    assert any("fadd acc/r2, acc/r2, r1" in r for r in rows)
+    assert any("ld acc/r3, [0]" in r for r in rows)
+    assert ";   acc = r3  5..6" in rows
+
+
+def test_the_kernels_disassemble_with_names_to_themselves():
+    from netsushisen.asm.assembler import assemble_file
+    from netsushisen.render import KERNELS
+
+    p = assemble_file(KERNELS / "sc.s", proc="sc", defines=_sc_defines(),
+                      include_dirs=[KERNELS])
+    assert p.reg_names
+    again = assemble_text(disassemble(p, names=True), proc="sc")
+    assert again.same_program(p)
+
+
+def _sc_defines() -> dict:
+    from netsushisen.isa.config import MachineConfig
+    from netsushisen.render import kernel_inputs
+
+    return kernel_inputs("tetra", MachineConfig(), res=2).defines
+
+
+# ---------------------------------------------------------------------------------------------
+# The debugger
+
+
+def test_print_display_watch_info_registers_and_conditions_take_names(debug, named):
+    code, out = debug(["print acc", "display cnt", "watch cnt", "continue",
+                       "info registers cnt acc", "print f:acc", "print cnt * 2 + 1",
+                       "delete", "break loop if cnt == 1", "continue", "print cnt",
+                       "break done", "continue", "print acc", "print r2",
+                       "info registers acc"], "--program", named)
+    assert code == 0, out
+    assert "acc/r2 = 0" in out
+    assert "1: cnt/r9 = 0" in out
+    assert "watchpoint 1 on pe0.ic.cnt/r9 (now 0)" in out
+    assert "watchpoint 1: pe0.ic.cnt/r9: 0 -> 3 in cycle 1 (li at pc 0 (start)" in out
+    assert "*cnt/r9     3" in out and " acc/r2     0" in out
+    assert "f:acc/r2 = 0.0" in out and "cnt * 2 + 1 = 7" in out
+    # loop issues in c2, c6, c10 reading cnt = 3, 2, 1
+    assert "breakpoint 2: pe0.ic issued pc 2 (loop) in cycle 10 [cnt == 1]" in out
+    after = out.split("(nss) break done")[1]
+    assert "acc/r3 = 0" in after  # past the redefinition: acc is r3
+    assert "r2 = 1083179008  (0x40900000, float 4.5)" in after  # 3 x 1.5; no name here
+    assert "acc/r3" in after.split("(nss) info registers acc")[1]
+
+
+def test_names_in_the_listing_trace_and_on_an_object_file(debug, cli, named, tmp_path):
+    code, out = debug(["break loop", "continue", "trace on", "stepi 2"], "--program", named,
+                      "--width", "100", screen=True)
+    assert code == 0
+    assert "addi cnt/r9, cnt/r9, -1" in out and "fadd acc/r2, acc/r2, r1" in out
+    assert "ld acc/r3, [0]" in out
+    assert "loop+1               st cnt/r9, [0]" in out.split("(nss) stepi 2")[1]  # the trace
+    cli("asm", named, "-o", tmp_path / "named.o")
+    code, out = debug(["print cnt", "until done", "print acc"], "--program", tmp_path / "named.o")
+    assert code == 0 and "cnt/r9 = 0" in out and "acc/r3 = " in out
+    code, out, _ = cli("run", "--ic", tmp_path / "named.o", "--trace")
+    assert "addi cnt/r9, cnt/r9, -1 ; fadd acc/r2, acc/r2, r1" in out
+
+
+def test_names_in_the_timeline(cli, named, tmp_path):
+    code, out, err = cli("run", "--ic", named, "--timeline", tmp_path / "t.kanata",
+                         "--cycles", "0:10")
+    assert code == 0, err
+    text = (tmp_path / "t.kanata").read_text()
+    assert "fadd acc/r2, acc/r2, r1" in text and "li cnt/r9, 3" in text
+
+
+def test_an_unknown_name_is_one_line_error_and_the_name_in_force_wins(debug, tmp_path):
+    (tmp_path / "amb.s").write_text("""
+.proc sc
+.reg t = r5
+        li t, 1
+.reg t = r6
+        li t, 2
+        halt
+""")
+    code, out = debug(["print nothere", "set pc = 2", "print t", "stepi", "print t"],
+                      "--program", tmp_path / "amb.s")
+    assert code == 1
+    assert "error: unknown name 'nothere'" in out
+    assert "t/r6 = 0" in out  # at pc 2 the second definition is in force

@@ -20,7 +20,8 @@ from netsushisen.debugger import layout, view
 from netsushisen.debugger.breakcommands import BreakpointCommands, Display
 from netsushisen.debugger.expressions import (DebugError, format_number, format_word, hex_word,
                                                reg_label)
-from netsushisen.debugger.help import ALIASES, HELP, INFO_ALIASES, INFO_TOPICS, LAYOUTS, MOVES
+from netsushisen.debugger.help import (ALIASES, CLASSES, HELP, INFO_ALIASES, INFO_TOPICS, LAYOUTS,
+                                        MOVES)
 from netsushisen.debugger.outcome import Outcome
 from netsushisen.debugger.source import SourceCommands
 from netsushisen.debugger.state import state_digest
@@ -433,7 +434,14 @@ class Commands(BreakpointCommands, SourceCommands):
         return Outcome(quit=not going)
 
     def cmd_help(self, arg: str) -> Outcome:
-        if arg:
+        """gdb's help: an index by default (one line per class of commands), `help COMMAND`
+        for one command, `help all` for the one-line description of every command."""
+        if not arg:
+            lines = [f"{cls + ':':<13} {' '.join(names)}" for cls, names in CLASSES]
+            lines.append('Type "help" followed by a command name for its description, '
+                         '"help all" for every command. Enter repeats the last command.')
+            return Outcome([Text("\n".join(lines))])
+        if arg.split()[0] != "all":
             name = resolve_command(arg.split()[0])
             usage, short, more = HELP[name]
             aliases = [a for a, n in ALIASES.items() if n == name]

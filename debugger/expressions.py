@@ -477,13 +477,14 @@ def format_word(core, word: int) -> str:
 
 
 def looks_float(core, word: int) -> bool:
-    """A guess for display only: a normal float that is not a small integer."""
+    """A guess for display only: a normal float that is not a small integer, or an infinity."""
     w = word & core.mask
     if core.mask == 0xFFFFFFFF:
         exp, small = (w >> 23) & 0xFF, abs(wrap32(w)) < (1 << 20)
-        return 0 < exp < 0xFF and not small
+        return (0 < exp < 0xFF and not small) or w & 0x7FFFFFFF == 0x7F800000
     exp = (w >> 52) & 0x7FF
-    return 0 < exp < 0x7FF and not (w < (1 << 20) or w > core.mask - (1 << 20))
+    return (0 < exp < 0x7FF and not (w < (1 << 20) or w > core.mask - (1 << 20))) \
+        or w & 0x7FFFFFFFFFFFFFFF == 0x7FF0000000000000
 
 
 def short_word(core, word: int) -> str:

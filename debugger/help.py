@@ -103,9 +103,22 @@ HELP: dict[str, tuple[str, str, str]] = {
                 "Breakpoints and watchpoints stay; edits are lost. After --fast-forward: back "
                 "to the state it handed over."),
     "source": ("source FILE", "run the commands in FILE", "Lines starting with # are comments."),
-    "help": ("help [COMMAND]", "list the commands, or explain one", ""),
+    "help": ("help [COMMAND|all]", "the index of commands; help COMMAND explains one",
+             "help all: every command with its one-line description (paged on a terminal, as "
+             "all long output is: Enter for more, q to quit, c to continue without paging)."),
     "quit": ("quit", "leave the debugger", "Also at the end of input."),
 }
+
+CLASSES = (  # the index `help` prints (gdb's `help` lists classes of commands)
+    ("running", ("step", "stepi", "next", "continue", "until", "finish", "restart")),
+    ("backwards", ("reverse-step", "reverse-stepi", "reverse-continue")),
+    ("breakpoints", ("break", "tbreak", "delete", "disable", "enable", "condition", "ignore")),
+    ("watching", ("watch", "rwatch", "awatch")),
+    ("data", ("print", "display", "undisplay", "x", "set", "info")),
+    ("code", ("list", "disassemble")),
+    ("screen", ("proc", "pe", "layout", "screen", "trace")),
+    ("other", ("source", "help", "quit")),
+)
 
 ALIASES = {"s": "step", "si": "stepi", "n": "next", "c": "continue", "cont": "continue",
            "u": "until", "fin": "finish", "b": "break", "tb": "tbreak", "d": "delete",

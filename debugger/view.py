@@ -68,9 +68,10 @@ def describe_core(core) -> str:
     return f"stall {core.cause} at {core.where(core.last_pc)}"
 
 
-def header(session) -> RenderableType:
+def header(session, compact: bool = False) -> RenderableType:
     """The cycle and status, then one line per processor of the PE that has a program (and the
-    viewed one, `*`): what it did in the last cycle."""
+    viewed one, `*`): what it did in the last cycle. Compact (a short terminal): the viewed
+    processor's line, then the others together on one."""
     m = session.machine
     status = m.status or "running"
     last = f"last cycle {m.cycle - 1}" if m.cycle else "before cycle 0"
@@ -78,18 +79,25 @@ def header(session) -> RenderableType:
                           (f"{last} ({m.cycle} cycles run)", "bold"), f"  status {status}")
     title.no_wrap, title.overflow = True, "ellipsis"
     lines: list[RenderableType] = [title]
+    others = []
     for stage, core in m.pes[session.pe].cores.items():
         if not core.present and stage != session.stage:
             continue
         mark = "*" if stage == session.stage else " "
+        if compact and mark == " ":
+            others.append(f"{stage.upper()} {describe_core(core)}")
+            continue
         lines.append(Text.assemble((f"{mark}{stage.upper()}", "bold" if mark == "*" else ""),
                                    "  " + describe_core(core), no_wrap=True, overflow="ellipsis"))
+    if others:
+        lines.append(Text(" " + "; ".join(others), style=DIM, no_wrap=True, overflow="ellipsis"))
     return Group(*lines)
 
 
-def header_height(session) -> int:
+def header_height(session, compact: bool = False) -> int:
     cores = session.machine.pes[session.pe].cores
-    return 1 + sum(1 for s, c in cores.items() if c.present or s == session.stage)
+    shown = sum(1 for s, c in cores.items() if c.present or s == session.stage)
+    return 1 + (min(shown, 2) if compact else shown)
 
 
 def where_line(session) -> Text:
@@ -209,6 +217,14 @@ class Listing:
                         style))
         return out
 
+    def cut(self, pc: int, width: int) -> bool:
+        """Whether the row of bundle `pc` loses operand text at this width."""
+        for text in self.lines(width):
+            cells = text.plain.split()
+            if len(cells) > 1 and (cells[0] == str(pc) or cells[1] == str(pc)):
+                return "…" in text.plain or len(text.plain) >= width
+        return False
+
     def lines(self, width: int) -> list[Text]:
         rows = self.rows()
         names = slot_names(self.core.program)
@@ -257,15 +273,28 @@ def listing_window(core, rows: int) -> tuple[int, int]:
     return start, min(n, start + rows)
 
 
-def listing_panel(session, rows: int = 11, height: int | None = None) -> Panel:
+def listing_panel(session, rows: int = 11, height: int | None = None,
+                  width: int | None = None) -> Panel:
+    """The listing around the focus bundle and its source line. Given the panel's `width`,
+    when the slot columns cut an operand of the focus bundle, that bundle follows in full
+    (wrapped, `=> 5: fadd sum/r6, ...`), its lines taken from the rows."""
     core = session.core
     title = f"listing pe{session.pe}.{session.stage}"
     if not core.present:
         return _panel(Text("(no program on this processor)"), title, height)
-    start, end = listing_window(core, rows)
-    parts: list[RenderableType] = [Listing(session, core, start, end)]
-    smap = core.program.source_map
     focus = min(focus_pc(core), len(core.bundles) - 1)
+    full = None
+    if width is not None:
+        start, end = listing_window(core, rows)
+        if Listing(session, core, start, end).cut(focus, width - 4):
+            mark = "=>" if core.last_issued else "!>" if core.cause and not core.halted else "->"
+            full = Text(f"{mark} {focus}: {bundle_text(core.program, focus)}", style="bold")
+            rows -= max(1, -(-len(full.plain) // max(width - 4, 1)))
+    start, end = listing_window(core, max(rows, 1))
+    parts: list[RenderableType] = [Listing(session, core, start, end)]
+    if full is not None:
+        parts.append(full)
+    smap = core.program.source_map
     if focus < len(smap):
         loc = smap[focus]
         parts.append(Text(f"{loc.file}:{loc.line}: {loc.text.strip()}", style=DIM,
@@ -298,19 +327,22 @@ def register_rows(session, core, rows: int | None) -> tuple[list[int], int]:
 
 
 def registers_table(session, core, regs: list[int]) -> Table:
+    """The registers beside the listing: name (`pri/r29`), value (a float when the word looks
+    like one, else the integer) and the raw word: three columns, so names and values stay
+    whole in the panel's fixed width (`info registers` shows every view)."""
     prev = session.previous_regs.get(core.name, core.regs)
     t = Table(box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 1), show_edge=False)
-    t.add_column("reg", no_wrap=True)
-    t.add_column("int", justify="right", no_wrap=True)
+    t.add_column("reg", no_wrap=True, overflow="ellipsis")
+    t.add_column("value", justify="right", no_wrap=True)
     t.add_column("hex", no_wrap=True)
-    t.add_column("float", justify="right", no_wrap=True)
     flying = in_flight(core)
     for r in regs:
         w = core.regs[r]
         changed = w != prev[r]
         style = CHANGED if changed else (PENDING if r in flying else None)
         name = ("*" if changed else "~" if r in flying else " ") + reg_label(core, r)
-        t.add_row(name, str(wrap32(w)), hex_word(core, w), _float_text(core, w), style=style)
+        value = _float_text(core, w) if looks_float(core, w) else str(wrap32(w))
+        t.add_row(name, value, hex_word(core, w), style=style)
     return t
 
 

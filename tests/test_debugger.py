@@ -728,7 +728,7 @@ def test_fast_forward_errors_and_a_run_that_ends_first(debug, cli, files, compil
 
 @pytest.mark.skipif(shutil.which("tmux") is None, reason="tmux is not installed "
                     "(apt-get install tmux); the batch tests cover the commands")
-@pytest.mark.parametrize("size", ["150x50", "80x24"])
+@pytest.mark.parametrize("size", ["80x24", "120x40", "200x60"])
 def test_interactive_session_in_tmux(tmp_path, size):
     out = tmp_path / "screen.txt"
     # the interpreter running the tests, not whatever `python3`/`netsushisen` PATH finds first
@@ -749,6 +749,13 @@ def test_interactive_session_in_tmux(tmp_path, size):
     assert [r for r in rows if r[:2] == ["addr", "label"]][0][2:6] == SLOTS["ic"]
     assert "registers pe0.ic" in stop
     assert ("fifos pe0" in stop) == (height >= 30)  # 80x24: listing and registers only
+    # the register names, the current bundle's operands whole, and the command line
+    assert "*shape/r4" in stop and "fadd sum/r6, shape/r4, r5" in stop
+    assert "fmul r9, shape/r4, r8" in stop and lines[-1].startswith("(nss)")
+    paged = [s for s in screens if s.startswith("(nss) help all")]
+    assert bool(paged) == (height < 45)  # help all is paged where it does not fit
+    if paged:
+        assert "--Type <RET> for more, q to quit, c to continue without paging--" in paged[0]
 
 
 # ---------------------------------------------------------------------------------------------

@@ -1,6 +1,7 @@
-"""The debugger in the kernel writer's words: `.reg` names everywhere a register shows or is
+"""The debugger as a kernel writer uses it: `.reg` names everywhere a register shows or is
 taken (listing, print, display, watch, info registers, conditions, trace, timeline), scoped as
-the assembler scopes them, carried by the object file; `disasm --names`; `--listing`.
+the assembler scopes them, carried by the object file (`disasm --names`, `--listing`); a usable
+80x24 screen (the current bundle whole, the help index, gdb's pager, line mode below).
 
 NAMED's timing (docs/timing.md): li c0, lf c1, loop c2/c6/c10 (taken bnez: a branch stall),
 st c3/c7/c11, bnez c4/c8/c12, done c13, halt c14. `acc` is r2 up to `done` and r3 from there.
@@ -11,6 +12,7 @@ from __future__ import annotations
 import json
 
 import pytest
+from rich.text import Text
 
 from netsushisen.asm.assembler import assemble_text
 from netsushisen.asm.disasm import disassemble
@@ -196,3 +198,114 @@ def test_an_unknown_name_is_one_line_error_and_the_name_in_force_wins(debug, tmp
     assert code == 1
     assert "error: unknown name 'nothere'" in out
     assert "t/r6 = 0" in out  # at pc 2 the second definition is in force
+
+
+# ---------------------------------------------------------------------------------------------
+# 80x24 and smaller
+
+
+def named_session(source: str = NAMED):
+    from netsushisen.debugger.session import ProgramsFactory, Session
+    from netsushisen.isa.config import load_config
+
+    return Session(ProgramsFactory(load_config(None, []), {"ic": assemble_text(source)}))
+
+
+def front_end(session, width: int, height: int, answers: list[str] | None = None):
+    """An interactive front end on a `width` x `height` terminal (rich's recording console);
+    the pager's questions are answered from `answers` and recorded in `front.asked`."""
+    import io
+
+    from rich.console import Console
+
+    from netsushisen.debugger.frontend import FrontEnd
+
+    console = Console(record=True, width=width, height=height, file=io.StringIO(),
+                      force_terminal=True, markup=False, highlight=False)
+    front = FrontEnd(session, console, interactive=True)
+    front.asked = []
+
+    def ask(prompt):
+        front.asked.append(prompt)
+        return answers.pop(0) if answers else "c"
+
+    front.ask = ask
+    return front
+
+
+def screen_of(front, commands=()) -> str:
+    for c in commands:
+        front.execute(c)
+    front.console.export_text(clear=True)
+    front.draw()
+    return front.console.export_text()
+
+
+WIDE = """
+.proc ic
+.reg total = r10
+.reg scale = r11
+start:  { lf scale, 0.5 ; li r12, 1 }
+loop:   { st total, [r12 + 100] ; fadd total, total, scale ; fmul r13, scale, scale ; fsub r14, total, scale }
+        halt
+"""
+
+
+def test_at_80x24_the_current_bundle_shows_whole_when_the_columns_cut_it():
+    s = named_session(WIDE)
+    full = ("=> 1: st total/r10, [r12 + 100] ; fadd total/r10, total/r10, scale/r11 ; "
+            "fmul r13, scale/r11, scale/r11 ; fsub r14, total/r10, scale/r11")
+    screen = screen_of(front_end(s, 80, 24), ["break loop", "continue"])
+    lines = screen.rstrip("\n").split("\n")
+    assert len(lines) <= 20 and max(len(line) for line in lines) <= 80
+    assert "…" in screen  # the slot columns cut operands ...
+    flat = " ".join(line.strip("│ ") for line in lines)
+    assert full in flat  # ... and the bundle follows whole (wrapped)
+    assert "*scale/r11 0.5" in screen  # names in the registers panel
+    # at 200 columns the row itself holds the whole bundle: no extra line
+    screen = screen_of(front_end(s, 200, 60))
+    assert "fsub r14, total/r10, scale/r11" in screen and "=> 1: " not in screen
+
+
+def test_a_terminal_below_the_minimum_gets_line_mode():
+    s = named_session()
+    screen = screen_of(front_end(s, 60, 15), ["break loop", "continue"])
+    assert "listing" not in screen and "╭" not in screen
+    assert "[cycle 2] pe0.ic issued pc 2 (loop): addi cnt/r9, cnt/r9, -1" in screen
+    assert "<string>:10: loop:   { addi cnt, cnt, -1" in screen  # the source line
+
+
+def test_help_is_an_index_and_long_output_is_paged_as_gdb_does():
+    s = named_session()
+    front = front_end(s, 80, 24, answers=["q"])
+    front.execute("help")
+    out = front.console.file.getvalue()
+    index = out[out.index("running:"):]
+    assert "breakpoints:" in index and "reverse-step" in index and len(index.splitlines()) < 12
+    assert not front.asked  # short: no pager
+    front.console.file.truncate(0), front.console.file.seek(0)
+    front.execute("help all")
+    out = front.console.file.getvalue()
+    assert front.asked == [PAGER]  # a page, then q: quit
+    assert out.rstrip().endswith("Quit") and "step [N]" in out and "quit " not in out
+    assert len(out.splitlines()) == 24  # 23 lines of help, then Quit
+    front.console.file.truncate(0), front.console.file.seek(0)
+    front.execute("info registers")  # 64 registers in one column at 80 wide; c: the rest
+    out = front.console.file.getvalue()
+    assert front.asked[1:] == [PAGER] and " lr " in out and "cnt/r9" in out
+    assert max(len(Text.from_ansi(line).plain) for line in out.splitlines()) <= 80
+    code_front = front_end(s, 200, 60)
+    code_front.execute("help all")
+    assert not code_front.asked  # it fits a 60-line terminal
+
+
+PAGER = "--Type <RET> for more, q to quit, c to continue without paging--"
+
+
+def test_help_all_and_help_command_in_batch(debug, named):
+    code, out = debug(["help", "help all", "help info", "info registers cnt"], "--program", named)
+    assert code == 0
+    assert "running:" in out and "breakpoints:" in out
+    assert "break LOCATION [if CONDITION]" in out  # help all: every command
+    assert "--Type" not in out  # never paged off a terminal
+    assert "cnt/r9" in out and "acc/r2" not in out.split("(nss) info registers cnt")[1]

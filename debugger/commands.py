@@ -283,13 +283,22 @@ class Commands(BreakpointCommands, SourceCommands):
         return f"{arg.strip()} = {text}"
 
     def cmd_x(self, arg: str, fmt: str = "") -> Outcome:
-        m = re.fullmatch(r"(\d*)([xdufa]?)", fmt)
+        """gdb's `x/NFU ADDR`: N words from ADDR — a number or a data label (the processor's
+        local memory, its data memory), `REGION ADDR` or `REGION[ADDR]`, `*ADDR` as gdb writes
+        it; F a format (x d u f a, or i: N bundles from a code location); U may be w (a word,
+        the only unit)."""
+        m = re.fullmatch(r"(\d*)([xdufai]?)w?", fmt)
         if not m:
-            raise DebugError(f"x/{fmt}: expected x/N followed by a format x, d, u, f or a")
+            raise DebugError(f"x/{fmt}: expected x/N followed by a format x, d, u, f, a or i "
+                             "(the unit is always a word: w)")
         n = int(m.group(1) or 1)
         f = m.group(2) or "x"
         if not arg:
-            raise DebugError("x takes an address: x/8 icgm 512, x/4f local[table]")
+            raise DebugError("x takes an address: x/8 icgm 512, x/4f local[table], x/4f 12")
+        if arg.startswith("*") and f != "i":
+            arg = arg[1:].strip()
+        if f == "i":
+            return self.examine_code(arg, n)
         if n == 0:
             self.session.context().memory_ref(arg)  # the address is still checked
             return Outcome([Text("x/0: a count of 0 words shows nothing")])

@@ -31,16 +31,17 @@ HELP: dict[str, tuple[str, str, str]] = {
               "2 && f:r7 < 1.5`."),
     "tbreak": ("tbreak LOCATION [if CONDITION]", "a breakpoint deleted when it first stops",
                "As break; `info breakpoints` shows it with Disp `del`."),
-    "watch": ("watch REGISTER|ADDRESS",
+    "watch": ("watch REGISTER|ADDRESS|*ADDR",
               "stop in every cycle that writes a register or a local memory word",
               "Reports old -> new value, the cycle, and the bundle that wrote it (for a register: "
               "the op, its PC and its issue cycle). ADDRESS: local[E], a data label or a number "
-              "(local memory). Views: watch f:r6 shows floats."),
-    "rwatch": ("rwatch ADDRESS", "stop in every cycle that reads a memory word",
+              "(local memory), or gdb's *ADDR (the word at ADDR of local memory: watch *12). "
+              "Views: watch f:r6 shows floats."),
+    "rwatch": ("rwatch ADDRESS|*ADDR", "stop in every cycle that reads a memory word",
                "Any memory: local[E], resident[E], icgm[E], scgm[E] (global memory: a read by "
-               "any PE). Reports the value read, the loading op and, for a global word, whether "
+               "any PE); *ADDR is gdb's spelling (*12: local[12], *icgm 12). Reports the value read, the loading op and, for a global word, whether "
                "the cache hit or missed."),
-    "awatch": ("awatch ADDRESS", "stop in every cycle that reads or writes a memory word",
+    "awatch": ("awatch ADDRESS|*ADDR", "stop in every cycle that reads or writes a memory word",
                "Reads as rwatch reports them, writes (local memory) as watch."),
     "delete": ("delete [N...]", "delete breakpoints, watchpoints (all without N)",
                "N may be a range: delete 2-4."),
@@ -61,18 +62,23 @@ HELP: dict[str, tuple[str, str, str]] = {
              "Without an argument: around the viewed processor's PC, then the next lines on "
              "each repeat; `list -`: the lines before. LOCATION: a label or an address (list "
              "loop), or FILE:LINE. Marks: => the PC's line, B1 a breakpoint's."),
-    "info": ("info breakpoints|display|registers|fifo|cache|stats|scoreboard|checkpoints|state",
-             "show breakpoints, displays, all registers, FIFOs and CMU locks, cache, counters, ...",
+    "info": ("info TOPIC", "breakpoints, display, registers [REG...], line [LINE|*ADDR], "
+             "symbol ADDR, fifo, cache, stats, scoreboard, checkpoints, state",
              "`info breakpoints` is gdb's table (Num Type Disp Enb Address What) with hit "
-             "counts. `info state` prints a digest of the machine's entire state (equal digests: "
-             "equal states)."),
+             "counts. `info registers pri r5` shows only those. `info line 12` (or FILE:LINE, a "
+             "label, *ADDR; the PC's line without one) says which bundles hold a source line; "
+             "`info symbol 12` which label an address is at or after (code and data). "
+             "`info state` prints a digest of the machine's entire state (equal digests: equal "
+             "states)."),
     "print": ("print[/x|/d|/u|/f] EXPRESSION", "evaluate an expression",
               "Names: r5, zero, lr, pc, cycle, labels, -D symbols; memory local[E], resident[E], "
               "icgm[E], scgm[E], global[E]; another processor: ic.r5, pe1.sc.local[3]; views: "
               "f:r5 (float), u:, x:, i:. Operators as in the assembler (C)."),
-    "x": ("x/N[x|d|u|f|a] [REGION] ADDRESS", "dump N words of memory",
-          "REGION: local (default), resident, icgm, scgm, global; e.g. `x/8 icgm 512`, "
-          "`x/4f local[table]`. Formats: x hex (default), d signed, u unsigned, f float, a all."),
+    "x": ("x/N[x|d|u|f|a|i] [REGION] ADDRESS", "dump N words of memory (or N bundles: x/Ni)",
+          "REGION: local (the data memory, default), resident, icgm, scgm, global; e.g. "
+          "`x/8 icgm 512`, `x/4f local[table]`, `x/4f 12`, `x/4xw *12` (gdb's spellings). "
+          "Formats: x hex (default), d signed, u unsigned, f float, a all, i bundles from a "
+          "code location (x/3i pc, x/4i loop)."),
     "disassemble": ("disassemble [LOCATION]", "list the bundles from LOCATION to the next label",
                     "Without a location: the code around the PC. Every slot is shown."),
     "proc": ("proc os|ic|sc", "view another processor of the PE", ""),
@@ -126,8 +132,8 @@ ALIASES = {"s": "step", "si": "stepi", "n": "next", "c": "continue", "cont": "co
            "disas": "disassemble", "rs": "reverse-step", "rsi": "reverse-stepi",
            "rc": "reverse-continue", "h": "help", "q": "quit", "exit": "quit"}
 
-INFO_TOPICS = ("breakpoints", "display", "registers", "fifo", "cache", "stats", "scoreboard",
-               "checkpoints", "state")
+INFO_TOPICS = ("breakpoints", "display", "registers", "line", "symbol", "fifo", "cache", "stats",
+               "scoreboard", "checkpoints", "state")
 INFO_ALIASES = {"b": "breakpoints", "break": "breakpoints", "watchpoints": "breakpoints",
                 "r": "registers"}
 MOVES = ("step", "stepi", "next", "continue", "until", "finish", "reverse-step", "reverse-stepi",

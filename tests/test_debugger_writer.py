@@ -309,3 +309,58 @@ def test_help_all_and_help_command_in_batch(debug, named):
     assert "break LOCATION [if CONDITION]" in out  # help all: every command
     assert "--Type" not in out  # never paged off a terminal
     assert "cnt/r9" in out and "acc/r2" not in out.split("(nss) info registers cnt")[1]
+
+
+# ---------------------------------------------------------------------------------------------
+# gdb's address forms: watch/rwatch/awatch *ADDR, x/NFU ADDR, x/Ni, info line, info symbol
+# (NAMED's lines: 8 start (pc 0), 9 lf (1), 10 loop (2), 11 st (3), 12 bnez (4), 13 the second
+# .reg, 14 done (5), 15 halt (6); st writes local[0] in c3, c7, c11; ld reads it in c13)
+
+
+def test_watch_rwatch_awatch_star_address(debug, named):
+    code, out = debug(["watch *0", "rwatch *counter", "awatch *local[0]", "info breakpoints",
+                       "continue", "delete 1 3", "continue", "watch *99999999", "rwatch *icgm 0"],
+                      "--program", named)
+    assert code == 1  # the last two are errors
+    assert "watchpoint 1 on pe0.ic.local[0] (now 0)" in out
+    assert "read watchpoint 2 on pe0.ic.local[0] (now 0)" in out
+    assert "acc watchpoint 3 on pe0.ic.local[0] (now 0)" in out
+    assert "watchpoint 1: pe0.ic.local[0]: 0 -> 2 in cycle 3 (st at pc 3 (loop+1))" in out
+    assert "acc watchpoint 3: pe0.ic.local[0]: 0 -> 2 in cycle 3" in out
+    assert "read watchpoint 2: pe0.ic.local[0]: read 0 in cycle 13 (ld at pe0.ic pc 5 (done))" \
+        in out
+    assert "error: local[99999999]: address outside local" in out
+    assert "error: icgm[0]: icgm is empty (size 0)" in out
+
+
+def test_x_takes_gdb_forms_and_defaults_to_the_data_memory(debug, named):
+    code, out = debug(["until done", "x/2f 0", "x/2dw *0", "x/1x counter", "x/3i pc",
+                       "x/2i loop", "x/2b 0"], "--program", named)
+    assert "local[0]:           0.0         0.0" in out or "local[0]:" in out
+    assert "local[0]:             0             0" in out  # x/2dw *0: the loop left 0 there
+    assert "local[0]:    0x00000000" in out
+    assert "=> 6 <done+1>:  halt" in out  # x/3i pc: the PC's bundle marked, as gdb does
+    assert "(the program ends at 6)" in out
+    assert "   2 <loop>:  addi cnt/r9, cnt/r9, -1 ; fadd acc/r2, acc/r2, r1" in out
+    assert "   3 <loop+1>:  st cnt/r9, [0]" in out
+    assert "error: x/2b: expected x/N followed by a format" in out and code == 1
+
+
+def test_info_line_and_info_symbol_as_gdb_prints_them(debug, named):
+    code, out = debug(["info line", "info line 11", "info line 4", "info line 40",
+                       "info line loop", "info line *3", "info line named.s:13",
+                       "info symbol 3", "info symbol loop", "info symbol 0", "info symbol 99",
+                       "info symbol", "info line nosuch"], "--program", named)
+    assert 'Line 8 of "named.s" starts at address 0 <start> and ends at 1 <start+1>.' in out
+    assert 'Line 11 of "named.s" starts at address 3 <loop+1> and ends at 4 <loop+2>.' in out
+    assert 'Line 4 of "named.s" is at address 0 <start> but contains no code.' in out
+    assert 'Line 40 of "named.s" is past the last line with code in IC.' in out
+    assert 'Line 10 of "named.s" starts at address 2 <loop> and ends at 3 <loop+1>.' in out
+    assert 'Line 11 of "named.s" starts at address 3 <loop+1> and ends at 4 <loop+2>.' in out
+    assert 'Line 13 of "named.s" is at address 5 <done> but contains no code.' in out
+    assert "loop + 1 in section .text of ic" in out
+    assert "loop in section .text of ic" in out
+    assert "start in section .text of ic\ncounter in section .data of ic" in out
+    assert "No symbol matches 99." in out
+    assert "error: info symbol takes an address" in out
+    assert "error: unknown name 'nosuch'" in out and code == 1

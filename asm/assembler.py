@@ -21,9 +21,12 @@ from netsushisen.asm.expressions import BUILTIN_CONSTANTS, ExprError, evaluate, 
 from netsushisen.asm.macros import (INVOKE_RE, Macro, MacroExpansion, block_directive, describe,
                                     stray_escape)
 from netsushisen.asm.objects import Op, Program, RegName, SourceLoc
+from netsushisen.asm.pipeline import PipelineReport, materialize
+from netsushisen.asm.regions import RegionLoop, schedule_region
 from netsushisen.asm.parser import (CONDITIONAL_RE, Bundle, Chunk, Directive, Expansion, Instr,
                                     Loc, parse_chunk, split_statements)
 from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.opcodes import OPCODES
 from netsushisen.isa.processors import N_REGISTERS, PROCESSORS, REGISTER_ALIASES
 from netsushisen.isa.ring import predefined_symbols
@@ -32,7 +35,7 @@ from netsushisen.isa.words import wrap32
 MAX_INCLUDE_DEPTH = 32
 DIRECTIVES = ("proc", "equ", "reg", "include", "if", "ifdef", "ifndef", "elif", "else", "endif",
               "text", "data", "word", "float", "space", "align", "error",
-              "macro", "endm", "rept", "endr")
+              "macro", "endm", "rept", "endr", "sched", "endsched", "pipeline", "temps")
 _REG_RE = re.compile(r"r(\d+)$")
 
 
@@ -58,8 +61,21 @@ class _PendingBundle:
     loc: Loc
     text: str
     order: int
-    aliases: dict[str, tuple[int, Loc]]
+    region: int = -1  # the .sched region it belongs to
+    aliases: dict[str, tuple[int, Loc]] = field(default_factory=dict)
     """The `.reg` names in force at this bundle: pass 2 resolves its operands with them."""
+
+
+@dataclass
+class _Region:
+    """A `.sched` ... `.endsched` region: pending bundles first..end (one operation each)."""
+
+    loc: Loc
+    first: int
+    end: int = -1
+    starts: set[int] = field(default_factory=set)  # region-local indices labels point at
+    loops: list[RegionLoop] = field(default_factory=list)
+    temps: list[int] = field(default_factory=list)
 
 
 @dataclass
@@ -89,6 +105,9 @@ class _State:
     """(file, line, expansion) -> the source line as assembled (a body line after substitution)."""
     macros: dict[str, Macro] = field(default_factory=dict)
     expansions: int = 0  # macro invocations so far: `\@`
+    regions: list[_Region] = field(default_factory=list)
+    region: _Region | None = None  # the open one
+    pipeline_mark: Loc | None = None  # a `.pipeline` waiting for its loop's label
 
     def error(self, message: str, loc: Loc | None, order: int | None = None) -> None:
         src = self.lines.get((loc.file, loc.line, loc.via)) if loc else None
@@ -150,10 +169,14 @@ def _read_source(path: Path, display: str) -> str:
 
 class Assembler(MacroExpansion):
     def __init__(self, proc: str | None = None, defines: dict[str, int | float] | None = None,
-                 include_dirs: list[str | Path] | None = None):
+                 include_dirs: list[str | Path] | None = None, config: MachineConfig | None = None):
         if proc is not None and proc not in PROCESSORS:
             raise NetsushisenError(f"unknown processor {proc!r}: choose os, ic or sc")
         self.defines = dict(defines or {})
+        self.config = config or MachineConfig()
+        """The machine `.sched` regions are scheduled for (latencies, memory times, penalty)."""
+        self.pipeline_reports: list[PipelineReport] = []
+        """The software pipelining information of every `.pipeline` loop, in source order."""
         self.st = _State(proc, proc is not None, [Path(d) for d in include_dirs or []])
         for name, value in predefined_symbols().items():
             self.st.symbols[name] = _Symbol(value, "predefined", None)
@@ -177,6 +200,10 @@ class Assembler(MacroExpansion):
         if "\x00" in text:
             raise AssemblyError(Diagnostic("not a text file: NUL byte in assembly source", filename))
         self._walk(text, filename, base_dir or Path.cwd(), [])
+        if st.region is not None:
+            st.error(".sched without a matching .endsched", st.region.loc)
+            st.region.end = len(st.bundles)
+            st.region = None
         if not st.bundles and not st.diags:
             st.error("empty program: the source holds no instructions", Loc(filename, 1, 1))
         program = self._resolve()
@@ -244,6 +271,10 @@ class Assembler(MacroExpansion):
                 self._directive(item, base_dir, stack, chunk)
             else:
                 instrs = item.instrs if isinstance(item, Bundle) else [item]
+                if isinstance(item, Bundle) and st.region is not None:
+                    st.error("a .sched region holds one operation per line, without braces "
+                             "(the assembler makes the bundles)", item.loc)
+                    continue
                 self._add_bundle(instrs, item.loc, chunk)
         for c in conds:
             st.error(".if without a matching .endif", c.loc)
@@ -306,6 +337,12 @@ class Assembler(MacroExpansion):
             return
         addr = len(st.bundles) if st.section == "text" else len(st.data)
         st.symbols[name] = _Symbol(addr, st.section, loc)
+        if st.region is not None and st.section == "text":
+            st.region.starts.add(addr - st.region.first)
+            if st.pipeline_mark is not None:
+                st.region.loops.append(RegionLoop(addr - st.region.first, name,
+                                                  f"{loc.file}:{loc.line}"))
+                st.pipeline_mark = None
 
     def _add_bundle(self, instrs: list[Instr], loc: Loc, chunk: Chunk) -> None:
         st = self.st
@@ -316,7 +353,11 @@ class Assembler(MacroExpansion):
             st.error("which processor? give --proc os|ic|sc or write `.proc os|ic|sc` "
                      "before the first instruction", loc)
             st.proc = "?"
+        if st.pipeline_mark is not None:
+            st.error(".pipeline must be followed by the loop's label", st.pipeline_mark)
+            st.pipeline_mark = None
         st.bundles.append(_PendingBundle(instrs, loc, chunk.source_lines[0].strip(), st.order,
+                                         len(st.regions) - 1 if st.region is not None else -1,
                                          st.aliases))
 
     def _directive(self, d: Directive, base_dir: Path, stack: list[str], chunk: Chunk) -> None:
@@ -409,6 +450,56 @@ class Assembler(MacroExpansion):
         elif name == "error":
             msg = args[0].value if args and args[0].kind == "string" else "error directive"
             st.error(msg, d.loc)
+        else:
+            self._sched_directive(d)
+
+    def _sched_directive(self, d: Directive) -> None:
+        """`.sched`, `.endsched`, `.pipeline`, `.temps` (docs/scheduling.md)."""
+        st = self.st
+        name, args = d.name, d.args
+        if name != "temps" and args:
+            st.error(f".{name} takes no arguments", d.loc)
+            return
+        if name == "sched":
+            if st.region is not None:
+                st.error(f".sched inside a .sched region (opened at line {st.region.loc.line})", d.loc)
+                return
+            st.region = _Region(d.loc, len(st.bundles))
+            st.regions.append(st.region)
+            return
+        if st.region is None:
+            st.error(f".{name} outside a .sched region", d.loc)
+            return
+        if name == "endsched":
+            if st.pipeline_mark is not None:
+                st.error(".pipeline must be followed by the loop's label", st.pipeline_mark)
+                st.pipeline_mark = None
+            st.region.end = len(st.bundles)
+            st.region = None
+        elif name == "pipeline":
+            st.pipeline_mark = d.loc
+        else:  # temps: rA-rB or registers, comma-separated
+            if not args:
+                st.error(".temps takes registers: .temps r40-r47 or .temps r40, r41", d.loc)
+            for a in args:
+                regs = self._temps_arg(a)
+                if regs is None:
+                    st.error(".temps takes registers: rA-rB (a range) or rA", a.loc)
+                    continue
+                st.region.temps.extend(r for r in regs if r not in st.region.temps)
+
+    def _temps_arg(self, a) -> list[int] | None:
+        aliases = self.st.aliases
+        if a.kind != "expr":
+            return None
+        e = a.value
+        if e[0] == "name" and register_index(e[1], aliases):
+            return [register_index(e[1], aliases)]
+        if e[0] == "bin" and e[1] == "sub" and e[2][0] == "name" and e[3][0] == "name":
+            lo, hi = register_index(e[2][1], aliases), register_index(e[3][1], aliases)
+            if lo and hi and lo <= hi:
+                return list(range(lo, hi + 1))
+        return None
 
     def _name_value(self, d: Directive, what: str):
         args = d.args
@@ -481,22 +572,20 @@ class Assembler(MacroExpansion):
     def _resolve(self) -> Program:
         st = self.st
         proc = PROCESSORS.get(st.proc or "")
-        bundles: list[tuple[Op, ...]] = []
-        smap: list[SourceLoc] = []
-        final_aliases = st.aliases
-        for pb in st.bundles:
-            st.aliases = pb.aliases  # a name means the register of its latest .reg before here
-            ops = []
-            for instr in pb.instrs:
-                op = self._resolve_op(instr, proc, len(st.bundles), pb.order)
-                if op is not None:
-                    ops.append(op)
-            if proc is not None and len(ops) == len(pb.instrs):
+        resolved = self._resolve_ops(proc, len(st.bundles))
+        for pb, ops in zip(st.bundles, resolved):
+            if proc is not None and pb.region < 0 and len(ops) == len(pb.instrs):
                 for problem in check_bundle(proc, ops):
                     st.error(problem, pb.loc, pb.order)
-            bundles.append(tuple(ops))
-            smap.append(SourceLoc(pb.loc.file, pb.loc.line, pb.text, describe(pb.loc.via, st.lines)))
-        st.aliases = final_aliases
+        sources = [self._op_sources(pb) for pb in st.bundles]
+        smap = [SourceLoc(pb.loc.file, pb.loc.line, pb.text, describe(pb.loc.via, st.lines))
+                for pb in st.bundles]
+        moved = None  # serial bundle index -> its address after scheduling
+        if any(r.end > r.first for r in st.regions) and proc is not None and not st.diags:
+            bundles, op_sources, smap, moved = self._schedule(proc, resolved, sources, smap)
+        else:
+            bundles = [tuple(ops) for ops in resolved]
+            op_sources = [tuple(s) for s in sources]
         data: list[tuple[str, int | float]] = []
         for kind, expr, loc, order in st.data:
             v = self._eval(expr, loc, allow_labels=True, order=order)
@@ -512,10 +601,120 @@ class Assembler(MacroExpansion):
             else:
                 data.append(("f", float(v)))
         labels = {n: (s.kind, int(s.value)) for n, s in st.symbols.items() if s.kind in ("text", "data")}
-        reg_names = [RegName(n, r, a, len(bundles) if b is None else b)
-                     for n, r, a, b in st.reg_scopes if a < (len(bundles) if b is None else b)]
-        return Program(st.proc if proc else "os", bundles, data, labels, smap,
-                       {k: v for k, v in self.defines.items()}, reg_names)
+        program = Program(st.proc if proc else "os", bundles, data, labels, smap,
+                          {k: v for k, v in self.defines.items()})
+        program.op_sources = [tuple(s) for s in op_sources]
+        program.reg_names = self._reg_names(len(bundles), moved)
+        return program
+
+    def _reg_names(self, n: int, moved) -> list[RegName]:
+        """The `.reg` scopes in bundle addresses (after scheduling, a scope edge inside a
+        `.sched` region widens to the region's bundles); empty scopes left out."""
+        out = []
+        for name, reg, a, b in self.st.reg_scopes:
+            b = len(self.st.bundles) if b is None else b
+            a, b = (moved(a, False), moved(b, True)) if moved else (a, b)
+            if a < min(b, n):
+                out.append(RegName(name, reg, a, min(b, n)))
+        return out
+
+    def _resolve_ops(self, proc, n_bundles: int) -> list[list[Op]]:
+        out = []
+        final_aliases = self.st.aliases
+        for pb in self.st.bundles:
+            self.st.aliases = pb.aliases  # a name means the register of its latest .reg here
+            ops = []
+            for instr in pb.instrs:
+                op = self._resolve_op(instr, proc, n_bundles, pb.order)
+                if op is not None:
+                    ops.append(op)
+            out.append(ops)
+        self.st.aliases = final_aliases
+        return out
+
+    def _op_sources(self, pb: _PendingBundle) -> list[SourceLoc]:
+        """One location per operation: its own line (a bundle may span lines)."""
+        st = self.st
+        out = []
+        for instr in pb.instrs:
+            loc = instr.loc
+            text = (st.lines.get((loc.file, loc.line, loc.via)) or pb.text).strip()
+            out.append(SourceLoc(loc.file, loc.line, text, describe(loc.via, st.lines)))
+        return out
+
+    def _schedule(self, proc, resolved: list[list[Op]], sources: list[list[SourceLoc]],
+                  smap: list[SourceLoc]):
+        """Lay the `.sched` regions out as scheduled bundles: schedule each region on the
+        serial layout's operations, move every code label to its new address, resolve the
+        operations again against the moved labels, and build the bundles."""
+        st = self.st
+        regions = {r.first: r for r in st.regions if r.end > r.first}
+        old_to_new: dict[int, int] = {}
+        plan = []
+        addr = i = 0
+        while i < len(st.bundles):
+            r = regions.get(i)
+            if r is None:
+                old_to_new[i] = addr
+                plan.append((i, None, None, addr))
+                addr, i = addr + 1, i + 1
+                continue
+            ops = [resolved[k][0] for k in range(r.first, r.end)]
+            targets = []
+            for op in ops:
+                t = next((a for o, a in zip(op.opcode.operands, op.args) if o.kind == "label"), None)
+                targets.append(t - r.first if t is not None and r.first <= t < r.end else None)
+            layout, starts_at, reports = schedule_region(ops, targets, r.starts, r.loops, r.temps,
+                                                         proc, self.config)
+            self.pipeline_reports.extend(reports)
+            for local, off in starts_at.items():
+                old_to_new.setdefault(r.first + local, addr + off)
+            plan.append((i, r, layout, addr))
+            addr, i = addr + len(layout.bundles), r.end
+        old_to_new.setdefault(len(st.bundles), addr)
+        for sym in st.symbols.values():
+            if sym.kind == "text":
+                sym.value = old_to_new[int(sym.value)]
+        final = self._resolve_ops(proc, addr)
+        bundles: list[tuple[Op, ...]] = []
+        op_sources: list[tuple[SourceLoc, ...]] = []
+        new_smap: list[SourceLoc] = []
+        for i, r, layout, at in plan:
+            if r is None:
+                bundles.append(tuple(final[i]))
+                op_sources.append(tuple(sources[i]))
+                new_smap.append(smap[i])
+                continue
+            ops = [final[k][0] for k in range(r.first, r.end)]
+            for bundle in layout.bundles:
+                made, srcs, first = [], [], None
+                for p in bundle:
+                    op = materialize(p, ops)
+                    if p.target:
+                        target = at + layout.labels[p.target]
+                        op = Op(op.mnemonic, tuple(target if o.kind == "label" else a
+                                                   for o, a in zip(op.opcode.operands, op.args)))
+                    made.append(op)
+                    k = r.first + (p.index if p.index >= 0 else p.source)
+                    srcs.append(sources[k][0])
+                    first = k if first is None else min(first, k)
+                for problem in check_bundle(proc, made):
+                    st.error(f"internal error: the scheduler made a bundle that breaks a rule: "
+                             f"{problem}", r.loc)
+                bundles.append(tuple(made))
+                op_sources.append(tuple(srcs))
+                new_smap.append(smap[first])  # the bundle's earliest source line
+        spans = [(r.first, r.end, at, at + len(layout.bundles))
+                 for _, r, layout, at in plan if r is not None]
+
+        def moved(i: int, end: bool) -> int:
+            for first, stop, new, new_end in spans:
+                if first < i < stop or (i == first and not end):
+                    return new_end if end else new
+            return old_to_new.get(i, addr)
+
+        return bundles, op_sources, new_smap, moved
+
 
     def _resolve_op(self, instr: Instr, proc, n_bundles: int, order: int) -> Op | None:
         st = self.st
@@ -628,16 +827,19 @@ class Assembler(MacroExpansion):
 
 def assemble_file(path: str | Path, proc: str | None = None,
                   defines: dict[str, int | float] | None = None,
-                  include_dirs: list[str | Path] | None = None) -> Program:
-    """Assemble a source file; raises AssemblyError listing every error."""
-    return Assembler(proc, defines, include_dirs).assemble_file(path)
+                  include_dirs: list[str | Path] | None = None,
+                  config: MachineConfig | None = None) -> Program:
+    """Assemble a source file (`.sched` regions scheduled for `config`, else the default
+    machine); raises AssemblyError listing every error."""
+    return Assembler(proc, defines, include_dirs, config).assemble_file(path)
 
 
 def assemble_text(text: str, proc: str | None = None, filename: str = "<string>",
                   defines: dict[str, int | float] | None = None,
-                  include_dirs: list[str | Path] | None = None) -> Program:
+                  include_dirs: list[str | Path] | None = None,
+                  config: MachineConfig | None = None) -> Program:
     """Assemble source text (tests, generated kernels); raises AssemblyError."""
-    return Assembler(proc, defines, include_dirs).assemble_text(text, filename)
+    return Assembler(proc, defines, include_dirs, config).assemble_text(text, filename)
 
 
 def read_constants(path: str | Path, defines: dict[str, int | float] | None = None) -> dict[str, int | float]:

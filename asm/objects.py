@@ -129,6 +129,9 @@ class Program:
     source_map: list[SourceLoc] = field(default_factory=list)
     defines: dict[str, int | float] = field(default_factory=dict)
     """The -D symbols the program was assembled with (a specialised kernel records its scene's needs)."""
+    op_sources: list[tuple[SourceLoc, ...]] = field(default_factory=list)
+    """Per bundle, one location per operation in the bundle's order (a scheduled `.sched` bundle
+    gathers operations of several source lines); empty when unknown (an older object file)."""
     reg_names: list[RegName] = field(default_factory=list)
     """The `.reg` names by scope, in definition order (asm/regnames.py reads them); an
     optional key of the object file (`reg_names`), absent in files from before it."""
@@ -174,6 +177,8 @@ class Program:
             "source_map": [[s.file, s.line, s.text, *([s.via] if s.via else [])]
                            for s in self.source_map],
             "defines": dict(sorted(self.defines.items())),
+            **({"op_sources": [[[s.file, s.line, s.text, *([s.via] if s.via else [])] for s in ops]
+                               for ops in self.op_sources]} if self.op_sources else {}),
             **({"reg_names": [[r.name, r.reg, r.start, r.end] for r in self.reg_names]}
                if self.reg_names else {}),
         }
@@ -221,13 +226,15 @@ class Program:
             smap = [SourceLoc(str(f), int(l), str(t), *[str(v) for v in via])
                     for f, l, t, *via in obj.get("source_map", [])]
             defines = dict(obj.get("defines", {}))
+            op_sources = [tuple(SourceLoc(str(f), int(l), str(t), *[str(v) for v in via])
+                                for f, l, t, *via in ops) for ops in obj.get("op_sources", [])]
             reg_names = [RegName(str(n), int(r), int(a), int(b))
                          for n, r, a, b in obj.get("reg_names", [])]
         except NetsushisenError:
             raise
         except (KeyError, TypeError, ValueError, IndexError) as err:
             raise bad(f"malformed content ({type(err).__name__}: {err})") from None
-        return cls(proc, bundles, data, labels, smap, defines, reg_names)
+        return cls(proc, bundles, data, labels, smap, defines, op_sources, reg_names)
 
     @classmethod
     def load(cls, path: str | Path) -> "Program":

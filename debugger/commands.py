@@ -127,14 +127,20 @@ class Commands(BreakpointCommands, SourceCommands):
 
     # -- movement -----------------------------------------------------------------------------
 
+    def cmd_cycle(self, arg: str) -> Outcome:
+        return self._moved(self.session.step(_count(arg, "cycle")))
+
     def cmd_step(self, arg: str) -> Outcome:
-        return self._moved(self.session.step(_count(arg, "step")))
+        return self._moved(self.session.stepi(_count(arg, "step"), by_line=True))
 
     def cmd_stepi(self, arg: str) -> Outcome:
         return self._moved(self.session.stepi(_count(arg, "stepi")))
 
     def cmd_next(self, arg: str) -> Outcome:
-        return self._moved(self.session.stepi(_count(arg, "next"), over_calls=True))
+        return self._moved(self.session.stepi(_count(arg, "next"), over_calls=True, by_line=True))
+
+    def cmd_nexti(self, arg: str) -> Outcome:
+        return self._moved(self.session.stepi(_count(arg, "nexti"), over_calls=True))
 
     def cmd_continue(self, arg: str) -> Outcome:
         return self._moved(self.session.cont(_count(arg, "continue")))
@@ -147,8 +153,11 @@ class Commands(BreakpointCommands, SourceCommands):
     def cmd_until(self, arg: str) -> Outcome:
         return self._moved(self.session.until(arg or None))
 
+    def cmd_reverse_cycle(self, arg: str) -> Outcome:
+        return self._moved(self.session.reverse_step(_count(arg, "reverse-cycle")))
+
     def cmd_reverse_step(self, arg: str) -> Outcome:
-        return self._moved(self.session.reverse_step(_count(arg, "reverse-step")))
+        return self._moved(self.session.reverse_step_line(_count(arg, "reverse-step")))
 
     def cmd_reverse_stepi(self, arg: str) -> Outcome:
         return self._moved(self.session.reverse_stepi(_count(arg, "reverse-stepi")))

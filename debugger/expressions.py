@@ -58,6 +58,17 @@ def reg_label(core, reg: int) -> str:
 _FILE_LINE = re.compile(r"^(?P<file>[^\s:()\[\]]+):(?P<line>\d+)$")
 
 
+def bundle_lines(program, addr: int) -> list[tuple[str, int]]:
+    """The source lines (file, line) of bundle `addr`, in the order its operations name them:
+    one for a bundle written out, several for a bundle a `.sched` region scheduled from
+    operations of several lines (`Program.op_sources`)."""
+    ops = program.op_sources[addr] if addr < len(program.op_sources) else ()
+    if ops:
+        return list(dict.fromkeys((s.file, s.line) for s in ops))
+    smap = program.source_map
+    return [(smap[addr].file, smap[addr].line)] if addr < len(smap) else []
+
+
 def same_file(path: str, asked: str) -> bool:
     """Whether `asked` names the source file `path` (as given, or by its trailing parts)."""
     path, asked = path.replace("\\", "/"), asked.replace("\\", "/")
@@ -335,10 +346,11 @@ class Context:
             prog = self.machine.programs.get(s)
             if prog is None:
                 continue
-            for addr, loc in enumerate(prog.source_map):
-                names.add(loc.file.rsplit("/", 1)[-1])
-                if same_file(loc.file, file):
-                    found.setdefault(s, []).append((loc.line, addr))
+            for addr in range(len(prog.bundles)):  # a scheduled bundle holds several lines
+                for f, ln in bundle_lines(prog, addr):
+                    names.add(f.rsplit("/", 1)[-1])
+                    if same_file(f, file):
+                        found.setdefault(s, []).append((ln, addr))
         if not found:
             where = f"the {stage.upper()} program" if stage else "the programs"
             known = ", ".join(sorted(names)) or "none"

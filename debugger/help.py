@@ -6,12 +6,17 @@ from __future__ import annotations
 
 # name -> (usage, one line, more)
 HELP: dict[str, tuple[str, str, str]] = {
-    "step": ("step [N]", "run N cycles (default 1)",
-             "Stops early at a breakpoint, a watchpoint or the end of the run."),
+    "cycle": ("cycle [N]", "run N cycles (default 1)",
+              "Stops early at a breakpoint, a watchpoint or the end of the run."),
+    "step": ("step [N]", "run the viewed processor to the next source line (N lines)",
+             "gdb's step: until its next bundle holds other source lines. In a .sched region a "
+             "bundle holds operations of several lines and the lines come in the schedule's "
+             "order (gdb on optimised code); stepi moves one bundle, cycle one cycle."),
     "stepi": ("stepi [N]", "run until the viewed processor has issued N bundles",
               "Cycles in which it stalls do not count."),
-    "next": ("next [N]", "like stepi, but a call counts as one bundle with its whole subroutine",
-             ""),
+    "next": ("next [N]", "like step, but a call runs to its return as part of the line", ""),
+    "nexti": ("nexti [N]", "like stepi, but a call counts as one bundle with its whole "
+              "subroutine", ""),
     "continue": ("continue [N]", "run until a breakpoint, a watchpoint or the end of the run",
                  "Ctrl-C stops it between two cycles. With N: ignore the breakpoint that "
                  "stopped the run N-1 more times (gdb's `continue N`)."),
@@ -95,9 +100,11 @@ HELP: dict[str, tuple[str, str, str]] = {
             "integer as an integer; x:rN=0x3f800000 stores raw bits. Resident and global memory "
             "are read-only (the host writes them). An edit becomes part of the run's history: "
             "reverse steps before it undo it."),
-    "reverse-step": ("reverse-step [N]", "go back N cycles (exactly: checkpoints + replay)",
-                     "Not before the start of the history: cycle 0, or the cycle where "
-                     "--fast-forward handed the machine over."),
+    "reverse-cycle": ("reverse-cycle [N]", "go back N cycles (exactly: checkpoints + replay)",
+                      "Not before the start of the history: cycle 0, or the cycle where "
+                      "--fast-forward handed the machine over."),
+    "reverse-step": ("reverse-step [N]", "go back to the previous source line (N lines)",
+                     "Back to where the viewed processor's PC last held other source lines."),
     "reverse-stepi": ("reverse-stepi [N]",
                       "go back to the stop after the viewed processor's N-th previous bundle", ""),
     "reverse-continue": ("reverse-continue",
@@ -116,8 +123,9 @@ HELP: dict[str, tuple[str, str, str]] = {
 }
 
 CLASSES = (  # the index `help` prints (gdb's `help` lists classes of commands)
-    ("running", ("step", "stepi", "next", "continue", "until", "finish", "restart")),
-    ("backwards", ("reverse-step", "reverse-stepi", "reverse-continue")),
+    ("running", ("step", "next", "stepi", "nexti", "cycle", "continue", "until", "finish",
+                 "restart")),
+    ("backwards", ("reverse-step", "reverse-stepi", "reverse-cycle", "reverse-continue")),
     ("breakpoints", ("break", "tbreak", "delete", "disable", "enable", "condition", "ignore")),
     ("watching", ("watch", "rwatch", "awatch")),
     ("data", ("print", "display", "undisplay", "x", "set", "info")),
@@ -126,7 +134,8 @@ CLASSES = (  # the index `help` prints (gdb's `help` lists classes of commands)
     ("other", ("source", "help", "quit")),
 )
 
-ALIASES = {"s": "step", "si": "stepi", "n": "next", "c": "continue", "cont": "continue",
+ALIASES = {"s": "step", "si": "stepi", "n": "next", "ni": "nexti", "c": "continue",
+           "cont": "continue", "cy": "cycle", "rcy": "reverse-cycle",
            "u": "until", "fin": "finish", "b": "break", "tb": "tbreak", "d": "delete",
            "dis": "disable", "en": "enable", "i": "info", "p": "print", "l": "list",
            "disas": "disassemble", "rs": "reverse-step", "rsi": "reverse-stepi",
@@ -136,6 +145,6 @@ INFO_TOPICS = ("breakpoints", "display", "registers", "line", "symbol", "fifo", 
                "scoreboard", "checkpoints", "state")
 INFO_ALIASES = {"b": "breakpoints", "break": "breakpoints", "watchpoints": "breakpoints",
                 "r": "registers"}
-MOVES = ("step", "stepi", "next", "continue", "until", "finish", "reverse-step", "reverse-stepi",
-         "reverse-continue", "restart")
+MOVES = ("cycle", "step", "stepi", "next", "nexti", "continue", "until", "finish", "reverse-cycle",
+         "reverse-step", "reverse-stepi", "reverse-continue", "restart")
 LAYOUTS = ("auto", "asm", "regs", "full")

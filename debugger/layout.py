@@ -50,12 +50,11 @@ def line_mode(session, width: int) -> RenderableType:
     lines = [view.where_line(session)]
     if core.present:
         focus = min(view.focus_pc(core), len(core.bundles) - 1)
-        smap = core.program.source_map
         if not core.last_issued:
             lines.append(Text(f"{focus}: {view.bundle_text(core.program, focus)}"))
-        if focus < len(smap):
-            lines.append(Text(f"{smap[focus].file}:{smap[focus].line}: "
-                              f"{smap[focus].text.strip()}", style=view.DIM))
+        text = view.source_text(core.program, focus)
+        if text:
+            lines.append(Text(text, style=view.DIM))
     return Group(*lines)
 
 

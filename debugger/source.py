@@ -13,14 +13,8 @@ import re
 from rich.text import Text
 
 from netsushisen.debugger import view
-from netsushisen.debugger.expressions import DebugError, same_file
+from netsushisen.debugger.expressions import DebugError, bundle_lines, same_file
 from netsushisen.debugger.outcome import Outcome
-
-
-def bundle_lines(program, addr: int) -> list[tuple[str, int]]:
-    """The source lines (file, line) bundle `addr` was assembled from."""
-    smap = program.source_map
-    return [(smap[addr].file, smap[addr].line)] if addr < len(smap) else []
 
 
 def line_bundles(program, file: str, line: int) -> list[int]:
@@ -204,10 +198,9 @@ def _source_marks(session, file: str) -> dict[int, str]:
     marks: dict[int, str] = {}
     core = session.core
     if core.present:
-        smap = core.program.source_map
-        pc = view.focus_pc(core)
-        if pc < len(smap) and same_file(smap[pc].file, file):
-            marks[smap[pc].line] = "=>"
+        for f, line in bundle_lines(core.program, view.focus_pc(core)):
+            if same_file(f, file):
+                marks[line] = "=>"
     for bp in session.breakpoints.values():
         f, _, line = bp.where.rpartition(":")
         if f and same_file(f, file):

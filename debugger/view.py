@@ -25,7 +25,7 @@ from rich.text import Text
 
 from netsushisen.asm.listing import slot_assignment, target_names
 from netsushisen.asm.regnames import named_text, register_names
-from netsushisen.debugger.expressions import hex_word, looks_float, reg_label
+from netsushisen.debugger.expressions import bundle_lines, hex_word, looks_float, reg_label
 from netsushisen.isa.words import wrap32
 
 ISSUED = "bold black on green"
@@ -142,6 +142,38 @@ def bundle_cells(program, pc: int) -> list[str]:
     return [" ; ".join(op.format(labels, regs) for op in bundle) or "nop"]
 
 
+def line_numbers(lines: list[tuple[str, int]]) -> str:
+    """Source line numbers as a short text: `7-9`, `10,12`."""
+    nums = sorted({ln for _, ln in lines})
+    parts, i = [], 0
+    while i < len(nums):
+        j = i
+        while j + 1 < len(nums) and nums[j + 1] == nums[j] + 1:
+            j += 1
+        parts.append(str(nums[i]) if i == j else f"{nums[i]}-{nums[j]}")
+        i = j + 1
+    return ",".join(parts)
+
+
+def scheduled(program) -> bool:
+    """Whether a `.sched` region made the program's layout: some bundle holds several source
+    lines (then the listing shows each bundle's lines: one line is no longer one bundle)."""
+    return any(len({(s.file, s.line) for s in ops}) > 1 for ops in program.op_sources)
+
+
+def source_text(program, pc: int) -> str:
+    """The source of bundle `pc` as one line: `k.s:7,9: fadd r3, a, b | fmul r7, r5, r5`."""
+    lines = bundle_lines(program, pc)
+    if not lines:
+        return ""
+    ops = program.op_sources[pc] if pc < len(program.op_sources) else ()
+    if len(lines) > 1 and ops:
+        texts = list(dict.fromkeys(s.text.strip() for s in ops))
+        return f"{lines[0][0]}:{line_numbers(lines)}: {' | '.join(texts)}"
+    loc = program.source_map[pc]
+    return f"{loc.file}:{loc.line}: {loc.text.strip()}"
+
+
 def slot_names(program) -> list[str]:
     """Every issue slot of the processor (IC: int0 fp0 fp1 fp2), the listing's columns."""
     if not program.processor.vliw:
@@ -194,6 +226,7 @@ class Listing:
 
     def __init__(self, session, core, start: int, end: int, focus: bool = True):
         self.session, self.core, self.start, self.end, self.focus = session, core, start, end, focus
+        self.lines_column = core.program is not None and scheduled(core.program)
 
     def rows(self) -> list[tuple[str, str, str, list[str], str]]:
         core, program = self.core, self.core.program
@@ -213,8 +246,10 @@ class Listing:
             elif focus and pc == core.pc and not core.halted:
                 mark = "->"
             mark = (mark or "  ") + bps.get(pc, "")
-            out.append((mark.rstrip(), str(pc), by_addr.get(pc, ""), bundle_cells(program, pc),
-                        style))
+            label = by_addr.get(pc, "")
+            if self.lines_column:
+                label = (line_numbers(bundle_lines(program, pc)), label)
+            out.append((mark.rstrip(), str(pc), label, bundle_cells(program, pc), style))
         return out
 
     def cut(self, pc: int, width: int) -> bool:
@@ -227,6 +262,13 @@ class Listing:
 
     def lines(self, width: int) -> list[Text]:
         rows = self.rows()
+        if self.lines_column:  # a scheduled program: each bundle's source lines by its address
+            src_w = max([4] + [len(r[2][0]) for r in rows])
+            rows = [(m, f"{a:>4} {lab[0]:<{src_w}}", lab[1], c, st)
+                    for m, a, lab, c, st in rows]
+            head_addr = f"{'addr':>4} {'line':<{src_w}}"
+        else:
+            head_addr = "addr"
         names = slot_names(self.core.program)
         mark_w = max([4] + [len(r[0]) for r in rows])  # room for =>B1: columns stay put
         addr_w = max([4] + [len(r[1]) for r in rows])
@@ -244,7 +286,7 @@ class Listing:
                     + (" " * gap).join(f"{fit(c, w):<{w}}" for c, w in zip(cells, widths)))
             return text.rstrip()
 
-        out = [Text(line("", "addr", "label", names), style="bold", no_wrap=True,
+        out = [Text(line("", head_addr, "label", names), style="bold", no_wrap=True,
                     overflow="crop")]
         for mark, addr, label, cells, style in rows:
             out.append(Text(line(mark, addr, label, cells), style=style, no_wrap=True,
@@ -294,11 +336,9 @@ def listing_panel(session, rows: int = 11, height: int | None = None,
     parts: list[RenderableType] = [Listing(session, core, start, end)]
     if full is not None:
         parts.append(full)
-    smap = core.program.source_map
-    if focus < len(smap):
-        loc = smap[focus]
-        parts.append(Text(f"{loc.file}:{loc.line}: {loc.text.strip()}", style=DIM,
-                          overflow="ellipsis", no_wrap=True))
+    text = source_text(core.program, focus)
+    if text:
+        parts.append(Text(text, style=DIM, overflow="ellipsis", no_wrap=True))
     legend = "=> issued  !> stalled  -> next  B1 breakpoint"
     return _panel(Group(*parts), f"{title}  ({legend})", height)
 

@@ -364,3 +364,80 @@ def test_info_line_and_info_symbol_as_gdb_prints_them(debug, named):
     assert "No symbol matches 99." in out
     assert "error: info symbol takes an address" in out
     assert "error: unknown name 'nosuch'" in out and code == 1
+
+
+# ---------------------------------------------------------------------------------------------
+# Optimised code: a .sched region puts operations of several source lines in one bundle, in
+# the schedule's order. SCHED's lines: 5 lf a (pc 0), 6 lf b (1), 8-10 fadd/fmul/fsub (all in
+# bundle 2), 12 fmul r7 (3, scheduled before line 11), 11 fadd r6 (4), 13 st (5), 15 halt (6).
+
+SCHED = """
+.proc ic
+.reg a = r1
+.reg b = r2
+start:  lf a, 1.5
+        lf b, 2.5
+.sched
+        fadd r3, a, b
+        fmul r4, a, a
+        fsub r5, b, a
+        fadd r6, r3, r4
+        fmul r7, r5, r5
+        st r6, [0]
+.endsched
+done:   halt
+"""
+
+
+@pytest.fixture
+def sched(tmp_path):
+    (tmp_path / "sched.s").write_text(SCHED)
+    p = assemble_text(SCHED)
+    assert [len(b) for b in p.bundles] == [1, 1, 3, 1, 1, 1, 1]  # the layout these tests assume
+    assert [r.line for r in p.source_map] == [5, 6, 8, 12, 11, 13, 15]
+    return tmp_path / "sched.s"
+
+
+def test_step_moves_by_source_line_and_stepi_by_bundle_in_a_sched_region(debug, sched):
+    code, out = debug(["stepi 2", "step", "print pc", "step", "print pc", "step", "print pc",
+                       "reverse-step", "print pc", "stepi", "print pc", "next", "print pc",
+                       "cycle 2", "print cycle"], "--program", sched)
+    assert code == 0, out
+    pcs = [int(line.split("= ")[1].split()[0]) for line in lines_of(out, "pc = ")]
+    # step from bundle 2 (lines 8-10): to 3 (line 12), to 4 (line 11), to 5 (line 13);
+    # reverse-step: back to 4; stepi: one bundle, 5; next: to 6 (line 15)
+    assert pcs == [3, 4, 5, 4, 5, 6]
+    assert "issued pc 2 (start+2): fadd r3, a/r1, b/r2 ; fmul r4, a/r1, a/r1 ; fsub r5" in out
+
+
+def lines_of(out: str, text: str) -> list[str]:
+    return [line for line in out.splitlines() if line.startswith(text)]
+
+
+def test_info_line_and_break_on_a_line_of_a_sched_region(debug, sched):
+    code, out = debug(["info line 9", "info line 11", "info line 12", "info line *2",
+                       "break sched.s:11", "break sched.s:9", "continue", "continue",
+                       "info breakpoints"], "--program", sched)
+    assert code == 0, out
+    assert 'Line 9 of "sched.s" starts at address 2 <start+2> and ends at 3 <start+3>.' in out
+    assert 'Line 11 of "sched.s" starts at address 4 <start+4> and ends at 5 <start+5>.' in out
+    assert 'Line 12 of "sched.s" starts at address 3 <start+3> and ends at 4 <start+4>.' in out
+    assert 'Line 8 of "sched.s" starts at address 2 <start+2>' in out  # *2: its first line
+    assert "breakpoint 1 at ic pc 4 (start+4): file" in out  # line 11: its bundle, 4
+    assert "breakpoint 2 at ic pc 2 (start+2): file" in out  # line 9 sits in bundle 2
+    assert out.index("breakpoint 2: pe0.ic issued pc 2") < out.index("breakpoint 1: pe0.ic "
+                                                                      "issued pc 4")
+
+
+def test_the_listing_shows_each_bundles_source_lines(sched):
+    s = named_session(SCHED)
+    screen = screen_of(front_end(s, 80, 24), ["stepi 3"])
+    rows = [line.replace("│", " ").split() for line in screen.splitlines()]
+    assert ["addr", "line", "label"] == [r for r in rows if r[:1] == ["addr"]][0][:3]
+    assert ["=>", "2", "8-10"] in [r[:3] for r in rows]
+    assert ["->", "3", "12"] in [r[:3] for r in rows] and ["4", "11"] in [r[:2] for r in rows]
+    assert "<string>:8-10: fadd r3, a, b | fmul r4, a, a | fsub r5, b, a" in screen
+    # a program without a scheduled region keeps the plain columns
+    screen = screen_of(front_end(named_session(), 80, 24))
+    assert "line" not in [r for r in (line.replace("│", " ").split() for line in
+                                      screen.splitlines()) if r[:1] == ["addr"]][0]

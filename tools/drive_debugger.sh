@@ -6,7 +6,7 @@
 # Writes the demo pipeline of docs/debugger.md (OS -> IC -> SC -> COL, one PE) into a temporary
 # folder, starts the debugger in a detached tmux session of DRIVE_SIZE (default 150x50; the
 # screen is laid out for the size, docs/debugger.md), types commands with
-# `tmux send-keys` (breakpoint, continue, Enter to repeat, stepi, print, x, watch, reverse-step,
+# `tmux send-keys` (breakpoint, continue, Enter to repeat, stepi, print, x, watch, reverse-cycle,
 # Tab completion, a bad command) and appends each screen, captured with `tmux capture-pane`, to
 # OUT. Exit 0 when every step showed what it should, 1 otherwise. Needs tmux (apt-get install
 # tmux). PYTHON picks the interpreter that runs `python -m netsushisen.cli` (tests pass their
@@ -144,7 +144,7 @@ step "print f:sum"       "f:sum/r6 = "                         0
 step "x/4f icgm 0"       "icgm[0]:"                            0
 step "watch sum"         "watchpoint 2 on pe0.ic.sum/r6"       0
 step "continue"          "watchpoint 2: pe0.ic.sum/r6:"
-step "reverse-step 12"   "last cycle 22 (23 cycles run)"      "$((1 - QUICK))"
+step "reverse-cycle 12"  "last cycle 22 (23 cycles run)"      "$((1 - QUICK))"
 step "bogus"             "error: unknown command 'bogus'"      0
 step "help"              "Type \"help\" followed by a command name" 0
 # `help all` is longer than a short terminal: gdb's pager asks before each further page

@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from netsushisen.asm.listing import static_ilp, target_names
+from netsushisen.asm.listing import bundle_target, static_ilp, target_names
 from netsushisen.asm.objects import Program
 from netsushisen.emulator.machine import Machine
 
@@ -59,8 +59,7 @@ def program_listing(program: Program) -> dict[str, list]:
         out["label"].append(names.get(addr, str(addr)))
         out["text"].append(" ; ".join(op.format(labels) for op in real) or "nop")
         out["ops"].append(len(real))
-        out["target"].append(next((op.args[-1] for op in real if op.opcode.kind in ("branch", "jump")
-                                   and isinstance(op.args[-1], int)), None))
+        out["target"].append(bundle_target(bundle))
         out["source"].append(f"{os.path.basename(loc.file)}:{loc.line}" if loc else None)
     return out
 

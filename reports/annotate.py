@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from netsushisen.asm.listing import loop_ranges
 from netsushisen.isa.processors import PROCESSORS
 from netsushisen.reports.tables import Section, StatsError, present_processors
 
@@ -92,14 +93,11 @@ class Loop:
 
 
 def find_loops(counts: list[BundleCounts]) -> list[Loop]:
-    """Loops from the backward branches and jumps, outermost first at each start address."""
-    ends: dict[int, int] = {}
-    for b in counts:
-        if b.target is not None and b.target <= b.pc:
-            ends[b.target] = max(ends.get(b.target, b.pc), b.pc)
+    """Loops from the backward branches and jumps (`asm.listing.loop_ranges`), outermost first
+    at each start address."""
     at = {b.pc: b for b in counts}
     loops = []
-    for start, end in ends.items():
+    for start, end in loop_ranges((b.pc, b.target) for b in counts):
         body = [at[pc] for pc in range(start, end + 1) if pc in at]
         stalls: dict[str, int] = {}
         for b in body:
@@ -109,7 +107,6 @@ def find_loops(counts: list[BundleCounts]) -> list[Loop]:
                           sum(b.cycles for b in body), sum(b.issued for b in body),
                           sum(b.issued * (b.ops or 0) for b in body), sum(b.ops or 0 for b in body),
                           stalls))
-    loops.sort(key=lambda lp: (lp.start, -lp.end))
     return loops
 
 

@@ -23,6 +23,8 @@ from netsushisen.asm.listing import format_static_ilp, listing, static_ilp
 from netsushisen.asm.objects import Program
 from netsushisen.errors import NetsushisenError
 from netsushisen.isa.processors import STAGES
+from netsushisen.commands.report import add_optimum_option
+from netsushisen.reports.tables import FORMATS
 from netsushisen.options import (add_config_options, add_defines, add_include_dirs,
                                  add_resolution, check_resolution, config_from_args, parse_defines)
 
@@ -39,6 +41,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--listing", metavar="PATH|-", help="write a listing (- for stdout)")
     parser.add_argument("--stats", action="store_true", help="print static ILP statistics")
     parser.add_argument("--json", action="store_true", help="with --stats: print them as JSON")
+    parser.add_argument("--bounds", action="store_true", help="print every loop's and block's "
+                        "static bounds (units, ports, recurrence, critical path, CP-SAT's "
+                        "optimum of small blocks: docs/scheduling.md, \"Bounds\")")
+    parser.add_argument("--format", choices=FORMATS, default="table",
+                        help="with --bounds: table (default), json, csv or md")
+    add_optimum_option(parser)
     scene = parser.add_argument_group("kernels for a scene (the symbols `render` uses)")
     scene.add_argument("--scene", metavar="SCENE",
                        help="built-in scene name (tetra, balls, ...) or .nff file")
@@ -105,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
     programs: list[tuple[Path, Program]] = [
         (path, assemble_file(path, proc=proc, defines=defines, include_dirs=includes))
         for proc, path in sources]
-    analysis_only = (args.stats or args.listing or args.show_defines) and not args.output
+    analysis_only = (args.stats or args.listing or args.show_defines or args.bounds) and not args.output
     if not analysis_only:
         if args.output and len(programs) > 1:
             raise NetsushisenError("-o names one object file: add --proc os|ic|sc, or leave -o "
@@ -131,4 +139,24 @@ def run(args: argparse.Namespace) -> int:
         else:
             print("\n".join(format_static_ilp(stats[program.proc], str(path))
                             for path, program in programs))
+    if args.bounds:
+        print_bounds(args, programs)
     return 0
+
+
+def print_bounds(args: argparse.Namespace, programs: list[tuple[Path, Program]]) -> None:
+    """`--bounds`: the static bounds of every loop and block (reports/bounds.py's tables)."""
+    from netsushisen.asm.bounds import program_bounds
+    from netsushisen.reports.bounds import bounds_sections
+    from netsushisen.reports.tables import render
+
+    if args.optimum_ops < 0:
+        raise NetsushisenError("--optimum-ops must not be negative")
+    if args.format == "csv":
+        raise NetsushisenError("--bounds --format csv: CSV holds one table; use json or md, or "
+                               "`report bounds --table loops|blocks`")
+    config = config_from_args(args, host=False)
+    rows = [(program.proc, program_bounds(program, config, args.optimum_ops), None)
+            for _, program in programs]
+    print(render(bounds_sections(rows), args.format, "bounds",
+                 " ".join(str(path) for path, _ in programs)), end="")

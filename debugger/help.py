@@ -68,11 +68,13 @@ HELP: dict[str, tuple[str, str, str]] = {
              "each repeat; `list -`: the lines before. LOCATION: a label or an address (list "
              "loop), or FILE:LINE. Marks: => the PC's line, B1 a breakpoint's."),
     "info": ("info TOPIC", "breakpoints, display, registers [REG...], line [LINE|*ADDR], "
-             "symbol ADDR, fifo, cache, stats, scoreboard, checkpoints, state",
+             "symbol ADDR, loop, fifo, cache, stats, scoreboard, checkpoints, state",
              "`info breakpoints` is gdb's table (Num Type Disp Enb Address What) with hit "
              "counts. `info registers pri r5` shows only those. `info line 12` (or FILE:LINE, a "
              "label, *ADDR; the PC's line without one) says which bundles hold a source line; "
-             "`info symbol 12` which label an address is at or after (code and data). "
+             "`info symbol 12` which label an address is at or after (code and data). `info "
+             "loop` the bound per iteration of the loop around the PC (units, ports, "
+             "recurrence) beside the cycles per iteration achieved so far. "
              "`info state` prints a digest of the machine's entire state (equal digests: equal "
              "states)."),
     "print": ("print[/x|/d|/u|/f] EXPRESSION", "evaluate an expression",
@@ -141,8 +143,8 @@ ALIASES = {"s": "step", "si": "stepi", "n": "next", "ni": "nexti", "c": "continu
            "disas": "disassemble", "rs": "reverse-step", "rsi": "reverse-stepi",
            "rc": "reverse-continue", "h": "help", "q": "quit", "exit": "quit"}
 
-INFO_TOPICS = ("breakpoints", "display", "registers", "line", "symbol", "fifo", "cache", "stats",
-               "scoreboard", "checkpoints", "state")
+INFO_TOPICS = ("breakpoints", "display", "registers", "line", "symbol", "loop", "fifo", "cache",
+               "stats", "scoreboard", "checkpoints", "state")
 INFO_ALIASES = {"b": "breakpoints", "break": "breakpoints", "watchpoints": "breakpoints",
                 "r": "registers"}
 MOVES = ("cycle", "step", "stepi", "next", "nexti", "continue", "until", "finish", "reverse-cycle",

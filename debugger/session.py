@@ -144,7 +144,7 @@ class Session(Breakpoints, ReverseExecution):
         self.checkpoints: dict[int, Checkpoint] = {}
         # per core: last ldg (addr, set, hit, cycle), last ldr (addr, cycle), and, per register,
         # the (pc, cycle) of the bundle whose result it waits for or last received
-        self.aux: dict = {c.name: {"ldg": None, "ldr": None, "origin": {}}
+        self.aux: dict = {c.name: {"ldg": None, "ldr": None, "origin": {}, "issued_at": {}}
                           for c in self.machine.cores}
         if self.machine.cycle:  # after a fast-forward: what the last cycle tells
             self._seed_notes()
@@ -265,6 +265,7 @@ class Session(Breakpoints, ReverseExecution):
                     ev.clear()
                 if core.last_issued:
                     pc = core.last_pc
+                    aux["issued_at"][pc] = c  # `info loop`: when the loop head last issued
                     origin = aux["origin"]
                     for r in core.bundles[pc].writes:
                         origin[r] = (pc, c)

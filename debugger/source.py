@@ -119,6 +119,69 @@ class SourceCommands:
                 out.append(f"{best[0]}{off} in section .{section} of {stage}")
         return Outcome([Text("\n".join(out) or f"No symbol matches {arg}.")])
 
+    def info_loop(self, args) -> Outcome:
+        """`info loop [LOCATION]`: the innermost loop around the viewed processor's PC (or
+        LOCATION) — its static bound per iteration (`asm.bounds`: units, ports, recurrence; the
+        code as written) beside the cycles per iteration this run has taken in it so far (its
+        bundles' issue and stall cycles over the times its first bundle issued, as `report
+        bounds` counts them)."""
+        from netsushisen.asm.bounds import region_bounds, regions
+        from netsushisen.reports.annotate import BundleCounts
+        from netsushisen.reports.bounds import run_cells
+
+        s = self.session
+        arg = " ".join(args).strip()
+        if arg:
+            pe, stage, pc = s.context().location(arg)
+            core = s.context().core(pe, stage)
+        else:
+            core = s.core
+            if not core.present:
+                raise DebugError(f"pe{s.pe}.{s.stage} has no program")
+            pc = min(view.focus_pc(core), len(core.bundles) - 1)
+        program = core.program
+        around = [r for r in regions(program) if r.kind == "loop" and r.start <= pc <= r.end]
+        if not around:
+            return Outcome([Text(f"{core.name} pc {_at(program, pc)} is not inside a loop "
+                                 "(a backward branch and its target)")])
+        loop = min(around, key=lambda r: r.end - r.start)
+        b = region_bounds(program, loop, s.machine.config, optimum_ops=0,
+                          label=program.label_at(loop.start))
+        counts = {p: BundleCounts(p, "", None, None, None, core.bundles_by_pc.get(p, 0),
+                                  dict(core.stalls_by_pc.get(p, {})))
+                  for p in loop.pcs()}
+        runs, cycles, issued, stalls = run_cells(b, counts)
+        # an iteration under way is not over: when the processor is in the loop and the head's
+        # last issue is known, the figure counts complete iterations only
+        head_at = s.aux.get(core.name, {}).get("issued_at", {}).get(loop.start)
+        under_way = None
+        if runs > 1 and head_at is not None and loop.start <= core.pc <= loop.end \
+                and not core.halted:
+            under_way = s.machine.cycle - head_at
+            runs -= 1
+            cycles = (sum(c.cycles for c in counts.values()) - under_way) / runs
+        bounds = ", ".join(f"{k} {v}" for k, v in b.candidates().items())
+        lines = [f"loop {_at(program, loop.start)} .. {_at(program, loop.end)} of {core.name}: "
+                 f"{b.bundles} bundles, {b.ops} ops",
+                 f"  bound: {b.bound} cycles per iteration ({b.binding}-bound; {bounds})",
+                 f"  as written: {b.written} cycles per iteration (every source ready, every "
+                 "load a hit)"]
+        if under_way is not None:
+            lines.append(f"  this run: {runs} complete iteration{'s' if runs != 1 else ''}, "
+                         f"{cycles:.2f} cycles per iteration (the one under way: {under_way} "
+                         f"cycle{'s' if under_way != 1 else ''} so far)")
+        elif runs:
+            lines.append(f"  this run: {runs} iteration{'s' if runs != 1 else ''}, "
+                         f"{cycles:.2f} cycles per iteration ({issued:.2f} issuing"
+                         + (f"; stalls per iteration: {stalls}" if stalls else "") + ")")
+        else:
+            lines.append("  this run: the loop has not started yet")
+        outer = [r for r in around if r is not loop]
+        if outer:
+            lines.append("  inside " + ", ".join(f"loop {_at(program, r.start)} .. "
+                                                 f"{_at(program, r.end)}" for r in outer))
+        return Outcome([Text("\n".join(lines))])
+
     def examine_code(self, arg: str, n: int) -> Outcome:
         """gdb's `x/Ni ADDR`: N bundles from a code location, `=>` at the PC."""
         s = self.session

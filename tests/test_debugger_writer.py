@@ -441,3 +441,31 @@ def test_the_listing_shows_each_bundles_source_lines(sched):
     screen = screen_of(front_end(named_session(), 80, 24))
     assert "line" not in [r for r in (line.replace("│", " ").split() for line in
                                       screen.splitlines()) if r[:1] == ["addr"]][0]
+
+
+# ---------------------------------------------------------------------------------------------
+# info loop: the loop's static bound (asm/bounds.py) beside the run's cycles per iteration
+
+
+def test_info_loop_shows_the_bound_beside_the_cycles_per_iteration_so_far(debug, named):
+    code, out = debug(["info loop", "break loop", "continue", "continue", "continue",
+                       "info loop", "delete", "continue", "info loop loop"], "--program", named)
+    assert code == 0, out
+    assert "pe0.ic pc 0 <start> is not inside a loop" in out
+    head = "loop 2 <loop> .. 4 <loop+2> of pe0.ic: 3 bundles, 4 ops"
+    assert out.count(head) == 2
+    assert "bound: 4 cycles per iteration (units-bound;" in out
+    # at the third issue of the head (cycle 10): two iterations done, 4 cycles each (issue,
+    # st, bnez, the taken branch's stall), the third under way
+    assert "this run: 2 complete iterations, 4.00 cycles per iteration (the one under way: " \
+        "1 cycle so far)" in out
+    # at the end: 3 iterations, the last without the taken branch: (4 + 4 + 3) / 3
+    assert "this run: 3 iterations, 3.67 cycles per iteration (3.00 issuing; stalls per " \
+        "iteration: branch 0.67)" in out
+
+
+def test_info_loop_bound_follows_the_configuration(debug, named):
+    # a slow fadd makes the loop's recurrence (acc += r1 through fadd) the bound
+    code, out = debug(["info loop loop"], "--program", named, "--set", "ic.latency.fadd=9")
+    assert code == 0, out
+    assert "bound: 9 cycles per iteration (recurrence-bound;" in out

@@ -98,7 +98,7 @@ def screen(session, width: int, height: int | None = None, layout="auto") -> Ren
     lower = [p for p in LOWER if p in chosen]
     wide = width >= WIDE
     if height is None:
-        return _natural(session, chosen, lower, wide)
+        return _natural(session, chosen, lower, wide, width)
     compact = height < COMPACT
     room = height - RESERVED - view.header_height(session, compact)
     # the lower panels: one row beside each other when wide, rows of two when narrow
@@ -130,10 +130,11 @@ def screen(session, width: int, height: int | None = None, layout="auto") -> Ren
     return Group(*parts)
 
 
-def _natural(session, chosen, lower, wide: bool) -> RenderableType:
+def _natural(session, chosen, lower, wide: bool, width: int) -> RenderableType:
     """The scrolling log's screen: every chosen panel at its natural height."""
     parts: list[RenderableType] = [view.header(session)]
-    listing = view.listing_panel(session, 11) if "listing" in chosen else None
+    listing_w = width - FIXED["registers"] if "registers" in chosen and wide else width
+    listing = view.listing_panel(session, 11, width=listing_w) if "listing" in chosen else None
     regs = view.registers_panel(session, 12) if "registers" in chosen else None
     if listing is not None and regs is not None and wide:
         parts.append(_row([listing, regs], [1, "registers"]))

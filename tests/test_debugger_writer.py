@@ -469,3 +469,29 @@ def test_info_loop_bound_follows_the_configuration(debug, named):
     code, out = debug(["info loop loop"], "--program", named, "--set", "ic.latency.fadd=9")
     assert code == 0, out
     assert "bound: 9 cycles per iteration (recurrence-bound;" in out
+
+
+def test_the_bundled_kernels_names_in_a_scene_session_and_from_an_object_file(debug, cli,
+                                                                              tmp_path):
+    """The issue's acceptance: `print pri`, `display pri`, `watch pri`, `info registers pri`
+    on a scene's IC kernel, the listing showing pri/r29 — from source and from an object file."""
+    commands = ["break cell_loop", "continue", "print pri", "display pri", "watch pri",
+                "info registers pri cell", "stepi", "screen"]
+    code, out = debug(commands, "tetra:1", "--res", "3", "--proc", "ic", "--width", "120",
+                      screen=True)
+    assert code == 0, out
+    assert "breakpoint 1: pe0.ic issued pc 55 (cell_loop)" in out
+    assert "pri/r29 = 0" in out and "1: pri/r29 = 0" in out
+    assert "watchpoint 2 on pe0.ic.pri/r29 (now 0)" in out
+    assert " pri/r29 " in out and "*cell/r26 " in out  # info registers pri cell
+    assert "watchpoint 2: pe0.ic.pri/r29: 0 -> " in out
+    listing = [line for line in out.split("(nss) screen")[1].splitlines() if "│" in line]
+    assert any("cell_loop" in line and "ldg pri/r2" in line for line in listing)
+    assert any("=> 56: ldg shp/r30, [cell/r26 + 1]" in line for line in listing)  # whole
+    code, _, err = cli("asm", "--scene", "tetra:1", "--res", "3", "--proc", "ic",
+                       "-o", tmp_path / "ic.o")
+    assert code == 0, err
+    code, out2 = debug(commands, "tetra:1", "--res", "3", "--proc", "ic", "--ic",
+                       tmp_path / "ic.o", "--width", "120")
+    assert code == 0, out2
+    assert "watchpoint 2: pe0.ic.pri/r29: 0 -> " in out2 and "1: pri/r29 = 0" in out2

@@ -29,6 +29,7 @@ class RegisterNames:
         self.scopes = list(program.reg_names)
         self._words: dict[int, set[str]] = {}
         self._at: dict[int, dict[int, str]] = {}
+        self._labels: dict[int, dict[int, str]] = {}
 
     def __bool__(self) -> bool:
         return bool(self.scopes)
@@ -92,7 +93,11 @@ class RegisterNames:
 
     def labels(self, pc: int) -> dict[int, str]:
         """Register -> `name/rN` at `pc`, for `Op.format(reg_names=...)`."""
-        return {r: f"{n}/{register_name(r)}" for r, n in self.names(pc).items()}
+        hit = self._labels.get(pc)
+        if hit is None:
+            hit = self._labels[pc] = {r: f"{n}/{register_name(r)}"
+                                      for r, n in self.names(pc).items()}
+        return hit
 
     def label(self, reg: int, pc: int) -> str:
         """`pri/r29`, or `r29` where the register has no name."""

@@ -401,12 +401,17 @@ def sched(tmp_path):
 def test_step_moves_by_source_line_and_stepi_by_bundle_in_a_sched_region(debug, sched):
     code, out = debug(["stepi 2", "step", "print pc", "step", "print pc", "step", "print pc",
                        "reverse-step", "print pc", "stepi", "print pc", "next", "print pc",
-                       "cycle 2", "print cycle"], "--program", sched)
+                       "cycle 2", "print cycle", "reverse-cycle 2", "print cycle",
+                       "reverse-step 2", "print pc", "nexti", "print pc"], "--program", sched)
     assert code == 0, out
     pcs = [int(line.split("= ")[1].split()[0]) for line in lines_of(out, "pc = ")]
     # step from bundle 2 (lines 8-10): to 3 (line 12), to 4 (line 11), to 5 (line 13);
-    # reverse-step: back to 4; stepi: one bundle, 5; next: to 6 (line 15)
-    assert pcs == [3, 4, 5, 4, 5, 6]
+    # reverse-step: back to 4; stepi: one bundle, 5; next: to 6 (line 15); cycle 2 ends the
+    # run (halt), reverse-cycle 2 goes back to pc 5 (line 13), reverse-step 2 back two lines
+    # (11 at pc 4, then 12 at pc 3); nexti: one bundle, 4
+    assert pcs == [3, 4, 5, 4, 5, 6, 3, 4]
+    cycles = [int(line.split("= ")[1]) for line in lines_of(out, "cycle = ")]
+    assert cycles[1] == cycles[0] - 2  # cycle 2, then reverse-cycle 2
     assert "issued pc 2 (start+2): fadd r3, a/r1, b/r2 ; fmul r4, a/r1, a/r1 ; fsub r5" in out
 
 

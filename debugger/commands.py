@@ -11,15 +11,13 @@ import os
 import re
 import shlex
 
-from rich import box
 from rich.console import RenderableType
 from rich.table import Table
 from rich.text import Text
 
-from netsushisen.debugger import layout, view
+from netsushisen.debugger import layout, registers, view
 from netsushisen.debugger.breakcommands import BreakpointCommands, Display
-from netsushisen.debugger.expressions import (DebugError, format_number, format_word, hex_word,
-                                               reg_label)
+from netsushisen.debugger.expressions import DebugError, format_number, format_word, hex_word
 from netsushisen.debugger.help import (ALIASES, CLASSES, HELP, INFO_ALIASES, INFO_TOPICS, LAYOUTS,
                                         MOVES)
 from netsushisen.debugger.outcome import Outcome
@@ -204,7 +202,7 @@ class Commands(BreakpointCommands, SourceCommands):
         else:
             core, regs = s.core, list(range(len(s.core.regs)))
         title = f"registers {core.name} (* changed since the previous stop)"
-        return Outcome([view.RegisterTable(s, core, regs, title),
+        return Outcome([registers.RegisterTable(s, core, regs, title),
                         Text(f"pc {core.pc} ({core.label(core.pc)})")])
 
     def info_fifo(self, args) -> Outcome:

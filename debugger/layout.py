@@ -33,7 +33,7 @@ from rich.console import Group, RenderableType
 from rich.table import Table
 from rich.text import Text
 
-from netsushisen.debugger import view
+from netsushisen.debugger import registers, view
 
 PANELS = ("listing", "registers", "scoreboard", "fifos", "memory", "counters")
 PRESETS = {"asm": ("listing",), "regs": ("listing", "registers"), "full": PANELS}
@@ -118,12 +118,12 @@ def screen(session, width: int, height: int | None = None, layout="auto") -> Ren
     listing = view.listing_panel(session, rows=listing_h - 4, height=listing_h,
                                  width=listing_w) if "listing" in chosen else None
     if "registers" in chosen and wide:
-        regs = view.registers_panel(session, rows=listing_h - 4, height=listing_h)
+        regs = registers.registers_panel(session, rows=listing_h - 4, height=listing_h)
         parts.append(_row([listing, regs], [1, "registers"]) if listing is not None else regs)
     elif listing is not None:
         parts.append(listing)
     if regs_below:
-        parts.append(view.register_cells_panel(session, regs_lines, height=regs_h))
+        parts.append(registers.register_cells_panel(session, regs_lines, height=regs_h))
     for row in lower_rows:
         parts.append(_row([_LOWER_MAKERS[p](session, height=lower_h) for p in row],
                           [_LOWER_RATIO[p] for p in row]))
@@ -135,7 +135,7 @@ def _natural(session, chosen, lower, wide: bool, width: int) -> RenderableType:
     parts: list[RenderableType] = [view.header(session)]
     listing_w = width - FIXED["registers"] if "registers" in chosen and wide else width
     listing = view.listing_panel(session, 11, width=listing_w) if "listing" in chosen else None
-    regs = view.registers_panel(session, 12) if "registers" in chosen else None
+    regs = registers.registers_panel(session, 12) if "registers" in chosen else None
     if listing is not None and regs is not None and wide:
         parts.append(_row([listing, regs], [1, "registers"]))
     else:

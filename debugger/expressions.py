@@ -42,7 +42,7 @@ _QUALIFIER = re.compile(r"^\s*(?:pe(?P<pe>\d+)\.)?(?:(?P<proc>os|ic|sc)\.)?(?P<r
 
 
 _NAME = re.compile(r"(?<![\w.:])(?P<q>(?:[fiux]:)?(?:pe(?P<pe>\d+)\.)?(?:(?P<proc>os|ic|sc)\.)?)"
-                   r"(?P<name>[A-Za-z_]\w*)\b(?!\s*:)")
+                   r"(?P<name>[A-Za-z_]\w*)\b")
 _RESERVED = {"zero", "lr", "pc", "cycle", "inf", "nan", *REGIONS, "os", "ic", "sc"}
 
 

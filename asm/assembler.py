@@ -23,7 +23,7 @@ from netsushisen.asm.checker import check_bundle
 from netsushisen.asm.expressions import BUILTIN_CONSTANTS, ExprError, evaluate, names_in
 from netsushisen.asm.macros import (INVOKE_RE, Macro, MacroExpansion, block_directive, describe,
                                     stray_escape)
-from netsushisen.asm.objects import Op, Program, SourceLoc
+from netsushisen.asm.objects import Op, Program, RegName, SourceLoc
 from netsushisen.asm.pipeline import PipelineReport
 from netsushisen.asm.regions import Region, RegionAssembly, RegionLoop
 from netsushisen.asm.parser import (CONDITIONAL_RE, Bundle, Chunk, Directive, Expansion, Instr,
@@ -65,6 +65,8 @@ class _PendingBundle:
     text: str
     order: int
     region: int = -1  # the .sched region it belongs to
+    aliases: dict[str, tuple[int, Loc]] = field(default_factory=dict)
+    """The `.reg` names in force at this bundle: pass 2 resolves its operands with them."""
 
 
 @dataclass
@@ -83,6 +85,8 @@ class _State:
     include_dirs: list[Path]
     symbols: dict[str, _Symbol] = field(default_factory=dict)
     aliases: dict[str, tuple[int, Loc]] = field(default_factory=dict)
+    """The `.reg` names in force here (replaced, never mutated, so a bundle keeps its own)."""
+    reg_scopes: list[list] = field(default_factory=list)  # [name, reg, first bundle, end|None]
     bundles: list[_PendingBundle] = field(default_factory=list)
     data: list[tuple[str, object, Loc, int]] = field(default_factory=list)  # kind, expr|value, loc, order
     section: str = "text"
@@ -349,7 +353,8 @@ class Assembler(MacroExpansion, RegionAssembly):
             st.error(".pipeline must be followed by the loop's label", st.pipeline_mark)
             st.pipeline_mark = None
         st.bundles.append(_PendingBundle(instrs, loc, chunk.source_lines[0].strip(), st.order,
-                                         len(st.regions) - 1 if st.region is not None else -1))
+                                         len(st.regions) - 1 if st.region is not None else -1,
+                                         st.aliases))
 
     def _directive(self, d: Directive, base_dir: Path, stack: list[str], chunk: Chunk) -> None:
         st = self.st
@@ -398,7 +403,11 @@ class Assembler(MacroExpansion, RegionAssembly):
                 elif alias in st.symbols:
                     st.error(f"'{alias}' is already a symbol", loc)
                 else:
-                    st.aliases[alias] = (reg, loc)
+                    st.aliases = {**st.aliases, alias: (reg, loc)}
+                    for scope in st.reg_scopes:
+                        if scope[0] == alias and scope[3] is None:
+                            scope[3] = len(st.bundles)
+                    st.reg_scopes.append([alias, reg, len(st.bundles), None])
         elif name == "include":
             if len(args) != 1 or args[0].kind != "string":
                 st.error('.include takes one quoted file name: .include "file.inc"', d.loc)
@@ -519,9 +528,10 @@ class Assembler(MacroExpansion, RegionAssembly):
         sources = [self._op_sources(pb) for pb in st.bundles]
         smap = [SourceLoc(pb.loc.file, pb.loc.line, pb.text, describe(pb.loc.via, st.lines))
                 for pb in st.bundles]
+        moved = None  # serial bundle index -> its address after scheduling
         if self.schedule and any(r.end > r.first for r in st.regions) and proc is not None \
                 and not st.diags:
-            bundles, op_sources, smap = self._schedule(proc, resolved, sources, smap)
+            bundles, op_sources, smap, moved = self._schedule(proc, resolved, sources, smap)
         else:
             bundles = [tuple(ops) for ops in resolved]
             op_sources = [tuple(s) for s in sources]
@@ -543,17 +553,32 @@ class Assembler(MacroExpansion, RegionAssembly):
         program = Program(st.proc if proc else "os", bundles, data, labels, smap,
                           {k: v for k, v in self.defines.items()})
         program.op_sources = [tuple(s) for s in op_sources]
+        program.reg_names = self._reg_names(len(bundles), moved)
         return program
+
+    def _reg_names(self, n: int, moved) -> list[RegName]:
+        """The `.reg` scopes in bundle addresses (after scheduling, a scope edge inside a
+        `.sched` region widens to the region's bundles); empty scopes left out."""
+        out = []
+        for name, reg, a, b in self.st.reg_scopes:
+            b = len(self.st.bundles) if b is None else b
+            a, b = (moved(a, False), moved(b, True)) if moved else (a, b)
+            if a < min(b, n):
+                out.append(RegName(name, reg, a, min(b, n)))
+        return out
 
     def _resolve_ops(self, proc, n_bundles: int) -> list[list[Op]]:
         out = []
+        final_aliases = self.st.aliases
         for pb in self.st.bundles:
+            self.st.aliases = pb.aliases  # a name means the register of its latest .reg here
             ops = []
             for instr in pb.instrs:
                 op = self._resolve_op(instr, proc, n_bundles, pb.order)
                 if op is not None:
                     ops.append(op)
             out.append(ops)
+        self.st.aliases = final_aliases
         return out
 
     def _op_sources(self, pb: _PendingBundle) -> list[SourceLoc]:

@@ -14,6 +14,7 @@ from typing import Iterable
 from netsushisen.asm.checker import bundle_usage
 from netsushisen.asm.objects import Op, Program, format_float
 from netsushisen.asm.parser import _code_part
+from netsushisen.asm.regnames import register_names
 
 
 def slot_assignment(program: Program, bundle: tuple[Op, ...]) -> list[tuple[str, Op | None]]:
@@ -81,8 +82,10 @@ def listing(program: Program, region_lines: set | None = None) -> str:
     the expansion (invocation line and text), as GNU as's `-alm` listing shows macro lines.
     Then the scheduled source lines and the bundles each landed in (`region_lines`: the
     assembler's `(file, line, expansion)` of every `.sched` line, else those whose operations
-    share a bundle with another line's or landed in several)."""
+    share a bundle with another line's or landed in several). Registers with a `.reg` name show
+    it (`pri/r29`), and the name table closes the listing."""
     labels = target_names(program)
+    names = register_names(program)
     rows = [f"; listing of a {program.processor.title} program: "
             f"{len(program.bundles)} bundles, {len(program.data)} data words"]
     by_addr: dict[int, list[str]] = {}
@@ -97,11 +100,13 @@ def listing(program: Program, region_lines: set | None = None) -> str:
         if loc and loc.via and loc.via != expansion:  # the invocation, then its bundles (as -alm)
             rows.append(f"{'':5s}  ; expands {loc.via}")
         expansion = loc.via if loc else ""
+        regs = names.labels(addr)
         if program.processor.vliw:
-            cells = [op.format(labels) if op else "-" for _, op in slot_assignment(program, bundle)]
+            cells = [op.format(labels, regs) if op else "-"
+                     for _, op in slot_assignment(program, bundle)]
             text = " | ".join(cells) if bundle else "(nop)"
         else:
-            text = " ; ".join(op.format(labels) for op in bundle) or "nop"
+            text = " ; ".join(op.format(labels, regs) for op in bundle) or "nop"
         where = f"{loc.file}:{loc.line}" if loc else ""
         rows.append(f"{addr:5d}  {text:<60s} ; {where}  {loc.text if loc else ''}".rstrip())
         for other in _other_lines(program, addr):
@@ -118,6 +123,10 @@ def listing(program: Program, region_lines: set | None = None) -> str:
                 rows.append(f"{name}:")
             shown = format_float(value) if kind == "f" else str(value)
             rows.append(f"{addr:5d}  .{'float' if kind == 'f' else 'word'} {shown}")
+    if program.reg_names:
+        rows.append("; .reg names (name = register, bundles in force)")
+        for r in program.reg_names:
+            rows.append(f";   {r.name} = r{r.reg}  {r.start}..{r.end - 1}")
     return "\n".join(rows) + "\n"
 
 

@@ -216,4 +216,15 @@ class RegionAssembly:
                 bundles.append(tuple(made))
                 op_sources.append(tuple(srcs))
                 new_smap.append(smap[first])  # the bundle's earliest source line
-        return bundles, op_sources, new_smap
+        spans = [(r.first, r.end, at, at + len(layout.bundles))
+                 for _, r, layout, at in plan if r is not None]
+
+        def moved(i: int, end: bool) -> int:
+            """Serial bundle index -> its address after scheduling (a region's first and end
+            map to the scheduled region's; `end`: the index ends a range)."""
+            for first, stop, new, new_end in spans:
+                if first < i < stop or (i == first and not end):
+                    return new_end if end else new
+            return old_to_new.get(i, addr)
+
+        return bundles, op_sources, new_smap, moved

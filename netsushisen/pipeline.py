@@ -126,12 +126,18 @@ def assemble_kernels(defines: dict[str, int | float], kernel_dir: str | Path | N
                      overrides: dict[str, str | Path] | None = None,
                      config: MachineConfig | None = None) -> dict[str, Program]:
     """os.s, ic.s and sc.s from `kernel_dir` (default: the bundled kernels), or the files
-    `overrides` names per stage, their `.sched` regions scheduled for `config` (the run's
-    machine; default the default one); an error in any is the assembler's located error."""
+    `overrides` names per stage — sources, or object files (`asm --scene SCENE -o`, loaded as
+    they are) — their `.sched` regions scheduled for `config` (the run's machine; default the
+    default one); an error in any is the assembler's located error."""
+    from netsushisen.options import load_program
+
     folder = Path(kernel_dir) if kernel_dir else KERNELS
     programs = {}
     for stage in STAGES:
         path = Path((overrides or {}).get(stage) or folder / f"{stage}.s")
+        if path.suffix != ".s" and (overrides or {}).get(stage):
+            programs[stage] = load_program(str(path), stage, defines)
+            continue
         programs[stage] = assemble_file(path, proc=stage, defines=defines, include_dirs=[KERNELS],
                                         config=config)
     return programs

@@ -177,4 +177,11 @@ def annotate_sections(stats: dict, proc: str | None = None, top: int | None = No
     if without_text:
         listing.caption += (" — these statistics carry no program listing (written by an older "
                             "version): rerun to see the bundles' text and the loops")
+    if not any(row[4] and "," in row[4] for row in listing.rows):
+        # every bundle from one source line (no .sched region shown): the location says where,
+        # and the column would only take width from the operands
+        col = listing.columns.index("source lines")
+        listing.columns.pop(col)
+        for row in listing.rows:
+            row.pop(col)
     return [listing, loops]

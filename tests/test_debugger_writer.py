@@ -121,7 +121,7 @@ def test_disasm_names_reassembles_identically_and_listing_shows_names(cli, tmp_p
 
 def test_the_kernels_disassemble_with_names_to_themselves():
     from netsushisen.asm.assembler import assemble_file
-    from netsushisen.render import KERNELS
+    from netsushisen.pipeline import KERNELS
 
     p = assemble_file(KERNELS / "sc.s", proc="sc", defines=_sc_defines(),
                       include_dirs=[KERNELS])
@@ -132,7 +132,7 @@ def test_the_kernels_disassemble_with_names_to_themselves():
 
 def _sc_defines() -> dict:
     from netsushisen.isa.config import MachineConfig
-    from netsushisen.render import kernel_inputs
+    from netsushisen.pipeline import kernel_inputs
 
     return kernel_inputs("tetra", MachineConfig(), res=2).defines
 

@@ -142,6 +142,42 @@ def test_ic_fsqrt_behind_fdiv_then_dependent(engine_name, gap):
     assert ic.cycles == max(gap + 2, 16) + 2
 
 
+def test_load_waits_for_a_write_port_behind_unpipelined_results(engine_name):
+    """IC's three write ports: three fdivs at c0 complete at c12; a resident load issued at c11
+    with t_r = 1 would write at c12 too — four writes: one write_port stall, the load issues at
+    c12 (it writes at c13), halt at c13."""
+    e, r = run(engine_name, ("ic_memory.t_r=1", "ic.latency.fdiv=12"), ic="""
+        { fdiv r1, r0, r0 ; fdiv r2, r0, r0 ; fdiv r3, r0, r0 }
+    """ + "nop\n" * 10 + """
+        ldr r4, [r0 + 0]
+        halt
+    """)
+    ic = ProcessorView(e, "pe0.ic")
+    assert r.status == "halted"
+    assert ic.stalls == {"write_port": 1}
+    assert ic.cycles == 14
+
+
+def test_os_asleep_on_the_host_fifo_while_dis_pushes(engine_name):
+    """DIS pushes one host word a cycle before the PEs step, visible the next cycle: OS stalls
+    at c0 on a word already in its FIFO but not yet visible (it must not fall asleep past the
+    push), then takes one word a cycle: recv c1, c2, c3, halt c4."""
+    from netsushisen.isa.images import MemoryImage, Segment
+    import numpy as np
+
+    image = MemoryImage()
+    words = [make_header(2, DESTS["os"]), 7, 9]
+    image.host = [Segment(0, [("i", np.array(words, np.int64))])]
+    programs = {"os": assemble_text("recv r1, host\nrecv r2, host\nrecv r3, host\nhalt\n",
+                                    proc="os")}
+    e = run_machine(engine_name, load_config(None, []), programs, image, max_cycles=1000)
+    os_ = ProcessorView(e, "pe0.os")
+    assert e.result().status == "halted"
+    assert os_.stalls == {"fifo_empty:host": 1}
+    assert os_.cycles == 5
+    assert (os_.int(2), os_.int(3)) == (7, 9)
+
+
 # -- 3. Deadlocks after long waits ------------------------------------------------------------
 
 

@@ -217,6 +217,53 @@ fan_a:      .space FAN_WORDS
 fan_b:      .space FAN_WORDS
 .endif
 
+# Every memory's copy of a block with nothing between them (each copy ends in branches):
+# `BOTH SPH_BLOCK` gives sph_g, then sph_r.
+.macro BOTH block
+.if HAS_GLOBAL
+    \block g, ldg
+.endif
+.if HAS_RESIDENT
+    \block r, ldr
+.endif
+.endm
+
+# The cell's kind dispatch (`m_t` = kind): a branch to every kind's block but the first kind's,
+# which follows. Kinds: polygon 0, sphere 1, cylinder 2, cone 3.
+# A reload (another slot's ray) loads the polygon setup (shears, axis flags) only when a polygon
+# test needs it (poly_<m>) if the scene has other kinds too: sx = +inf (never a real shear: |sx| <= 1)
+# marks it as not loaded.
+.equ LAZY_SETUP, HAS_POLYGONS && (HAS_SPHERES || HAS_CYLINDERS || HAS_CONES)
+.equ FIRST_CYL, HAS_CYLINDERS
+.equ FIRST_SPH, HAS_SPHERES && !HAS_CYLINDERS
+.equ FIRST_POLY, HAS_POLYGONS && !HAS_SPHERES && !HAS_CYLINDERS
+.equ FIRST_CONE, HAS_CONES && !HAS_POLYGONS && !HAS_SPHERES && !HAS_CYLINDERS
+.macro DISPATCH m
+.if N_KINDS > 1
+    { andi m_t, kw, KIND_MASK }
+.endif
+.if HAS_POLYGONS && !FIRST_POLY
+    beqz m_t, poly_\m
+.endif
+.if HAS_SPHERES && !FIRST_SPH
+    beq m_t, one, sph_\m
+.endif
+.if HAS_CONES && FIRST_CYL
+    bne m_t, two, cone_\m                                               # kind 2 or 3 left
+.elif HAS_CONES && FIRST_SPH
+    bne m_t, one, cone_\m                                               # kind 1 or 3 left
+.elif HAS_CONES && FIRST_POLY
+    bnez m_t, cone_\m
+.endif
+.endm
+
+# The end of every test's cheap part: `go` = the test failed and another cell follows, so the
+# next cell starts at once (one taken branch instead of two). `more` = P >= 0 comes from an FP
+# compare of P's raw word: a non-negative integer is a non-negative (denormal or zero) float, a
+# negative one has its sign bit set (a negative float or a NaN: fle gives 0), in fp32 and fp64.
+# A test forms go = flt(thr, -disc) with thr = more ? +0 : +inf, i.e. more && disc < 0 (NaN: no),
+# where -disc is computed beside disc as the reversed subtraction (exactly -disc, also for 0).
+
 # ---- start -----------------------------------------------------------------------------------
 .text
 start:
@@ -228,6 +275,7 @@ start:
     { li cbuf, fan_a }
 .endif
     { li cur, -1 }
+    j main
 
 # ---- main: one message from OS ---------------------------------------------------------------
 .reg m_hdr = r38
@@ -248,6 +296,23 @@ start:
 .reg m_u   = r55
 .reg m_v   = r56
 .reg m_texit = r57
+# ---- the tests ------------------------------------------------------------------------------------
+.if HAS_POLYGONS
+.include "ic_polygon.inc"
+.endif
+.if HAS_SPHERES
+.include "ic_sphere.inc"
+.endif
+.if HAS_CYLINDERS
+.include "ic_cylinder.inc"
+.endif
+.if HAS_CONES
+.include "ic_cone.inc"
+.endif
+
+# ---- the hit --------------------------------------------------------------------------------------
+.include "ic_hit.inc"
+
 main:
     recv m_hdr, ring
     recv slot, ring
@@ -277,12 +342,13 @@ main:
     { \op fz1, [m_sb + (slot_table + SLOT_FZ1)] }
     { \op fz2, [m_sb + (slot_table + SLOT_FZ2)] }
 .endm
-
 # VISIT of a ray that is not in the registers: load it from the slot table.
 reload:
-    { slli m_sb, slot, SLOT_SHIFT }
+    { slli m_sb, slot, SLOT_SHIFT ; fmov cur, slot }
     SLOT_RAY ld
-.if HAS_POLYGONS
+.if LAZY_SETUP
+    { fsel best, shadow, tmax, pinf ; fsel lim, shadow, pinf, m_texit ; fmov sx, pinf }
+.elif HAS_POLYGONS
     { ld sx, [m_sb + (slot_table + SLOT_SX)] }
     { ld sy, [m_sb + (slot_table + SLOT_SY)] ; fsel best, shadow, tmax, pinf }
     { ld fx1, [m_sb + (slot_table + SLOT_FX1)] ; fsel lim, shadow, pinf, m_texit }
@@ -290,8 +356,93 @@ reload:
 .else
     { fsel best, shadow, tmax, pinf ; fsel lim, shadow, pinf, m_texit }
 .endif
-    { fmov cur, slot ; j visit }
+                                                                        # (falls into visit)
+# ---- the list ----------------------------------------------------------------------------------
+# One cell: P and S (ldg, in that order), the memory by the priority rule, the kind word, the kind
+# dispatch (DISPATCH), the kind's test. ICGM, the more common memory, falls through; so does the
+# scene's first kind (FIRST_*: cylinders, else spheres, else polygons, else cones), so a cell of
+# that kind in ICGM pays no taken branch before its test. Every test is expanded twice, one copy
+# per memory (BOTH), so no copy jumps to shared code.
+visit:
+cell_loop:
+    { ldg pri, [cell + CELL_PRIORITY] }
+    { ldg shp, [cell + CELL_SHAPE] }
+.if HAS_RESIDENT && HAS_GLOBAL
+    { addi m_t, pri, RESIDENT_M }
+    { bltu m_t, mlim, rec_r }                                           # |P| <= M: resident
+.endif
+.macro RECORD m, ld
+rec_\m:
+    { \ld kw, [shp + REC_KIND] }
+    DISPATCH \m
+.if FIRST_CYL
+    CYL_BLOCK \m, \ld
+.elif FIRST_SPH
+    SPH_BLOCK \m, \ld
+.elif FIRST_POLY
+    POLY_BLOCK \m, \ld
+.else
+    CONE_BLOCK \m, \ld
+.endif
+.endm
+.if HAS_GLOBAL
+    RECORD g, ldg
+.endif
+.if HAS_RESIDENT
+    RECORD r, ldr
+.endif
+.if HAS_POLYGONS && !FIRST_POLY
+    BOTH POLY_BLOCK
+.endif
+.if HAS_SPHERES && !FIRST_SPH
+    BOTH SPH_BLOCK
+.endif
+.if HAS_CYLINDERS && !FIRST_CYL
+    BOTH CYL_BLOCK
+.endif
+.if HAS_CONES && !FIRST_CONE
+    BOTH CONE_BLOCK
+.endif
 
+# A test's result beat `best` (the check ends every test): a shadow ray is occluded; a surface
+# ray remembers the winner (its kind word stays in a register: word 0 is never read again).
+accept:
+    { bnez shadow, occluded ; fmov best, tres ; fmov wpri, pri ; fmov wshp, shp }
+.if HAS_PATCHES
+    { fmov wkw, kw ; fmov wbuf, cbuf ; xori cbuf, cbuf, fan_a ^ fan_b }   # the winner's fan data
+.else                                                                   #   stays, the next test
+    { fmov wkw, kw }                                                    #   writes the other buffer
+.endif
+next_cell:
+    bge pri, r0, cell_loop      # P > 0: not the last cell
+
+# ---- the list is done: answer OS ----------------------------------------------------------------
+list_end:
+    { bnez shadow, send_next ; flt m_t, best, pinf }
+    bnez m_t, hit
+send_next:
+    { li m_t, HDR_NEXT }
+    { send ring, m_t }
+    { send ring, slot }
+    beqz dirty, main
+# The ray goes on: write its geometry and setup to the slot table while OS steps to the next leaf.
+write_back:
+    { slli m_sb, slot, SLOT_SHIFT }
+    SLOT_RAY st
+.if HAS_POLYGONS
+    { st sx, [m_sb + (slot_table + SLOT_SX)] }
+    { st sy, [m_sb + (slot_table + SLOT_SY)] }
+    { st fx1, [m_sb + (slot_table + SLOT_FX1)] }
+    SLOT_AXES st
+.endif
+    { fmov dirty, r0 ; j main }
+
+# An occluded shadow ray ends here.
+occluded:
+    { li m_t, HDR_DONE }
+    { send ring, m_t }
+    { send ring, slot }
+    { fmov dirty, r0 ; j main }
 # VISIT_FIRST: the 13-word ray record follows. Pixel, info and weight go straight to the slot
 # table (only a HIT needs them); origin, direction, t_min, t_max stay in registers and reach the
 # table only if the ray needs another visit (write_back, after NEXT). Meanwhile the FP units do
@@ -340,83 +491,4 @@ visit_first:
     { li dirty, 1 }
     { mov cur, slot }
 .endif
-
-# ---- the list ----------------------------------------------------------------------------------
-visit:
-cell_loop:
-    { ldg pri, [cell + CELL_PRIORITY] }
-    { ldg shp, [cell + CELL_SHAPE] }
-.if HAS_RESIDENT && HAS_GLOBAL
-    { addi m_t, pri, RESIDENT_M }
-    { bgeu m_t, mlim, rec_g }
-.endif
-
-# Kind dispatch (KIND_JUMP): only the kinds the scene has.
-.macro REC_LOAD m, ld
-rec_\m:
-    { \ld kw, [shp + REC_KIND] }
-    KIND_JUMP m_t, kw, \m
-.endm
-.if HAS_RESIDENT
-    REC_LOAD r, ldr
-.endif
-.if HAS_GLOBAL
-    REC_LOAD g, ldg
-.endif
-
-# A test's result beat `best` (the check ends every test): a shadow ray is occluded; a surface
-# ray remembers the winner (its kind word stays in a register: word 0 is never read again).
-accept:
-    { bnez shadow, occluded ; fmov best, tres ; fmov wpri, pri ; fmov wshp, shp }
-.if HAS_PATCHES
-    { fmov wkw, kw ; fmov wbuf, cbuf ; xori cbuf, cbuf, fan_a ^ fan_b }   # the winner's fan data
-.else                                                                   #   stays, the next test
-    { fmov wkw, kw }                                                    #   writes the other buffer
-.endif
-next_cell:
-    bge pri, r0, cell_loop      # P > 0: not the last cell
-
-# ---- the list is done: answer OS ----------------------------------------------------------------
-list_end:
-    { bnez shadow, send_next ; flt m_t, best, pinf }
-    bnez m_t, hit
-send_next:
-    { li m_t, HDR_NEXT }
-    { send ring, m_t }
-    { send ring, slot }
-    beqz dirty, main
-# The ray goes on: write its geometry and setup to the slot table while OS steps to the next leaf.
-write_back:
-    { slli m_sb, slot, SLOT_SHIFT }
-    SLOT_RAY st
-.if HAS_POLYGONS
-    { st sx, [m_sb + (slot_table + SLOT_SX)] }
-    { st sy, [m_sb + (slot_table + SLOT_SY)] }
-    { st fx1, [m_sb + (slot_table + SLOT_FX1)] }
-    SLOT_AXES st
-.endif
-    { fmov dirty, r0 ; j main }
-
-# An occluded shadow ray ends here.
-occluded:
-    { li m_t, HDR_DONE }
-    { send ring, m_t }
-    { send ring, slot }
-    { fmov dirty, r0 ; j main }
-
-# ---- the tests ------------------------------------------------------------------------------------
-.if HAS_POLYGONS
-.include "ic_polygon.inc"
-.endif
-.if HAS_SPHERES
-.include "ic_sphere.inc"
-.endif
-.if HAS_CYLINDERS
-.include "ic_cylinder.inc"
-.endif
-.if HAS_CONES
-.include "ic_cone.inc"
-.endif
-
-# ---- the hit --------------------------------------------------------------------------------------
-.include "ic_hit.inc"
+    j visit

@@ -476,7 +476,8 @@ visit_first:
     { li dirty, 1 ; fsel fy2, m_neg, fz1, m_kz0 ; fsel m_u, fx1, dy, dx }
     { fsel m_v, fy1, dy, dx ; fsel m_dkx, fx2, dz, m_u }                 # d[kx]
     { mov cur, slot ; fsel m_dky, fy2, dz, m_v ; fdiv sx, m_dkx, m_dkz }  # d[ky]; sx
-    { fdiv sy, m_dky, m_dkz ; fsel lim, shadow, pinf, m_texit ; fsel best, shadow, tmax, pinf }
+    { fdiv sy, m_dky, m_dkz ; fsel lim, shadow, pinf, m_texit }         # (two FP units left)
+    { fsel best, shadow, tmax, pinf ; j visit }
 .else
     recv dy, ring
     recv dz, ring
@@ -490,5 +491,5 @@ visit_first:
     { st m_t, [m_sb + (slot_table + RAY_WB)] ; fsel lim, shadow, pinf, m_texit ; fsel best, shadow, tmax, pinf }
     { li dirty, 1 }
     { mov cur, slot }
-.endif
     j visit
+.endif

@@ -235,10 +235,24 @@ fan_b:      .space FAN_WORDS
 # marks it as not loaded.
 .equ LAZY_SETUP, HAS_POLYGONS && (HAS_SPHERES || HAS_CYLINDERS || HAS_CONES)
 .equ FIRST_CYL, HAS_CYLINDERS
+# Without two-sided primitives and patches (and without cones) a kind word is the kind itself
+# for every kind but the polygon (its vertex count, >= 3, sits from bit 8): DISPATCH compares the
+# word with 1 and 2 at once, without the `andi`.
+.equ EXACT_KW, N_KINDS > 1 && !HAS_TWO_SIDED && !HAS_PATCHES && !HAS_CONES
 .equ FIRST_SPH, HAS_SPHERES && !HAS_CYLINDERS
 .equ FIRST_POLY, HAS_POLYGONS && !HAS_SPHERES && !HAS_CYLINDERS
 .equ FIRST_CONE, HAS_CONES && !HAS_POLYGONS && !HAS_SPHERES && !HAS_CYLINDERS
 .macro DISPATCH m
+.if EXACT_KW
+.if HAS_SPHERES && FIRST_CYL
+    beq kw, one, sph_\m
+.endif
+.if HAS_POLYGONS && FIRST_CYL
+    bne kw, two, poly_\m
+.elif HAS_POLYGONS && FIRST_SPH
+    bne kw, one, poly_\m
+.endif
+.else
 .if N_KINDS > 1
     { andi m_t, kw, KIND_MASK }
 .endif
@@ -254,6 +268,7 @@ fan_b:      .space FAN_WORDS
     bne m_t, one, cone_\m                                               # kind 1 or 3 left
 .elif HAS_CONES && FIRST_POLY
     bnez m_t, cone_\m
+.endif
 .endif
 .endm
 

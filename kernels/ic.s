@@ -221,10 +221,10 @@ fan_b:      .space FAN_WORDS
 # `BOTH SPH_BLOCK` gives sph_g, then sph_r.
 .macro BOTH block
 .if HAS_GLOBAL
-    \block g, ldg
+    \block g, ldg, 1
 .endif
 .if HAS_RESIDENT
-    \block r, ldr
+    \block r, ldr, 0
 .endif
 .endm
 
@@ -386,25 +386,25 @@ cell_loop:
     { addi m_t, pri, RESIDENT_M }
     { bltu m_t, mlim, rec_r }                                           # |P| <= M: resident
 .endif
-.macro RECORD m, ld
+.macro RECORD m, ld, slow                # slow: 1 for ICGM (a load holds issue t_c = 2 cycles)
 rec_\m:
     { \ld kw, [shp + REC_KIND] }
     DISPATCH \m
 .if FIRST_CYL
-    CYL_BLOCK \m, \ld
+    CYL_BLOCK \m, \ld, \slow
 .elif FIRST_SPH
-    SPH_BLOCK \m, \ld
+    SPH_BLOCK \m, \ld, \slow
 .elif FIRST_POLY
-    POLY_BLOCK \m, \ld
+    POLY_BLOCK \m, \ld, \slow
 .else
-    CONE_BLOCK \m, \ld
+    CONE_BLOCK \m, \ld, \slow
 .endif
 .endm
 .if HAS_GLOBAL
-    RECORD g, ldg
+    RECORD g, ldg, 1
 .endif
 .if HAS_RESIDENT
-    RECORD r, ldr
+    RECORD r, ldr, 0
 .endif
 .if HAS_POLYGONS && !FIRST_POLY
     BOTH POLY_BLOCK

@@ -35,7 +35,7 @@ from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.images import MemoryImage, Segment
 from netsushisen.isa.processors import STAGES
 from netsushisen.isa.words import WordFormat, word_format
-from netsushisen.kernels import KERNELS, protocol
+from netsushisen.kernels import KERNELS, kernel_folder, protocol
 
 RAY_COUNTERS = ("eye_hits", "reflection", "refraction", "shadow")
 """SC's ray counters, at data labels `count_<name>` of kernels/sc.s."""
@@ -125,13 +125,14 @@ def kernel_defines(images: MachineImages, generic: bool = False, slots: int = DE
 def assemble_kernels(defines: dict[str, int | float], kernel_dir: str | Path | None = None,
                      overrides: dict[str, str | Path] | None = None,
                      config: MachineConfig | None = None) -> dict[str, Program]:
-    """os.s, ic.s and sc.s from `kernel_dir` (default: the bundled kernels), or the files
-    `overrides` names per stage — sources, or object files (`asm --scene SCENE -o`, loaded as
-    they are) — their `.sched` regions scheduled for `config` (the run's machine; default the
-    default one); an error in any is the assembler's located error."""
+    """os.s, ic.s and sc.s from `kernel_dir` (default: the bundled kernels; a bundled set's
+    name, e.g. "classic", that set), or the files `overrides` names per stage — sources, or
+    object files (`asm --scene SCENE -o`, loaded as they are) — their `.sched` regions
+    scheduled for `config` (the run's machine; default the default one); an error in any is
+    the assembler's located error."""
     from netsushisen.options import load_program
 
-    folder = Path(kernel_dir) if kernel_dir else KERNELS
+    folder = kernel_folder(kernel_dir)
     programs = {}
     for stage in STAGES:
         path = Path((overrides or {}).get(stage) or folder / f"{stage}.s")

@@ -131,7 +131,7 @@ def test_exported_include_with_an_error_is_located(cli, tmp_path):
     out = tmp_path / "mine"
     assert cli("kernels", "export", out)[0] == 0
     lines = (out / "ic_polygon.inc").read_text().split("\n")
-    at = lines.index("tri_mid:                                                                # (shared from here)")
+    at = lines.index("poly_hit:")
     lines.insert(at + 1, "    fmadd t_nx, t_ny")
     (out / "ic_polygon.inc").write_text("\n".join(lines))
     code, _, err = cli("render", SCENE, "--res", "2", "--kernels", out, "-o", tmp_path / "x.png")

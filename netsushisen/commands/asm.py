@@ -97,7 +97,7 @@ def format_defines(defines: dict[str, int | float]) -> str:
 
 def _sources(args: argparse.Namespace) -> list[tuple[str | None, Path]]:
     """(processor, source) pairs to assemble."""
-    from netsushisen.kernels import KERNELS
+    from netsushisen.kernels import kernel_folder
 
     if args.source:
         if args.kernels:
@@ -105,7 +105,7 @@ def _sources(args: argparse.Namespace) -> list[tuple[str | None, Path]]:
         return [(args.proc, Path(args.source))]
     if not args.scene:
         raise NetsushisenError("asm: give a SOURCE.s, or --scene SCENE for the bundled kernels")
-    folder = Path(args.kernels) if args.kernels else KERNELS
+    folder = kernel_folder(args.kernels)
     if args.kernels and not folder.is_dir():
         raise NetsushisenError(f"--kernels {args.kernels}: no such folder")
     return [(stage, folder / f"{stage}.s") for stage in ([args.proc] if args.proc else STAGES)]

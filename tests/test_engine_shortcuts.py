@@ -178,6 +178,33 @@ def test_os_asleep_on_the_host_fifo_while_dis_pushes(engine_name):
     assert (os_.int(2), os_.int(3)) == (7, 9)
 
 
+@pytest.mark.parametrize("sc_delay", range(0, 12))
+def test_sleepers_keep_their_own_wake_cycles(sc_delay):
+    """Two PEs under dynamic DIS, which hands out one message a cycle, and only to a PE whose
+    host FIFO is empty: when both PEs' OS wait, one waits a cycle longer (asleep, on the
+    compiled engine), and DIS's push sets the cycle it wakes in. SC falls asleep on `recv ring`
+    after `sc_delay` nops — in one of these runs in the very cycle of such a push: falling
+    asleep must set SC's own wake cycle, never another sleeper's (OS would miss its message)."""
+    from netsushisen.isa.images import MemoryImage, Segment
+    import numpy as np
+
+    image = MemoryImage()
+    words = [w for v in range(1, 7) for w in (make_header(1, DESTS["os"]), v)]
+    image.host = [Segment(0, [("i", np.array(words, np.int64))])]
+    programs = {"os": assemble_text("loop: recv r1, host\nrecv r2, host\nadd r3, r3, r2\n"
+                                    "j loop\n", proc="os"),
+                "sc": assemble_text("nop\n" * sc_delay + "recv r1, ring\nhalt\n", proc="sc")}
+    config = load_config(None, ["distribution=dynamic", "pes=2"])
+    runs = []
+    for name in ("reference", "compiled"):
+        e = make_engine(name, config, programs, image)
+        e.run(500)
+        runs.append((e.status, e.cycle, e.register("pe0.os", 3), e.register("pe1.os", 3),
+                     without_engine(e.statistics())))
+    assert runs[0][:4] == ("finished", 18, 1 + 3 + 5, 2 + 4 + 6)
+    assert runs[1] == runs[0]
+
+
 # -- 3. Deadlocks after long waits ------------------------------------------------------------
 
 

@@ -158,6 +158,22 @@ def test_load_waits_for_a_write_port_behind_unpipelined_results(engine_name):
     assert ic.cycles == 14
 
 
+def test_load_beside_other_writers_waits_for_a_write_port(engine_name):
+    """A load in a bundle whose other writer completes at another latency: its write is
+    checked on its own. Two fdivs and an fmul (latency 12, pipelined) at c0 write at c12; at
+    c10 { ldr (t_r = 2: writes at c12) ; fadd (latency 1) } would make four writes at c12:
+    write_port; at c11 the fadd would: write_port; at c12 it issues (fadd at c13, the load at
+    c14) and the load holds issue until c14 (one `resident` cycle): halt at c14."""
+    sets = ("ic_memory.t_r=2", "ic.latency.fdiv=12", "ic.latency.fmul=12", "ic.latency.fadd=1")
+    e, r = run(engine_name, sets,
+               ic="{ fdiv r1, r0, r0 ; fdiv r2, r0, r0 ; fmul r3, r0, r0 }\n" + "nop\n" * 9
+               + "{ ldr r4, [r0 + 0] ; fadd r5, r0, r0 }\nhalt\n")
+    ic = ProcessorView(e, "pe0.ic")
+    assert r.status == "halted"
+    assert ic.stalls == {"write_port": 2, "resident": 1}
+    assert ic.cycles == 15
+
+
 def test_os_asleep_on_the_host_fifo_while_dis_pushes(engine_name):
     """DIS pushes one host word a cycle before the PEs step, visible the next cycle: OS stalls
     at c0 on a word already in its FIFO but not yet visible (it must not fall asleep past the

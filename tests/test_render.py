@@ -138,7 +138,7 @@ def test_same_inputs_same_statistics():
     assert dumps(a.stats) == dumps(b.stats)
 
 
-@pytest.mark.parametrize("spec", ["tetra", "rings"])
+@pytest.mark.parametrize("spec", ["tetra", pytest.param("rings", marks=pytest.mark.slow)])
 def test_classic_kernels_render_like_golden(spec):
     """`--kernels classic` (kernels/classic/, the 1992-style kernels kept for studies) still
     assembles and renders the golden image, ids, ray counts and reference counts — and runs

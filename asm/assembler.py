@@ -3,8 +3,11 @@
 Pass 1 walks the statements in order — expanding `.include`, following `.if`/`.elif`/`.else`/
 `.endif`, defining `.equ` constants and `.reg` aliases, placing labels (code labels count bundles,
 data labels count local words). Pass 2 resolves each operation's operands against the complete
-symbol table and runs the resource checker on every bundle. Diagnostics from both passes are
-reported in source order as `file:line:col: error: message` with the line and a caret.
+symbol table and runs the resource checker on every bundle; then, if the source has `.sched`
+regions (one operation per line in pass 1), it schedules them for `config`, moves the code labels
+to where their blocks landed and resolves the operations again (asm/regions.py). Diagnostics
+from both passes are reported in source order as `file:line:col: error: message` with the line
+and a caret.
 """
 
 from __future__ import annotations
@@ -20,10 +23,13 @@ from netsushisen.asm.checker import check_bundle
 from netsushisen.asm.expressions import BUILTIN_CONSTANTS, ExprError, evaluate, names_in
 from netsushisen.asm.macros import (INVOKE_RE, Macro, MacroExpansion, block_directive, describe,
                                     stray_escape)
-from netsushisen.asm.objects import Op, Program, SourceLoc
+from netsushisen.asm.objects import Op, Program, RegName, SourceLoc
+from netsushisen.asm.pipeline import PipelineReport
+from netsushisen.asm.regions import Region, RegionAssembly, RegionLoop
 from netsushisen.asm.parser import (CONDITIONAL_RE, Bundle, Chunk, Directive, Expansion, Instr,
                                     Loc, parse_chunk, split_statements)
 from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.opcodes import OPCODES
 from netsushisen.isa.processors import N_REGISTERS, PROCESSORS, REGISTER_ALIASES
 from netsushisen.isa.ring import predefined_symbols
@@ -32,7 +38,7 @@ from netsushisen.isa.words import wrap32
 MAX_INCLUDE_DEPTH = 32
 DIRECTIVES = ("proc", "equ", "reg", "include", "if", "ifdef", "ifndef", "elif", "else", "endif",
               "text", "data", "word", "float", "space", "align", "error",
-              "macro", "endm", "rept", "endr")
+              "macro", "endm", "rept", "endr", "sched", "endsched", "pipeline", "temps")
 _REG_RE = re.compile(r"r(\d+)$")
 
 
@@ -58,6 +64,9 @@ class _PendingBundle:
     loc: Loc
     text: str
     order: int
+    region: int = -1  # the .sched region it belongs to
+    aliases: dict[str, tuple[int, Loc]] = field(default_factory=dict)
+    """The `.reg` names in force at this bundle: pass 2 resolves its operands with them."""
 
 
 @dataclass
@@ -76,6 +85,8 @@ class _State:
     include_dirs: list[Path]
     symbols: dict[str, _Symbol] = field(default_factory=dict)
     aliases: dict[str, tuple[int, Loc]] = field(default_factory=dict)
+    """The `.reg` names in force here (replaced, never mutated, so a bundle keeps its own)."""
+    reg_scopes: list[list] = field(default_factory=list)  # [name, reg, first bundle, end|None]
     bundles: list[_PendingBundle] = field(default_factory=list)
     data: list[tuple[str, object, Loc, int]] = field(default_factory=list)  # kind, expr|value, loc, order
     section: str = "text"
@@ -88,6 +99,9 @@ class _State:
     expanded_lines: int = 0  # statements macros and .rept will produce (macros.charge_lines)
     expanded_chars: int = 0  # characters macro substitution produced
     repeat: int = 1  # the product of the counts of the .rept blocks being expanded
+    regions: list[Region] = field(default_factory=list)
+    region: Region | None = None  # the open one
+    pipeline_mark: Loc | None = None  # a `.pipeline` waiting for its loop's label
 
     def error(self, message: str, loc: Loc | None, order: int | None = None) -> None:
         src = self.lines.get((loc.file, loc.line, loc.via)) if loc else None
@@ -149,12 +163,21 @@ def _read_source(path: Path, display: str) -> str:
     return text
 
 
-class Assembler(MacroExpansion):
+class Assembler(MacroExpansion, RegionAssembly):
     def __init__(self, proc: str | None = None, defines: dict[str, int | float] | None = None,
-                 include_dirs: list[str | Path] | None = None):
+                 include_dirs: list[str | Path] | None = None, config: MachineConfig | None = None,
+                 schedule: bool = True):
         if proc is not None and proc not in PROCESSORS:
             raise NetsushisenError(f"unknown processor {proc!r}: choose os, ic or sc")
         self.defines = dict(defines or {})
+        self.config = config or MachineConfig()
+        """The machine `.sched` regions are scheduled for (latencies, memory times, penalty)."""
+        self.schedule = schedule
+        """False: `.sched` regions stay one operation per bundle, as written (the serial form)."""
+        self.pipeline_reports: list[PipelineReport] = []
+        """The software pipelining information of every `.pipeline` loop, in source order."""
+        self.region_lines: set[tuple[str, int, str]] = set()
+        """(file, line, expansion) of every operation in a `.sched` region (for the listing)."""
         self.st = _State(proc, proc is not None, [Path(d) for d in include_dirs or []])
         for name, value in predefined_symbols().items():
             self.st.symbols[name] = _Symbol(value, "predefined", None)
@@ -178,6 +201,10 @@ class Assembler(MacroExpansion):
         if "\x00" in text:
             raise AssemblyError(Diagnostic("not a text file: NUL byte in assembly source", filename))
         self._walk(text, filename, base_dir or Path.cwd(), [])
+        if st.region is not None:
+            st.error(".sched without a matching .endsched", st.region.loc)
+            st.region.end = len(st.bundles)
+            st.region = None
         if not st.bundles and not st.diags:
             st.error("empty program: the source holds no instructions", Loc(filename, 1, 1))
         program = self._resolve()
@@ -245,6 +272,10 @@ class Assembler(MacroExpansion):
                 self._directive(item, base_dir, stack, chunk)
             else:
                 instrs = item.instrs if isinstance(item, Bundle) else [item]
+                if isinstance(item, Bundle) and st.region is not None:
+                    st.error("a .sched region holds one operation per line, without braces "
+                             "(the assembler makes the bundles)", item.loc)
+                    continue
                 self._add_bundle(instrs, item.loc, chunk)
         for c in conds:
             st.error(".if without a matching .endif", c.loc)
@@ -307,6 +338,12 @@ class Assembler(MacroExpansion):
             return
         addr = len(st.bundles) if st.section == "text" else len(st.data)
         st.symbols[name] = _Symbol(addr, st.section, loc)
+        if st.region is not None and st.section == "text":
+            st.region.starts.add(addr - st.region.first)
+            if st.pipeline_mark is not None:
+                st.region.loops.append(RegionLoop(addr - st.region.first, name,
+                                                  f"{loc.file}:{loc.line}"))
+                st.pipeline_mark = None
 
     def _add_bundle(self, instrs: list[Instr], loc: Loc, chunk: Chunk) -> None:
         st = self.st
@@ -317,7 +354,12 @@ class Assembler(MacroExpansion):
             st.error("which processor? give --proc os|ic|sc or write `.proc os|ic|sc` "
                      "before the first instruction", loc)
             st.proc = "?"
-        st.bundles.append(_PendingBundle(instrs, loc, chunk.source_lines[0].strip(), st.order))
+        if st.pipeline_mark is not None:
+            st.error(".pipeline must be followed by the loop's label", st.pipeline_mark)
+            st.pipeline_mark = None
+        st.bundles.append(_PendingBundle(instrs, loc, chunk.source_lines[0].strip(), st.order,
+                                         len(st.regions) - 1 if st.region is not None else -1,
+                                         st.aliases))
 
     def _directive(self, d: Directive, base_dir: Path, stack: list[str], chunk: Chunk) -> None:
         st = self.st
@@ -366,7 +408,11 @@ class Assembler(MacroExpansion):
                 elif alias in st.symbols:
                     st.error(f"'{alias}' is already a symbol", loc)
                 else:
-                    st.aliases[alias] = (reg, loc)
+                    st.aliases = {**st.aliases, alias: (reg, loc)}
+                    for scope in st.reg_scopes:
+                        if scope[0] == alias and scope[3] is None:
+                            scope[3] = len(st.bundles)
+                    st.reg_scopes.append([alias, reg, len(st.bundles), None])
         elif name == "include":
             if len(args) != 1 or args[0].kind != "string":
                 st.error('.include takes one quoted file name: .include "file.inc"', d.loc)
@@ -405,6 +451,8 @@ class Assembler(MacroExpansion):
         elif name == "error":
             msg = args[0].value if args and args[0].kind == "string" else "error directive"
             st.error(msg, d.loc)
+        else:
+            self._sched_directive(d)
 
     def _name_value(self, d: Directive, what: str):
         args = d.args
@@ -477,19 +525,21 @@ class Assembler(MacroExpansion):
     def _resolve(self) -> Program:
         st = self.st
         proc = PROCESSORS.get(st.proc or "")
-        bundles: list[tuple[Op, ...]] = []
-        smap: list[SourceLoc] = []
-        for pb in st.bundles:
-            ops = []
-            for instr in pb.instrs:
-                op = self._resolve_op(instr, proc, len(st.bundles), pb.order)
-                if op is not None:
-                    ops.append(op)
-            if proc is not None and len(ops) == len(pb.instrs):
+        resolved = self._resolve_ops(proc, len(st.bundles))
+        for pb, ops in zip(st.bundles, resolved):
+            if proc is not None and pb.region < 0 and len(ops) == len(pb.instrs):
                 for problem in check_bundle(proc, ops):
                     st.error(problem, pb.loc, pb.order)
-            bundles.append(tuple(ops))
-            smap.append(SourceLoc(pb.loc.file, pb.loc.line, pb.text, describe(pb.loc.via, st.lines)))
+        sources = [self._op_sources(pb) for pb in st.bundles]
+        smap = [SourceLoc(pb.loc.file, pb.loc.line, pb.text, describe(pb.loc.via, st.lines))
+                for pb in st.bundles]
+        moved = None  # serial bundle index -> its address after scheduling
+        if self.schedule and any(r.end > r.first for r in st.regions) and proc is not None \
+                and not st.diags:
+            bundles, op_sources, smap, moved = self._schedule(proc, resolved, sources, smap)
+        else:
+            bundles = [tuple(ops) for ops in resolved]
+            op_sources = [tuple(s) for s in sources]
         data: list[tuple[str, int | float]] = []
         for kind, expr, loc, order in st.data:
             v = self._eval(expr, loc, allow_labels=True, order=order)
@@ -505,8 +555,46 @@ class Assembler(MacroExpansion):
             else:
                 data.append(("f", float(v)))
         labels = {n: (s.kind, int(s.value)) for n, s in st.symbols.items() if s.kind in ("text", "data")}
-        return Program(st.proc if proc else "os", bundles, data, labels, smap,
-                       {k: v for k, v in self.defines.items()})
+        program = Program(st.proc if proc else "os", bundles, data, labels, smap,
+                          {k: v for k, v in self.defines.items()})
+        program.op_sources = [tuple(s) for s in op_sources]
+        program.reg_names = self._reg_names(len(bundles), moved)
+        return program
+
+    def _reg_names(self, n: int, moved) -> list[RegName]:
+        """The `.reg` scopes in bundle addresses (after scheduling, a scope edge inside a
+        `.sched` region widens to the region's bundles); empty scopes left out."""
+        out = []
+        for name, reg, a, b in self.st.reg_scopes:
+            b = len(self.st.bundles) if b is None else b
+            a, b = (moved(a, False), moved(b, True)) if moved else (a, b)
+            if a < min(b, n):
+                out.append(RegName(name, reg, a, min(b, n)))
+        return out
+
+    def _resolve_ops(self, proc, n_bundles: int) -> list[list[Op]]:
+        out = []
+        final_aliases = self.st.aliases
+        for pb in self.st.bundles:
+            self.st.aliases = pb.aliases  # a name means the register of its latest .reg here
+            ops = []
+            for instr in pb.instrs:
+                op = self._resolve_op(instr, proc, n_bundles, pb.order)
+                if op is not None:
+                    ops.append(op)
+            out.append(ops)
+        self.st.aliases = final_aliases
+        return out
+
+    def _op_sources(self, pb: _PendingBundle) -> list[SourceLoc]:
+        """One location per operation: its own line (a bundle may span lines)."""
+        st = self.st
+        out = []
+        for instr in pb.instrs:
+            loc = instr.loc
+            text = (st.lines.get((loc.file, loc.line, loc.via)) or pb.text).strip()
+            out.append(SourceLoc(loc.file, loc.line, text, describe(loc.via, st.lines)))
+        return out
 
     def _resolve_op(self, instr: Instr, proc, n_bundles: int, order: int) -> Op | None:
         st = self.st
@@ -619,16 +707,19 @@ class Assembler(MacroExpansion):
 
 def assemble_file(path: str | Path, proc: str | None = None,
                   defines: dict[str, int | float] | None = None,
-                  include_dirs: list[str | Path] | None = None) -> Program:
-    """Assemble a source file; raises AssemblyError listing every error."""
-    return Assembler(proc, defines, include_dirs).assemble_file(path)
+                  include_dirs: list[str | Path] | None = None,
+                  config: MachineConfig | None = None) -> Program:
+    """Assemble a source file (`.sched` regions scheduled for `config`, else the default
+    machine); raises AssemblyError listing every error."""
+    return Assembler(proc, defines, include_dirs, config).assemble_file(path)
 
 
 def assemble_text(text: str, proc: str | None = None, filename: str = "<string>",
                   defines: dict[str, int | float] | None = None,
-                  include_dirs: list[str | Path] | None = None) -> Program:
+                  include_dirs: list[str | Path] | None = None,
+                  config: MachineConfig | None = None) -> Program:
     """Assemble source text (tests, generated kernels); raises AssemblyError."""
-    return Assembler(proc, defines, include_dirs).assemble_text(text, filename)
+    return Assembler(proc, defines, include_dirs, config).assemble_text(text, filename)
 
 
 def read_constants(path: str | Path, defines: dict[str, int | float] | None = None) -> dict[str, int | float]:

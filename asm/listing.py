@@ -9,9 +9,12 @@ bundle, how full each unit class's slots are, and how much of the register-file 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Iterable
 
 from netsushisen.asm.checker import bundle_usage
 from netsushisen.asm.objects import Op, Program, format_float
+from netsushisen.asm.parser import _code_part
+from netsushisen.asm.regnames import register_names
 
 
 def slot_assignment(program: Program, bundle: tuple[Op, ...]) -> list[tuple[str, Op | None]]:
@@ -54,11 +57,35 @@ def target_names(program: Program) -> dict[int, str]:
     return out
 
 
-def listing(program: Program) -> str:
+def bundle_target(bundle: tuple[Op, ...]) -> int | None:
+    """The code address a bundle's branch or jump names (None without one, and for `jr`, `ret`,
+    `call`: their targets are not loop edges). `report annotate` and the bounds find loops from
+    the backward ones; the statistics carry it per bundle (`programs.<stage>.listing.target`)."""
+    return next((op.args[-1] for op in bundle if op.opcode.kind in ("branch", "jump")
+                 and isinstance(op.args[-1], int)), None)
+
+
+def loop_ranges(targets: Iterable[tuple[int, int | None]]) -> list[tuple[int, int]]:
+    """Loops from (pc, target) pairs: a backward branch or jump and its target make the loop
+    target..branch; back edges to one target make one loop, up to the last of them; loops nest.
+    Outermost first at each start address."""
+    ends: dict[int, int] = {}
+    for pc, target in targets:
+        if target is not None and target <= pc:
+            ends[target] = max(ends.get(target, pc), pc)
+    return sorted(ends.items(), key=lambda se: (se[0], -se[1]))
+
+
+def listing(program: Program, region_lines: set | None = None) -> str:
     """Address, slots and source of every bundle; then the data words. A bundle a macro or
     `.rept` produced shows the body line it was written at, as substituted, under a row naming
-    the expansion (invocation line and text), as GNU as's `-alm` listing shows macro lines."""
+    the expansion (invocation line and text), as GNU as's `-alm` listing shows macro lines.
+    Then the scheduled source lines and the bundles each landed in (`region_lines`: the
+    assembler's `(file, line, expansion)` of every `.sched` line, else those whose operations
+    share a bundle with another line's or landed in several). Registers with a `.reg` name show
+    it (`pri/r29`), and the name table closes the listing."""
     labels = target_names(program)
+    names = register_names(program)
     rows = [f"; listing of a {program.processor.title} program: "
             f"{len(program.bundles)} bundles, {len(program.data)} data words"]
     by_addr: dict[int, list[str]] = {}
@@ -73,13 +100,18 @@ def listing(program: Program) -> str:
         if loc and loc.via and loc.via != expansion:  # the invocation, then its bundles (as -alm)
             rows.append(f"{'':5s}  ; expands {loc.via}")
         expansion = loc.via if loc else ""
+        regs = names.labels(addr)
         if program.processor.vliw:
-            cells = [op.format(labels) if op else "-" for _, op in slot_assignment(program, bundle)]
+            cells = [op.format(labels, regs) if op else "-"
+                     for _, op in slot_assignment(program, bundle)]
             text = " | ".join(cells) if bundle else "(nop)"
         else:
-            text = " ; ".join(op.format(labels) for op in bundle) or "nop"
+            text = " ; ".join(op.format(labels, regs) for op in bundle) or "nop"
         where = f"{loc.file}:{loc.line}" if loc else ""
         rows.append(f"{addr:5d}  {text:<60s} ; {where}  {loc.text if loc else ''}".rstrip())
+        for other in _other_lines(program, addr):
+            rows.append(f"{'':5s}  {'':<60s} ; {other.file}:{other.line}  {other.text}".rstrip())
+    rows += _source_map_rows(program, region_lines)
     if program.data:
         rows.append("; data (local memory)")
         data_labels: dict[int, list[str]] = {}
@@ -91,7 +123,58 @@ def listing(program: Program) -> str:
                 rows.append(f"{name}:")
             shown = format_float(value) if kind == "f" else str(value)
             rows.append(f"{addr:5d}  .{'float' if kind == 'f' else 'word'} {shown}")
+    if program.reg_names:
+        rows.append("; .reg names (name = register, bundles in force)")
+        for r in program.reg_names:
+            rows.append(f";   {r.name} = r{r.reg}  {r.start}..{r.end - 1}")
     return "\n".join(rows) + "\n"
+
+
+def _other_lines(program: Program, addr: int) -> list:
+    """The source lines of a bundle's operations besides the bundle's own (a scheduled bundle
+    gathers several), first occurrence order."""
+    if addr >= len(program.op_sources) or addr >= len(program.source_map):
+        return []
+    own = program.source_map[addr]
+    out, seen = [], {(own.file, own.line)}
+    for s in program.op_sources[addr]:
+        if (s.file, s.line) not in seen:
+            seen.add((s.file, s.line))
+            out.append(s)
+    return out
+
+
+def source_bundles(program: Program) -> dict[tuple[str, int, str], tuple[str, list[int]]]:
+    """(file, line, expansion) -> (its text, the bundles its operations landed in), for every
+    line with an operation (a macro body line once per expansion): how a scheduled region's
+    lines map to bundles."""
+    out: dict[tuple[str, int, str], tuple[str, list[int]]] = {}
+    for addr, sources in enumerate(program.op_sources):
+        for s in sources:
+            entry = out.setdefault((s.file, s.line, s.via), (s.text, []))
+            if not entry[1] or entry[1][-1] != addr:
+                entry[1].append(addr)
+    return out
+
+
+def _source_map_rows(program: Program, region_lines: set | None = None) -> list[str]:
+    """For every source line that shares a bundle with another line or landed in several
+    bundles (the lines of `.sched` regions; a macro body line counts once per expansion), the
+    bundles it landed in."""
+    shared = {(s.file, s.line, s.via) for addr, sources in enumerate(program.op_sources)
+              if len({(t.file, t.line, t.via) for t in sources}) > 1 for s in sources}
+    rows = []
+    for key, (text, addrs) in source_bundles(program).items():
+        if (key in region_lines) if region_lines is not None else (key in shared or len(addrs) > 1):
+            rows.append((*key, text, addrs))
+    if not rows:
+        return []
+    out = ["; scheduled source lines -> bundles"]
+    for file, line, via, text, addrs in sorted(rows, key=lambda r: (r[0], r[1], r[2])):
+        where = f"{file}:{line}"
+        code = _code_part(text).strip()
+        out.append(f";   {where:<24s} {code:<40s} -> {', '.join(map(str, addrs))}")
+    return out
 
 
 @dataclass

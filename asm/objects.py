@@ -148,6 +148,17 @@ def _problem(proc: str, bundles: list, data: list, labels: dict, defines: dict) 
     return None
 
 
+@dataclass(frozen=True)
+class RegName:
+    """A `.reg` name in force over bundles `start..end-1` (the assembler resolves a name to the
+    register of its latest `.reg` before the bundle, so a redefinition ends the scope)."""
+
+    name: str
+    reg: int
+    start: int
+    end: int
+
+
 @dataclass
 class Program:
     proc: str
@@ -160,6 +171,12 @@ class Program:
     source_map: list[SourceLoc] = field(default_factory=list)
     defines: dict[str, int | float] = field(default_factory=dict)
     """The -D symbols the program was assembled with (a specialised kernel records its scene's needs)."""
+    op_sources: list[tuple[SourceLoc, ...]] = field(default_factory=list)
+    """Per bundle, one location per operation in the bundle's order (a scheduled `.sched` bundle
+    gathers operations of several source lines); empty when unknown (an older object file)."""
+    reg_names: list[RegName] = field(default_factory=list)
+    """The `.reg` names by scope, in definition order (asm/regnames.py reads them); an
+    optional key of the object file (`reg_names`), absent in files from before it."""
 
     @property
     def processor(self):
@@ -202,6 +219,10 @@ class Program:
             "source_map": [[s.file, s.line, s.text, *([s.via] if s.via else [])]
                            for s in self.source_map],
             "defines": dict(sorted(self.defines.items())),
+            **({"op_sources": [[[s.file, s.line, s.text, *([s.via] if s.via else [])] for s in ops]
+                               for ops in self.op_sources]} if self.op_sources else {}),
+            **({"reg_names": [[r.name, r.reg, r.start, r.end] for r in self.reg_names]}
+               if self.reg_names else {}),
         }
 
     def save(self, path: str | Path) -> None:
@@ -249,6 +270,10 @@ class Program:
             smap = [SourceLoc(str(f), int(l), str(t), *[str(v) for v in via])
                     for f, l, t, *via in obj.get("source_map", [])]
             defines = dict(obj.get("defines", {}))
+            op_sources = [tuple(SourceLoc(str(f), int(l), str(t), *[str(v) for v in via])
+                                for f, l, t, *via in ops) for ops in obj.get("op_sources", [])]
+            reg_names = [RegName(str(n), int(r), int(a), int(b))
+                         for n, r, a, b in obj.get("reg_names", [])]
         except NetsushisenError:
             raise
         except (KeyError, TypeError, ValueError, IndexError, OverflowError, AttributeError) as err:
@@ -256,7 +281,7 @@ class Program:
         problem = _problem(proc, bundles, data, labels, defines)
         if problem:
             raise bad(problem)
-        return cls(proc, bundles, data, labels, smap, defines)
+        return cls(proc, bundles, data, labels, smap, defines, op_sources, reg_names)
 
     @classmethod
     def load(cls, path: str | Path) -> "Program":

@@ -1,5 +1,5 @@
 """The step debugger (`netsushisen debug`, docs/debugger.md): a session over one machine —
-stepping by cycles or bundles, breakpoints, watchpoints, `set`, exact reverse execution — and
+stepping by source lines, bundles or cycles, breakpoints, watchpoints, `set`, exact reverse execution — and
 its command language, expressions, screen and terminal front end.
 
     session.py      `Session`; the machine factories (`ProgramsFactory`, `SceneFactory`)
@@ -7,15 +7,18 @@ its command language, expressions, screen and terminal front end.
                     disable, condition, ignore): how a cycle makes them fire
     commands.py     the command language (`Commands.execute(line) -> Outcome`)
     breakcommands.py  its breakpoint, watchpoint and display commands (a mixin)
-    source.py       its `list` command: source lines around the PC, a label, FILE:LINE
+    source.py       its source-line commands: `list`, `info line`, `info symbol`, `info loop`,
+                    `x/Ni`
     help.py         usage, help texts, aliases
-    expressions.py  expressions, places (registers, memory words, PCs), locations
-    reverse.py      checkpoints, replay, reverse-step / -stepi / -continue
+    expressions.py  expressions, places (registers, memory words, PCs), locations; `.reg` names
+    reverse.py      checkpoints, replay, reverse-cycle / -step / -stepi / -continue
     fastforward.py  `--fast-forward`: the compiled engine runs to a cycle or a location first
     state.py        `freeze` / `thaw` (checkpoints) and `state_dump` (the canonical state dump)
     view.py         the rich panels of the screen
+    registers.py    its registers panel, packed register cells, `info registers`
     layout.py       the screen: which panels show, sized to the terminal (`layout`)
-    frontend.py     the batch and interactive front ends (prompt, history, tab completion)
+    frontend.py     the batch and interactive front ends (prompt, history, tab completion,
+                    gdb's pager)
 
 Unlike every other reader of the machine (the render pipeline, reports, benchmarks), the
 debugger does not go through the engine interface (emulator/engine.py): it knows the reference

@@ -121,7 +121,11 @@ class Breakpoints:
 
     def add_watchpoint(self, text: str, kind: str = "watch") -> Watchpoint:
         ctx = self.context()
-        place = ctx.place(text)
+        if text.startswith("*"):  # gdb's `watch *ADDR`: the word at ADDR of the data memory
+            place = ctx.memory_ref(text[1:].strip())
+            text = place.name()
+        else:
+            place = ctx.place(text)
         if place is None:
             try:
                 place = ctx.memory_ref(text)

@@ -11,15 +11,15 @@ import os
 import re
 import shlex
 
-from rich import box
 from rich.console import RenderableType
 from rich.table import Table
 from rich.text import Text
 
-from netsushisen.debugger import layout, view
+from netsushisen.debugger import layout, registers, view
 from netsushisen.debugger.breakcommands import BreakpointCommands, Display
 from netsushisen.debugger.expressions import DebugError, format_number, format_word, hex_word
-from netsushisen.debugger.help import ALIASES, HELP, INFO_ALIASES, INFO_TOPICS, LAYOUTS, MOVES
+from netsushisen.debugger.help import (ALIASES, CLASSES, HELP, INFO_ALIASES, INFO_TOPICS, LAYOUTS,
+                                        MOVES)
 from netsushisen.debugger.outcome import Outcome
 from netsushisen.debugger.source import SourceCommands
 from netsushisen.debugger.state import state_digest
@@ -125,14 +125,20 @@ class Commands(BreakpointCommands, SourceCommands):
 
     # -- movement -----------------------------------------------------------------------------
 
+    def cmd_cycle(self, arg: str) -> Outcome:
+        return self._moved(self.session.step(_count(arg, "cycle")))
+
     def cmd_step(self, arg: str) -> Outcome:
-        return self._moved(self.session.step(_count(arg, "step")))
+        return self._moved(self.session.stepi(_count(arg, "step"), by_line=True))
 
     def cmd_stepi(self, arg: str) -> Outcome:
         return self._moved(self.session.stepi(_count(arg, "stepi")))
 
     def cmd_next(self, arg: str) -> Outcome:
-        return self._moved(self.session.stepi(_count(arg, "next"), over_calls=True))
+        return self._moved(self.session.stepi(_count(arg, "next"), over_calls=True, by_line=True))
+
+    def cmd_nexti(self, arg: str) -> Outcome:
+        return self._moved(self.session.stepi(_count(arg, "nexti"), over_calls=True))
 
     def cmd_continue(self, arg: str) -> Outcome:
         return self._moved(self.session.cont(_count(arg, "continue")))
@@ -145,8 +151,11 @@ class Commands(BreakpointCommands, SourceCommands):
     def cmd_until(self, arg: str) -> Outcome:
         return self._moved(self.session.until(arg or None))
 
+    def cmd_reverse_cycle(self, arg: str) -> Outcome:
+        return self._moved(self.session.reverse_step(_count(arg, "reverse-cycle")))
+
     def cmd_reverse_step(self, arg: str) -> Outcome:
-        return self._moved(self.session.reverse_step(_count(arg, "reverse-step")))
+        return self._moved(self.session.reverse_step_line(_count(arg, "reverse-step")))
 
     def cmd_reverse_stepi(self, arg: str) -> Outcome:
         return self._moved(self.session.reverse_stepi(_count(arg, "reverse-stepi")))
@@ -175,26 +184,26 @@ class Commands(BreakpointCommands, SourceCommands):
         return getattr(self, "info_" + matches[0])(words[1:])
 
     def info_registers(self, args) -> Outcome:
+        """All registers, or only those named (`info registers pri r5 ic.cell`, gdb's
+        `info registers REG...`), as a table in as many column groups as the width holds."""
         s = self.session
-        core = s.core
-        t = Table(box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 1),
-                  title=f"registers pe{s.pe}.{s.stage} (* changed since the previous stop)")
-        for _ in range(2):
-            for col in ("reg", "int", "hex", "float"):
-                t.add_column(col, justify="left" if col in ("reg", "hex") else "right",
-                             no_wrap=True)
-        prev = s.previous_regs.get(core.name, core.regs)
-        half = len(core.regs) // 2
-
-        def cells(r):
-            w = core.regs[r]
-            mark = "*" if w != prev[r] else " "
-            return [f"{mark}{view._reg_name(r)}", str(wrap32(w)), hex_word(core, w),
-                    str(core.value(w, "f"))]
-
-        for r in range(half):
-            t.add_row(*cells(r), *cells(r + half))
-        return Outcome([t, Text(f"pc {core.pc} ({core.label(core.pc)})")])
+        ctx = s.context()
+        if args:
+            places = []
+            for word in args:
+                place = ctx.place(word)
+                if place is None or place.kind != "reg":
+                    raise DebugError(f"info registers: {word!r} is not a register")
+                places.append(place)
+            core = ctx.core(places[0].pe, places[0].stage)
+            if any((p.pe, p.stage) != (places[0].pe, places[0].stage) for p in places):
+                raise DebugError("info registers: name registers of one processor")
+            regs = [p.index for p in places]
+        else:
+            core, regs = s.core, list(range(len(s.core.regs)))
+        title = f"registers {core.name} (* changed since the previous stop)"
+        return Outcome([registers.RegisterTable(s, core, regs, title),
+                        Text(f"pc {core.pc} ({core.label(core.pc)})")])
 
     def info_fifo(self, args) -> Outcome:
         s = self.session
@@ -281,13 +290,22 @@ class Commands(BreakpointCommands, SourceCommands):
         return f"{arg.strip()} = {text}"
 
     def cmd_x(self, arg: str, fmt: str = "") -> Outcome:
-        m = re.fullmatch(r"(\d*)([xdufa]?)", fmt)
+        """gdb's `x/NFU ADDR`: N words from ADDR — a number or a data label (the processor's
+        local memory, its data memory), `REGION ADDR` or `REGION[ADDR]`, `*ADDR` as gdb writes
+        it; F a format (x d u f a, or i: N bundles from a code location); U may be w (a word,
+        the only unit)."""
+        m = re.fullmatch(r"(\d*)([xdufai]?)w?", fmt)
         if not m:
-            raise DebugError(f"x/{fmt}: expected x/N followed by a format x, d, u, f or a")
+            raise DebugError(f"x/{fmt}: expected x/N followed by a format x, d, u, f, a or i "
+                             "(the unit is always a word: w)")
         n = int(m.group(1) or 1)
         f = m.group(2) or "x"
         if not arg:
-            raise DebugError("x takes an address: x/8 icgm 512, x/4f local[table]")
+            raise DebugError("x takes an address: x/8 icgm 512, x/4f local[table], x/4f 12")
+        if arg.startswith("*") and f != "i":
+            arg = arg[1:].strip()
+        if f == "i":
+            return self.examine_code(arg, n)
         if n == 0:
             self.session.context().memory_ref(arg)  # the address is still checked
             return Outcome([Text("x/0: a count of 0 words shows nothing")])
@@ -432,7 +450,14 @@ class Commands(BreakpointCommands, SourceCommands):
         return Outcome(quit=not going)
 
     def cmd_help(self, arg: str) -> Outcome:
-        if arg:
+        """gdb's help: an index by default (one line per class of commands), `help COMMAND`
+        for one command, `help all` for the one-line description of every command."""
+        if not arg:
+            lines = [f"{cls + ':':<13} {' '.join(names)}" for cls, names in CLASSES]
+            lines.append('Type "help" followed by a command name for its description, '
+                         '"help all" for every command. Enter repeats the last command.')
+            return Outcome([Text("\n".join(lines))])
+        if arg.split()[0] != "all":
             name = resolve_command(arg.split()[0])
             usage, short, more = HELP[name]
             aliases = [a for a, n in ALIASES.items() if n == name]

@@ -9,6 +9,8 @@ parsed by the assembler's own grammar) in which names also denote the machine's 
                         labels a local word address; -D symbols and DEST_*/HDR_* constants too
     local[E]            a word of memory, E an expression: local, resident, icgm, scgm, global
                         (the viewed processor's ICGM or SCGM)
+    pri, ic.pri         a `.reg` name of the program: the register it names at that
+                        processor's PC (asm/regnames.py); registers show as `pri/r29`
     ic.r5, pe1.sc.local[3]   the same for another processor or PE
     f:r5, f:local[E]    the float view of a word; i: signed (default), u: unsigned, x: raw word
 
@@ -19,10 +21,11 @@ a place that `set` writes and `watch` watches.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from netsushisen.asm.expressions import ExprError, evaluate
 from netsushisen.asm.parser import Chunk, Instr, parse_chunk
+from netsushisen.asm.regnames import register_names
 from netsushisen.errors import Diagnostic
 from netsushisen.isa.processors import N_REGISTERS, REGISTER_ALIASES
 from netsushisen.isa.ring import predefined_symbols
@@ -38,7 +41,32 @@ _FLOAT_SUFFIX = re.compile(r"(?<![\w.])((?:\d+\.\d*|\.\d+)(?:[eE][+-]?\d+)?|\d+[
 _QUALIFIER = re.compile(r"^\s*(?:pe(?P<pe>\d+)\.)?(?:(?P<proc>os|ic|sc)\.)?(?P<rest>.*)$", re.S)
 
 
+_NAME = re.compile(r"(?<![\w.:])(?P<q>(?:[fiux]:)?(?:pe(?P<pe>\d+)\.)?(?:(?P<proc>os|ic|sc)\.)?)"
+                   r"(?P<name>[A-Za-z_]\w*)\b")
+_RESERVED = {"zero", "lr", "pc", "cycle", "inf", "nan", *REGIONS, "os", "ic", "sc"}
+
+
+def reg_label(core, reg: int) -> str:
+    """A register as the screen shows it: `pri/r29` where the program names it at the
+    processor's PC, else `r29` (`r0`, `lr`)."""
+    prog = core.program
+    if prog is not None and prog.reg_names and prog.bundles:
+        return register_names(prog).label(reg, min(core.pc, len(prog.bundles) - 1))
+    return {0: "r0", 63: "lr"}.get(reg, f"r{reg}")
+
+
 _FILE_LINE = re.compile(r"^(?P<file>[^\s:()\[\]]+):(?P<line>\d+)$")
+
+
+def bundle_lines(program, addr: int) -> list[tuple[str, int]]:
+    """The source lines (file, line) of bundle `addr`, in the order its operations name them:
+    one for a bundle written out, several for a bundle a `.sched` region scheduled from
+    operations of several lines (`Program.op_sources`)."""
+    ops = program.op_sources[addr] if addr < len(program.op_sources) else ()
+    if ops:
+        return list(dict.fromkeys((s.file, s.line) for s in ops))
+    smap = program.source_map
+    return [(smap[addr].file, smap[addr].line)] if addr < len(smap) else []
 
 
 def same_file(path: str, asked: str) -> bool:
@@ -62,11 +90,12 @@ class Place:
     index: int = 0  # register number or word address
     region: str = ""  # mem: local, resident, icgm, scgm
     view: str = ""  # "", f, i, u, x
+    label: str = field(default="", compare=False)  # a register's `pri/r29`
 
     def name(self, qualify: bool = False) -> str:
         q = f"pe{self.pe}.{self.stage}." if qualify else ""
         if self.kind == "reg":
-            base = {0: "r0", 63: "lr"}.get(self.index, f"r{self.index}")
+            base = self.label or {0: "r0", 63: "lr"}.get(self.index, f"r{self.index}")
             text = q + base
         elif self.kind == "pc":
             text = q + "pc"
@@ -77,7 +106,7 @@ class Place:
         return f"{self.view}:{text}" if self.view else text
 
     def with_view(self, view: str) -> "Place":
-        return Place(self.kind, self.pe, self.stage, self.index, self.region, view)
+        return Place(self.kind, self.pe, self.stage, self.index, self.region, view, self.label)
 
 
 class Context:
@@ -136,7 +165,8 @@ class Context:
             if not 0 <= index < size:
                 raise DebugError(f"{place.name()}: address outside {region} (0..{size - 1})")
             return place
-        return Place(kind, pe, stage, index, region, view)
+        label = reg_label(self.core(pe, stage), index) if kind == "reg" else ""
+        return Place(kind, pe, stage, index, region, view, label)
 
     def read_word(self, place: Place) -> int:
         if place.kind == "reg":
@@ -221,9 +251,36 @@ class Context:
         raise DebugError(f"unknown name {name!r} (not a register, label or symbol of the "
                          f"{self.stage.upper()} program)")
 
+    def with_names(self, text: str) -> str:
+        """`text` with every `.reg` name (`pri`, `f:ic.pri`) replaced by its register at the
+        named processor's PC, so the rest of the language sees only `rN`."""
+        if not any(p is not None and p.reg_names for p in self.machine.programs.values()):
+            return text
+
+        def swap(m: re.Match) -> str:
+            name = m["name"]
+            if name in _RESERVED:
+                return m[0]
+            pe = int(m["pe"]) if m["pe"] is not None else self.pe
+            stage = m["proc"] or self.stage
+            prog = self.machine.programs.get(stage)
+            if prog is None or not prog.reg_names or not 0 <= pe < len(self.machine.pes):
+                return m[0]
+            names = register_names(prog)
+            if not names.known(name):
+                return m[0]
+            core = self.machine.pes[pe].cores[stage]
+            reg = names.register(name, min(core.pc, len(prog.bundles) - 1))
+            if reg is None:
+                raise DebugError(f"{name!r} names different registers and none at pc "
+                                 f"{core.pc}: {names.describe(name)}")
+            return f"{m['q']}r{reg}"
+
+        return _NAME.sub(swap, text)
+
     def value(self, text: str):
         """The value of an expression: an int or a float."""
-        comp = compile_expression(text)
+        comp = compile_expression(self.with_names(text))
         try:
             v = evaluate(comp.tree, lambda name, loc: self.lookup(name, comp.refs))
         except ExprError as err:
@@ -236,7 +293,7 @@ class Context:
 
     def place(self, text: str) -> Place | None:
         """The place an expression denotes if it is one reference (`r5`, `f:local[3]`), else None."""
-        comp = compile_expression(text)
+        comp = compile_expression(self.with_names(text))
         if comp.single is None:
             return None
         return self._resolve(comp.refs[comp.single])
@@ -289,10 +346,11 @@ class Context:
             prog = self.machine.programs.get(s)
             if prog is None:
                 continue
-            for addr, loc in enumerate(prog.source_map):
-                names.add(loc.file.rsplit("/", 1)[-1])
-                if same_file(loc.file, file):
-                    found.setdefault(s, []).append((loc.line, addr))
+            for addr in range(len(prog.bundles)):  # a scheduled bundle holds several lines
+                for f, ln in bundle_lines(prog, addr):
+                    names.add(f.rsplit("/", 1)[-1])
+                    if same_file(f, file):
+                        found.setdefault(s, []).append((ln, addr))
         if not found:
             where = f"the {stage.upper()} program" if stage else "the programs"
             known = ", ".join(sorted(names)) or "none"
@@ -431,13 +489,14 @@ def format_word(core, word: int) -> str:
 
 
 def looks_float(core, word: int) -> bool:
-    """A guess for display only: a normal float that is not a small integer."""
+    """A guess for display only: a normal float that is not a small integer, or an infinity."""
     w = word & core.mask
     if core.mask == 0xFFFFFFFF:
         exp, small = (w >> 23) & 0xFF, abs(wrap32(w)) < (1 << 20)
-        return 0 < exp < 0xFF and not small
+        return (0 < exp < 0xFF and not small) or w & 0x7FFFFFFF == 0x7F800000
     exp = (w >> 52) & 0x7FF
-    return 0 < exp < 0x7FF and not (w < (1 << 20) or w > core.mask - (1 << 20))
+    return (0 < exp < 0x7FF and not (w < (1 << 20) or w > core.mask - (1 << 20))) \
+        or w & 0x7FFFFFFFFFFFFFFF == 0x7FF0000000000000
 
 
 def short_word(core, word: int) -> str:

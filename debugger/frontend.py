@@ -19,11 +19,24 @@ from rich.text import Text
 from netsushisen.debugger.commands import Commands, resolve_command
 from netsushisen.debugger.expressions import REGIONS, VIEWS, DebugError
 from netsushisen.debugger.help import ALIASES, HELP, INFO_TOPICS, LAYOUTS
-from netsushisen.debugger.layout import PANELS, screen
+from netsushisen.debugger.layout import MIN_HEIGHT, MIN_WIDTH, PANELS, line_mode, screen
 from netsushisen.debugger.view import where_line
 from netsushisen.isa.processors import N_REGISTERS, STAGES
 
 PROMPT = "(nss) "
+PAGER_PROMPT = "--Type <RET> for more, q to quit, c to continue without paging--"
+
+
+def _ask(prompt: str) -> str:
+    """The pager's question (input(), its answer kept out of the command history)."""
+    answer = input(prompt)
+    try:
+        import readline
+        if answer.strip() and readline.get_current_history_length():
+            readline.remove_history_item(readline.get_current_history_length() - 1)
+    except (ImportError, ValueError):
+        pass
+    return answer
 
 
 def make_console(width: int | None = None, file=None) -> Console:
@@ -41,6 +54,7 @@ class FrontEnd:
         self.commands = Commands(session, auto_screen=auto_screen)
         self.commands.run_source = self.run_lines
         self.failed = False
+        self.ask = _ask  # the pager's question (tests answer it themselves)
 
     def draw(self) -> None:
         """The screen: on a terminal redrawn in place from the top, sized to fit (layout.py);
@@ -48,6 +62,9 @@ class FrontEnd:
         if self.interactive:
             self.console.clear()
         size = self.console.size
+        if self.interactive and (size.width < MIN_WIDTH or size.height < MIN_HEIGHT):
+            self.console.print(line_mode(self.session, size.width), soft_wrap=True)
+            return
         self.console.print(screen(self.session, size.width,
                                   size.height if self.interactive else None,
                                   self.commands.layout))
@@ -58,8 +75,42 @@ class FrontEnd:
             self.draw()
         elif outcome.moved:
             self.console.print(where_line(self.session))
+        if self.interactive and outcome.output:
+            self.page(outcome.output)
+            return
         for item in outcome.output:
             self.console.print(item, soft_wrap=isinstance(item, Text))
+
+    def page(self, items) -> None:
+        """Print a command's output a screenful at a time, as gdb's pagination does: after
+        each page `--Type <RET> for more, q to quit, c to continue without paging--`."""
+        console = self.console
+        with console.capture() as cap:
+            for item in items:
+                console.print(item, soft_wrap=isinstance(item, Text))
+        lines = cap.get().split("\n")
+        if lines and lines[-1] == "":
+            lines.pop()
+        width, page = max(console.size.width, 1), max(console.size.height - 1, 1)
+        rows = [max(1, -(-Text.from_ansi(line).cell_len // width)) for line in lines]
+        if sum(rows) <= page:
+            console.file.write("".join(line + "\n" for line in lines))
+            console.file.flush()
+            return
+        i, used = 0, 0
+        while i < len(lines):
+            if used + rows[i] > page and used:
+                answer = self.ask(PAGER_PROMPT).strip().lower()
+                if answer.startswith("q"):
+                    console.file.write("Quit\n")
+                    break
+                if answer.startswith("c"):
+                    page = 1 << 30
+                used = 0
+            console.file.write(lines[i] + "\n")
+            used += rows[i]
+            i += 1
+        console.file.flush()
 
     def execute(self, line: str, echo: bool = False, repeat_empty: bool = False) -> bool:
         """Run one command line; False to quit."""
@@ -234,6 +285,7 @@ def _value_names(session) -> list[str]:
     program = _program(session)
     if program is not None:
         names += list(program.labels) + list(program.defines)
+        names += sorted({r.name for r in program.reg_names})
     return names
 
 

@@ -6,12 +6,17 @@ from __future__ import annotations
 
 # name -> (usage, one line, more)
 HELP: dict[str, tuple[str, str, str]] = {
-    "step": ("step [N]", "run N cycles (default 1)",
-             "Stops early at a breakpoint, a watchpoint or the end of the run."),
+    "cycle": ("cycle [N]", "run N cycles (default 1)",
+              "Stops early at a breakpoint, a watchpoint or the end of the run."),
+    "step": ("step [N]", "run the viewed processor to the next source line (N lines)",
+             "gdb's step: until its next bundle holds other source lines. In a .sched region a "
+             "bundle holds operations of several lines and the lines come in the schedule's "
+             "order (gdb on optimised code); stepi moves one bundle, cycle one cycle."),
     "stepi": ("stepi [N]", "run until the viewed processor has issued N bundles",
               "Cycles in which it stalls do not count."),
-    "next": ("next [N]", "like stepi, but a call counts as one bundle with its whole subroutine",
-             ""),
+    "next": ("next [N]", "like step, but a call runs to its return as part of the line", ""),
+    "nexti": ("nexti [N]", "like stepi, but a call counts as one bundle with its whole "
+              "subroutine", ""),
     "continue": ("continue [N]", "run until a breakpoint, a watchpoint or the end of the run",
                  "Ctrl-C stops it between two cycles. With N: ignore the breakpoint that "
                  "stopped the run N-1 more times (gdb's `continue N`)."),
@@ -31,16 +36,17 @@ HELP: dict[str, tuple[str, str, str]] = {
               "2 && f:r7 < 1.5`."),
     "tbreak": ("tbreak LOCATION [if CONDITION]", "a breakpoint deleted when it first stops",
                "As break; `info breakpoints` shows it with Disp `del`."),
-    "watch": ("watch REGISTER|ADDRESS",
+    "watch": ("watch REGISTER|ADDRESS|*ADDR",
               "stop in every cycle that writes a register or a local memory word",
               "Reports old -> new value, the cycle, and the bundle that wrote it (for a register: "
               "the op, its PC and its issue cycle). ADDRESS: local[E], a data label or a number "
-              "(local memory). Views: watch f:r6 shows floats."),
-    "rwatch": ("rwatch ADDRESS", "stop in every cycle that reads a memory word",
+              "(local memory), or gdb's *ADDR (the word at ADDR of local memory: watch *12). "
+              "Views: watch f:r6 shows floats."),
+    "rwatch": ("rwatch ADDRESS|*ADDR", "stop in every cycle that reads a memory word",
                "Any memory: local[E], resident[E], icgm[E], scgm[E] (global memory: a read by "
-               "any PE). Reports the value read, the loading op and, for a global word, whether "
+               "any PE); *ADDR is gdb's spelling (*12: local[12], *icgm 12). Reports the value read, the loading op and, for a global word, whether "
                "the cache hit or missed."),
-    "awatch": ("awatch ADDRESS", "stop in every cycle that reads or writes a memory word",
+    "awatch": ("awatch ADDRESS|*ADDR", "stop in every cycle that reads or writes a memory word",
                "Reads as rwatch reports them, writes (local memory) as watch."),
     "delete": ("delete [N...]", "delete breakpoints, watchpoints (all without N)",
                "N may be a range: delete 2-4."),
@@ -61,18 +67,25 @@ HELP: dict[str, tuple[str, str, str]] = {
              "Without an argument: around the viewed processor's PC, then the next lines on "
              "each repeat; `list -`: the lines before. LOCATION: a label or an address (list "
              "loop), or FILE:LINE. Marks: => the PC's line, B1 a breakpoint's."),
-    "info": ("info breakpoints|display|registers|fifo|cache|stats|scoreboard|checkpoints|state",
-             "show breakpoints, displays, all registers, FIFOs and CMU locks, cache, counters, ...",
+    "info": ("info TOPIC", "breakpoints, display, registers [REG...], line [LINE|*ADDR], "
+             "symbol ADDR, loop, fifo, cache, stats, scoreboard, checkpoints, state",
              "`info breakpoints` is gdb's table (Num Type Disp Enb Address What) with hit "
-             "counts. `info state` prints a digest of the machine's entire state (equal digests: "
-             "equal states)."),
+             "counts. `info registers pri r5` shows only those. `info line 12` (or FILE:LINE, a "
+             "label, *ADDR; the PC's line without one) says which bundles hold a source line; "
+             "`info symbol 12` which label an address is at or after (code and data). `info "
+             "loop` the bound per iteration of the loop around the PC (units, ports, "
+             "recurrence) beside the cycles per iteration achieved so far. "
+             "`info state` prints a digest of the machine's entire state (equal digests: equal "
+             "states)."),
     "print": ("print[/x|/d|/u|/f] EXPRESSION", "evaluate an expression",
               "Names: r5, zero, lr, pc, cycle, labels, -D symbols; memory local[E], resident[E], "
               "icgm[E], scgm[E], global[E]; another processor: ic.r5, pe1.sc.local[3]; views: "
               "f:r5 (float), u:, x:, i:. Operators as in the assembler (C)."),
-    "x": ("x/N[x|d|u|f|a] [REGION] ADDRESS", "dump N words of memory",
-          "REGION: local (default), resident, icgm, scgm, global; e.g. `x/8 icgm 512`, "
-          "`x/4f local[table]`. Formats: x hex (default), d signed, u unsigned, f float, a all."),
+    "x": ("x/N[x|d|u|f|a|i] [REGION] ADDRESS", "dump N words of memory (or N bundles: x/Ni)",
+          "REGION: local (the data memory, default), resident, icgm, scgm, global; e.g. "
+          "`x/8 icgm 512`, `x/4f local[table]`, `x/4f 12`, `x/4xw *12` (gdb's spellings). "
+          "Formats: x hex (default), d signed, u unsigned, f float, a all, i bundles from a "
+          "code location (x/3i pc, x/4i loop)."),
     "disassemble": ("disassemble [LOCATION]", "list the bundles from LOCATION to the next label",
                     "Without a location: the code around the PC. Every slot is shown."),
     "proc": ("proc os|ic|sc", "view another processor of the PE", ""),
@@ -89,9 +102,11 @@ HELP: dict[str, tuple[str, str, str]] = {
             "integer as an integer; x:rN=0x3f800000 stores raw bits. Resident and global memory "
             "are read-only (the host writes them). An edit becomes part of the run's history: "
             "reverse steps before it undo it."),
-    "reverse-step": ("reverse-step [N]", "go back N cycles (exactly: checkpoints + replay)",
-                     "Not before the start of the history: cycle 0, or the cycle where "
-                     "--fast-forward handed the machine over."),
+    "reverse-cycle": ("reverse-cycle [N]", "go back N cycles (exactly: checkpoints + replay)",
+                      "Not before the start of the history: cycle 0, or the cycle where "
+                      "--fast-forward handed the machine over."),
+    "reverse-step": ("reverse-step [N]", "go back to the previous source line (N lines)",
+                     "Back to where the viewed processor's PC last held other source lines."),
     "reverse-stepi": ("reverse-stepi [N]",
                       "go back to the stop after the viewed processor's N-th previous bundle", ""),
     "reverse-continue": ("reverse-continue",
@@ -103,20 +118,35 @@ HELP: dict[str, tuple[str, str, str]] = {
                 "Breakpoints and watchpoints stay; edits are lost. After --fast-forward: back "
                 "to the state it handed over."),
     "source": ("source FILE", "run the commands in FILE", "Lines starting with # are comments."),
-    "help": ("help [COMMAND]", "list the commands, or explain one", ""),
+    "help": ("help [COMMAND|all]", "the index of commands; help COMMAND explains one",
+             "help all: every command with its one-line description (paged on a terminal, as "
+             "all long output is: Enter for more, q to quit, c to continue without paging)."),
     "quit": ("quit", "leave the debugger", "Also at the end of input."),
 }
 
-ALIASES = {"s": "step", "si": "stepi", "n": "next", "c": "continue", "cont": "continue",
+CLASSES = (  # the index `help` prints (gdb's `help` lists classes of commands)
+    ("running", ("step", "next", "stepi", "nexti", "cycle", "continue", "until", "finish",
+                 "restart")),
+    ("backwards", ("reverse-step", "reverse-stepi", "reverse-cycle", "reverse-continue")),
+    ("breakpoints", ("break", "tbreak", "delete", "disable", "enable", "condition", "ignore")),
+    ("watching", ("watch", "rwatch", "awatch")),
+    ("data", ("print", "display", "undisplay", "x", "set", "info")),
+    ("code", ("list", "disassemble")),
+    ("screen", ("proc", "pe", "layout", "screen", "trace")),
+    ("other", ("source", "help", "quit")),
+)
+
+ALIASES = {"s": "step", "si": "stepi", "n": "next", "ni": "nexti", "c": "continue",
+           "cont": "continue", "cy": "cycle", "rcy": "reverse-cycle",
            "u": "until", "fin": "finish", "b": "break", "tb": "tbreak", "d": "delete",
            "dis": "disable", "en": "enable", "i": "info", "p": "print", "l": "list",
            "disas": "disassemble", "rs": "reverse-step", "rsi": "reverse-stepi",
            "rc": "reverse-continue", "h": "help", "q": "quit", "exit": "quit"}
 
-INFO_TOPICS = ("breakpoints", "display", "registers", "fifo", "cache", "stats", "scoreboard",
-               "checkpoints", "state")
+INFO_TOPICS = ("breakpoints", "display", "registers", "line", "symbol", "loop", "fifo", "cache",
+               "stats", "scoreboard", "checkpoints", "state")
 INFO_ALIASES = {"b": "breakpoints", "break": "breakpoints", "watchpoints": "breakpoints",
                 "r": "registers"}
-MOVES = ("step", "stepi", "next", "continue", "until", "finish", "reverse-step", "reverse-stepi",
-         "reverse-continue", "restart")
+MOVES = ("cycle", "step", "stepi", "next", "nexti", "continue", "until", "finish", "reverse-cycle",
+         "reverse-step", "reverse-stepi", "reverse-continue", "restart")
 LAYOUTS = ("auto", "asm", "regs", "full")

@@ -6,7 +6,8 @@ what the stop printed (the breakpoint that fired, the displays) and the prompt â
 never scrolls the listing away. Which panels show depends on the size (`layout auto`) or on
 the `layout` command:
 
-    auto    80x24 and smaller: listing + registers (packed as cells); from 30 lines: also
+    auto    80x24 and smaller: listing + registers (packed as cells); below 64x18 line mode
+            (no panels); from 30 lines: also
             scoreboard and FIFOs; from 36 lines and 110 columns: memory too; from 140
             columns: every panel (counters too)
     asm     the listing only          regs    listing + registers
@@ -16,6 +17,12 @@ Where the width allows (110 columns), the registers stand beside the listing as 
 otherwise they are packed below it. The listing always shows the marker, address, label and
 every slot column of the viewed processor; only operands are cut to fit (view.Listing).
 
+At 80x24 the header shrinks to two lines (the viewed processor, then the others in one), the
+registers get four lines of `name/rN value` cells, and the listing adds the current bundle in
+full under its rows whenever its columns cut an operand. Below MIN_WIDTH x MIN_HEIGHT there is
+no room for panels: the screen degrades to line mode (`line_mode`: what the processor did, the
+bundle in full, its source line), as `--no-screen` prints.
+
 Off a terminal (`--batch`, a pipe) there is no height to fit: the panels are printed at their
 natural height, as a scrolling log (every panel unless `layout` chose some).
 """
@@ -24,14 +31,31 @@ from __future__ import annotations
 
 from rich.console import Group, RenderableType
 from rich.table import Table
+from rich.text import Text
 
-from netsushisen.debugger import view
+from netsushisen.debugger import registers, view
 
 PANELS = ("listing", "registers", "scoreboard", "fifos", "memory", "counters")
 PRESETS = {"asm": ("listing",), "regs": ("listing", "registers"), "full": PANELS}
 RESERVED = 4  # terminal lines left below the screen: the stop's messages and the prompt
 WIDE = 110  # from this width the registers stand beside the listing
 LOWER = ("scoreboard", "fifos", "memory", "counters")
+MIN_WIDTH, MIN_HEIGHT = 64, 18  # below either: line mode
+COMPACT = 30  # below this height the header takes two lines
+
+
+def line_mode(session, width: int) -> RenderableType:
+    """The screen of a terminal too small for panels: the stop in a few lines."""
+    core = session.core
+    lines = [view.where_line(session)]
+    if core.present:
+        focus = min(view.focus_pc(core), len(core.bundles) - 1)
+        if not core.last_issued:
+            lines.append(Text(f"{focus}: {view.bundle_text(core.program, focus)}"))
+        text = view.source_text(core.program, focus)
+        if text:
+            lines.append(Text(text, style=view.DIM))
+    return Group(*lines)
 
 
 def choose_panels(layout, width: int, height: int | None) -> tuple[str, ...]:
@@ -74,41 +98,44 @@ def screen(session, width: int, height: int | None = None, layout="auto") -> Ren
     lower = [p for p in LOWER if p in chosen]
     wide = width >= WIDE
     if height is None:
-        return _natural(session, chosen, lower, wide)
-    room = height - RESERVED - view.header_height(session)
+        return _natural(session, chosen, lower, wide, width)
+    compact = height < COMPACT
+    room = height - RESERVED - view.header_height(session, compact)
     # the lower panels: one row beside each other when wide, rows of two when narrow
     lower_rows = [lower] if wide else [lower[i:i + 2] for i in range(0, len(lower), 2)]
     lower_rows = [r for r in lower_rows if r]
     lower_h = 12 if room >= 40 else 9 if room >= 30 else 7
     regs_below = "registers" in chosen and not wide
-    regs_lines = 3 if room >= 30 else 2
+    regs_lines = 4 if room >= 15 else 2
     regs_h = regs_lines + 2 if regs_below else 0
     # the listing needs at least 3 bundles (7 lines with its borders, header, source line):
     # lower panels give way first, when the layout is auto
     while lower_rows and room - regs_h - lower_h * len(lower_rows) < 7:
         lower_rows.pop()
     listing_h = max(room - regs_h - lower_h * len(lower_rows), 5)
-    parts: list[RenderableType] = [view.header(session)]
-    listing = view.listing_panel(session, rows=listing_h - 4, height=listing_h) \
-        if "listing" in chosen else None
+    parts: list[RenderableType] = [view.header(session, compact)]
+    listing_w = width - FIXED["registers"] if "registers" in chosen and wide else width
+    listing = view.listing_panel(session, rows=listing_h - 4, height=listing_h,
+                                 width=listing_w) if "listing" in chosen else None
     if "registers" in chosen and wide:
-        regs = view.registers_panel(session, rows=listing_h - 4, height=listing_h)
+        regs = registers.registers_panel(session, rows=listing_h - 4, height=listing_h)
         parts.append(_row([listing, regs], [1, "registers"]) if listing is not None else regs)
     elif listing is not None:
         parts.append(listing)
     if regs_below:
-        parts.append(view.register_cells_panel(session, regs_lines, height=regs_h))
+        parts.append(registers.register_cells_panel(session, regs_lines, height=regs_h))
     for row in lower_rows:
         parts.append(_row([_LOWER_MAKERS[p](session, height=lower_h) for p in row],
                           [_LOWER_RATIO[p] for p in row]))
     return Group(*parts)
 
 
-def _natural(session, chosen, lower, wide: bool) -> RenderableType:
+def _natural(session, chosen, lower, wide: bool, width: int) -> RenderableType:
     """The scrolling log's screen: every chosen panel at its natural height."""
     parts: list[RenderableType] = [view.header(session)]
-    listing = view.listing_panel(session, 11) if "listing" in chosen else None
-    regs = view.registers_panel(session, 12) if "registers" in chosen else None
+    listing_w = width - FIXED["registers"] if "registers" in chosen and wide else width
+    listing = view.listing_panel(session, 11, width=listing_w) if "listing" in chosen else None
+    regs = registers.registers_panel(session, 12) if "registers" in chosen else None
     if listing is not None and regs is not None and wide:
         parts.append(_row([listing, regs], [1, "registers"]))
     else:

@@ -28,7 +28,7 @@ import copy
 from dataclasses import dataclass, field
 from typing import Callable
 
-from netsushisen.debugger.expressions import DebugError
+from netsushisen.debugger.expressions import DebugError, bundle_lines
 from netsushisen.debugger.state import Frozen, freeze, thaw
 
 
@@ -123,7 +123,7 @@ class ReverseExecution:
 
     def reverse_step(self, n: int = 1) -> Stop:
         if n < 1:
-            raise DebugError("reverse-step takes a positive number of cycles")
+            raise DebugError("reverse-cycle takes a positive number of cycles")
         now = self.machine.cycle
         if now <= self.origin:
             return Stop([self._history_start(False)])
@@ -194,6 +194,28 @@ class ReverseExecution:
                                                    "bundles")], moved=True)
         self.goto_cycle(c + 1)
         return Stop(moved=True)
+
+    def reverse_step_line(self, n: int = 1) -> Stop:
+        """gdb's `reverse-step`: back, n times, to the stop at which the viewed processor's PC
+        last held other source lines than it holds now (the previous source line; in a
+        scheduled region, the previous bundle's lines)."""
+        if n < 1:
+            raise DebugError("reverse-step takes a positive number of lines")
+        pe, stage = self.pe, self.stage
+        core = self.machine.pes[pe].cores[stage]
+        if not core.present:
+            raise DebugError(f"pe{pe}.{stage} has no program")
+        program = core.program
+        stop = Stop(moved=True)
+        for _ in range(n):
+            start = bundle_lines(program, self.machine.pes[pe].cores[stage].pc)
+            while True:
+                stop = self.reverse_stepi(1)
+                if stop.messages:  # the start of the history
+                    return stop
+                if bundle_lines(program, self.machine.pes[pe].cores[stage].pc) != start:
+                    break
+        return stop
 
     def checkpoint_info(self) -> list[str]:
         cps = self.checkpoints

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from typing import Callable, Protocol
 
 from netsushisen.debugger.breakpoints import WATCH_TYPES, Breakpoint, Breakpoints, Watchpoint
-from netsushisen.debugger.expressions import Context, DebugError, Place
+from netsushisen.debugger.expressions import Context, DebugError, Place, bundle_lines
 from netsushisen.debugger.fastforward import fast_forward
 from netsushisen.debugger.reverse import Checkpoint, Hit, ReverseExecution, Stop
 from netsushisen.debugger.state import Frozen, thaw
@@ -144,7 +144,7 @@ class Session(Breakpoints, ReverseExecution):
         self.checkpoints: dict[int, Checkpoint] = {}
         # per core: last ldg (addr, set, hit, cycle), last ldr (addr, cycle), and, per register,
         # the (pc, cycle) of the bundle whose result it waits for or last received
-        self.aux: dict = {c.name: {"ldg": None, "ldr": None, "origin": {}}
+        self.aux: dict = {c.name: {"ldg": None, "ldr": None, "origin": {}, "issued_at": {}}
                           for c in self.machine.cores}
         if self.machine.cycle:  # after a fast-forward: what the last cycle tells
             self._seed_notes()
@@ -265,6 +265,7 @@ class Session(Breakpoints, ReverseExecution):
                     ev.clear()
                 if core.last_issued:
                     pc = core.last_pc
+                    aux["issued_at"][pc] = c  # `info loop`: when the loop head last issued
                     origin = aux["origin"]
                     for r in core.bundles[pc].writes:
                         origin[r] = (pc, c)
@@ -338,21 +339,27 @@ class Session(Breakpoints, ReverseExecution):
 
     def step(self, n: int = 1) -> Stop:
         if n < 1:
-            raise DebugError("step takes a positive number of cycles")
+            raise DebugError("cycle takes a positive number of cycles")
         return self.advance(max_cycles=n)
 
-    def stepi(self, n: int = 1, over_calls: bool = False) -> Stop:
-        """Run until the viewed processor has issued n bundles (`next`: a `call` counts as one
-        bundle with everything up to its return)."""
+    def stepi(self, n: int = 1, over_calls: bool = False, by_line: bool = False) -> Stop:
+        """Run until the viewed processor has issued n bundles (`nexti`: a `call` counts as one
+        bundle with everything up to its return). `by_line` (gdb's `step`/`next`): n source
+        lines instead — a line ends when the next bundle (the PC) holds other source lines than
+        the bundle the line started at, or the code jumps back to that bundle (a loop on one
+        line). In a scheduled region a bundle holds several lines and the lines come in the
+        schedule's order, as gdb steps optimised code."""
         if n < 1:
-            raise DebugError("stepi takes a positive number of bundles")
+            raise DebugError(f"{'step' if by_line else 'stepi'} takes a positive number")
         pe, stage = self.pe, self.stage
         if not self.core.present:
             raise DebugError(f"pe{pe}.{stage} has no program")
         if self.core.halted and not self.ended:
-            raise DebugError(f"pe{pe}.{stage} has halted; use step (cycles) or continue")
+            raise DebugError(f"pe{pe}.{stage} has halted; use cycle or continue")
         count = [0]
         ret_to = [None]
+        program = self.core.program
+        line_at = [self.core.pc, bundle_lines(program, self.core.pc)]
 
         def done(c: int) -> bool:
             core = self.machine.pes[pe].cores[stage]
@@ -366,8 +373,15 @@ class Session(Breakpoints, ReverseExecution):
             elif over_calls and any(op.mnemonic == "call" for op in core.program.bundles[pc]):
                 ret_to[0] = pc + 1
                 return False
+            if core.halted:
+                return True
+            if by_line:
+                lines = bundle_lines(program, core.pc)
+                if lines == line_at[1] and core.pc != line_at[0]:
+                    return False  # still in the line
+                line_at[:] = [core.pc, lines]
             count[0] += 1
-            return count[0] >= n or core.halted
+            return count[0] >= n
 
         stop = self.advance(done)
         if not stop.hits and not stop.ended and self.core.halted:

@@ -10,7 +10,7 @@ panels come out as plain text, with markers standing in for colour:
     ~   a register with a result in flight (the scoreboard panel says when it lands)
 
 Panels take an optional height (the fixed-layout screen gives each its share, layout.py); the
-listing (`Listing`) and the packed registers (`RegisterCells`) lay themselves out for the
+listing (`Listing`) and the packed registers (`registers.RegisterCells`) lay themselves out for the
 width they get.
 """
 
@@ -24,7 +24,8 @@ from rich.table import Table
 from rich.text import Text
 
 from netsushisen.asm.listing import slot_assignment, target_names
-from netsushisen.debugger.expressions import hex_word, looks_float
+from netsushisen.asm.regnames import named_text, register_names
+from netsushisen.debugger.expressions import bundle_lines, hex_word, looks_float, reg_label
 from netsushisen.isa.words import wrap32
 
 ISSUED = "bold black on green"
@@ -44,8 +45,6 @@ def _float_text(core, word: int) -> str:
     return str(core.value(word, "f"))
 
 
-def _reg_name(r: int) -> str:
-    return {0: "r0", 63: "lr"}.get(r, f"r{r}")
 
 
 def in_flight(core) -> dict[int, tuple[int, int]]:
@@ -69,9 +68,10 @@ def describe_core(core) -> str:
     return f"stall {core.cause} at {core.where(core.last_pc)}"
 
 
-def header(session) -> RenderableType:
+def header(session, compact: bool = False) -> RenderableType:
     """The cycle and status, then one line per processor of the PE that has a program (and the
-    viewed one, `*`): what it did in the last cycle."""
+    viewed one, `*`): what it did in the last cycle. Compact (a short terminal): the viewed
+    processor's line, then the others together on one."""
     m = session.machine
     status = m.status or "running"
     last = f"last cycle {m.cycle - 1}" if m.cycle else "before cycle 0"
@@ -79,18 +79,25 @@ def header(session) -> RenderableType:
                           (f"{last} ({m.cycle} cycles run)", "bold"), f"  status {status}")
     title.no_wrap, title.overflow = True, "ellipsis"
     lines: list[RenderableType] = [title]
+    others = []
     for stage, core in m.pes[session.pe].cores.items():
         if not core.present and stage != session.stage:
             continue
         mark = "*" if stage == session.stage else " "
+        if compact and mark == " ":
+            others.append(f"{stage.upper()} {describe_core(core)}")
+            continue
         lines.append(Text.assemble((f"{mark}{stage.upper()}", "bold" if mark == "*" else ""),
                                    "  " + describe_core(core), no_wrap=True, overflow="ellipsis"))
+    if others:
+        lines.append(Text(" " + "; ".join(others), style=DIM, no_wrap=True, overflow="ellipsis"))
     return Group(*lines)
 
 
-def header_height(session) -> int:
+def header_height(session, compact: bool = False) -> int:
     cores = session.machine.pes[session.pe].cores
-    return 1 + sum(1 for s, c in cores.items() if c.present or s == session.stage)
+    shown = sum(1 for s, c in cores.items() if c.present or s == session.stage)
+    return 1 + (min(shown, 2) if compact else shown)
 
 
 def where_line(session) -> Text:
@@ -105,8 +112,8 @@ def where_line(session) -> Text:
 
 
 def bundle_text(program, pc: int) -> str:
-    labels = targets(program)
-    return " ; ".join(op.format(labels) for op in program.bundles[pc]) or "nop"
+    """The bundle as one line, branch targets as labels and registers as `pri/r29`."""
+    return named_text(program, pc, targets(program)) or "nop"
 
 
 _TARGETS: dict[int, tuple[object, dict[int, str]]] = {}
@@ -127,10 +134,44 @@ def targets(program) -> dict[int, str]:
 
 def bundle_cells(program, pc: int) -> list[str]:
     labels = targets(program)
+    regs = register_names(program).labels(pc)
     bundle = program.bundles[pc]
     if program.processor.vliw:
-        return [op.format(labels) if op else "-" for _, op in slot_assignment(program, bundle)]
-    return [" ; ".join(op.format(labels) for op in bundle) or "nop"]
+        return [op.format(labels, regs) if op else "-"
+                for _, op in slot_assignment(program, bundle)]
+    return [" ; ".join(op.format(labels, regs) for op in bundle) or "nop"]
+
+
+def line_numbers(lines: list[tuple[str, int]]) -> str:
+    """Source line numbers as a short text: `7-9`, `10,12`."""
+    nums = sorted({ln for _, ln in lines})
+    parts, i = [], 0
+    while i < len(nums):
+        j = i
+        while j + 1 < len(nums) and nums[j + 1] == nums[j] + 1:
+            j += 1
+        parts.append(str(nums[i]) if i == j else f"{nums[i]}-{nums[j]}")
+        i = j + 1
+    return ",".join(parts)
+
+
+def scheduled(program) -> bool:
+    """Whether a `.sched` region made the program's layout: some bundle holds several source
+    lines (then the listing shows each bundle's lines: one line is no longer one bundle)."""
+    return any(len({(s.file, s.line) for s in ops}) > 1 for ops in program.op_sources)
+
+
+def source_text(program, pc: int) -> str:
+    """The source of bundle `pc` as one line: `k.s:7,9: fadd r3, a, b | fmul r7, r5, r5`."""
+    lines = bundle_lines(program, pc)
+    if not lines:
+        return ""
+    ops = program.op_sources[pc] if pc < len(program.op_sources) else ()
+    if len(lines) > 1 and ops:
+        texts = list(dict.fromkeys(s.text.strip() for s in ops))
+        return f"{lines[0][0]}:{line_numbers(lines)}: {' | '.join(texts)}"
+    loc = program.source_map[pc]
+    return f"{loc.file}:{loc.line}: {loc.text.strip()}"
 
 
 def slot_names(program) -> list[str]:
@@ -185,6 +226,7 @@ class Listing:
 
     def __init__(self, session, core, start: int, end: int, focus: bool = True):
         self.session, self.core, self.start, self.end, self.focus = session, core, start, end, focus
+        self.lines_column = core.program is not None and scheduled(core.program)
 
     def rows(self) -> list[tuple[str, str, str, list[str], str]]:
         core, program = self.core, self.core.program
@@ -204,12 +246,29 @@ class Listing:
             elif focus and pc == core.pc and not core.halted:
                 mark = "->"
             mark = (mark or "  ") + bps.get(pc, "")
-            out.append((mark.rstrip(), str(pc), by_addr.get(pc, ""), bundle_cells(program, pc),
-                        style))
+            label = by_addr.get(pc, "")
+            if self.lines_column:
+                label = (line_numbers(bundle_lines(program, pc)), label)
+            out.append((mark.rstrip(), str(pc), label, bundle_cells(program, pc), style))
         return out
+
+    def cut(self, pc: int, width: int) -> bool:
+        """Whether the row of bundle `pc` loses operand text at this width."""
+        for text in self.lines(width):
+            cells = text.plain.split()
+            if len(cells) > 1 and (cells[0] == str(pc) or cells[1] == str(pc)):
+                return "…" in text.plain or len(text.plain) >= width
+        return False
 
     def lines(self, width: int) -> list[Text]:
         rows = self.rows()
+        if self.lines_column:  # a scheduled program: each bundle's source lines by its address
+            src_w = max([4] + [len(r[2][0]) for r in rows])
+            rows = [(m, f"{a:>4} {lab[0]:<{src_w}}", lab[1], c, st)
+                    for m, a, lab, c, st in rows]
+            head_addr = f"{'addr':>4} {'line':<{src_w}}"
+        else:
+            head_addr = "addr"
         names = slot_names(self.core.program)
         mark_w = max([4] + [len(r[0]) for r in rows])  # room for =>B1: columns stay put
         addr_w = max([4] + [len(r[1]) for r in rows])
@@ -227,7 +286,7 @@ class Listing:
                     + (" " * gap).join(f"{fit(c, w):<{w}}" for c, w in zip(cells, widths)))
             return text.rstrip()
 
-        out = [Text(line("", "addr", "label", names), style="bold", no_wrap=True,
+        out = [Text(line("", head_addr, "label", names), style="bold", no_wrap=True,
                     overflow="crop")]
         for mark, addr, label, cells, style in rows:
             out.append(Text(line(mark, addr, label, cells), style=style, no_wrap=True,
@@ -256,119 +315,32 @@ def listing_window(core, rows: int) -> tuple[int, int]:
     return start, min(n, start + rows)
 
 
-def listing_panel(session, rows: int = 11, height: int | None = None) -> Panel:
+def listing_panel(session, rows: int = 11, height: int | None = None,
+                  width: int | None = None) -> Panel:
+    """The listing around the focus bundle and its source line. Given the panel's `width`,
+    when the slot columns cut an operand of the focus bundle, that bundle follows in full
+    (wrapped, `=> 5: fadd sum/r6, ...`), its lines taken from the rows."""
     core = session.core
     title = f"listing pe{session.pe}.{session.stage}"
     if not core.present:
         return _panel(Text("(no program on this processor)"), title, height)
-    start, end = listing_window(core, rows)
-    parts: list[RenderableType] = [Listing(session, core, start, end)]
-    smap = core.program.source_map
     focus = min(focus_pc(core), len(core.bundles) - 1)
-    if focus < len(smap):
-        loc = smap[focus]
-        parts.append(Text(f"{loc.file}:{loc.line}: {loc.text.strip()}", style=DIM,
-                          overflow="ellipsis", no_wrap=True))
+    full = None
+    if width is not None:
+        start, end = listing_window(core, rows)
+        if Listing(session, core, start, end).cut(focus, width - 4):
+            mark = "=>" if core.last_issued else "!>" if core.cause and not core.halted else "->"
+            full = Text(f"{mark} {focus}: {bundle_text(core.program, focus)}", style="bold")
+            rows -= max(1, -(-len(full.plain) // max(width - 4, 1)))
+    start, end = listing_window(core, max(rows, 1))
+    parts: list[RenderableType] = [Listing(session, core, start, end)]
+    if full is not None:
+        parts.append(full)
+    text = source_text(core.program, focus)
+    if text:
+        parts.append(Text(text, style=DIM, overflow="ellipsis", no_wrap=True))
     legend = "=> issued  !> stalled  -> next  B1 breakpoint"
     return _panel(Group(*parts), f"{title}  ({legend})", height)
-
-
-# ---------------------------------------------------------------------------------------------
-# Registers
-
-
-def register_rows(session, core, rows: int | None) -> tuple[list[int], int]:
-    """Registers worth showing: changed since the previous stop, pending, non-zero (in that
-    priority when they do not all fit), in register order; and how many were left out."""
-    prev = session.previous_regs.get(core.name, core.regs)
-    changed = [r for r in range(1, len(core.regs)) if core.regs[r] != prev[r]]
-    pending = sorted(in_flight(core))
-    nonzero = [r for r in range(1, len(core.regs)) if core.regs[r]]
-    chosen: list[int] = []
-    for group in (changed, pending, nonzero):
-        for r in group:
-            if r not in chosen:
-                chosen.append(r)
-    left = 0
-    if rows is not None and len(chosen) > rows:
-        left = len(chosen) - rows
-        chosen = chosen[:rows]
-    return sorted(chosen), left
-
-
-def registers_table(session, core, regs: list[int]) -> Table:
-    prev = session.previous_regs.get(core.name, core.regs)
-    t = Table(box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 1), show_edge=False)
-    t.add_column("reg", no_wrap=True)
-    t.add_column("int", justify="right", no_wrap=True)
-    t.add_column("hex", no_wrap=True)
-    t.add_column("float", justify="right", no_wrap=True)
-    flying = in_flight(core)
-    for r in regs:
-        w = core.regs[r]
-        changed = w != prev[r]
-        style = CHANGED if changed else (PENDING if r in flying else None)
-        name = ("*" if changed else "~" if r in flying else " ") + _reg_name(r)
-        t.add_row(name, str(wrap32(w)), hex_word(core, w), _float_text(core, w), style=style)
-    return t
-
-
-def registers_panel(session, rows: int = 11, height: int | None = None) -> Panel:
-    core = session.core
-    regs, left = register_rows(session, core, rows)
-    title = f"registers pe{session.pe}.{session.stage}  (* changed, ~ in flight)"
-    if not regs:
-        return _panel(Text("all registers are 0"), title, height)
-    parts: list[RenderableType] = [registers_table(session, core, regs)]
-    if left:
-        parts.append(Text(f"... {left} more non-zero (info registers)", style=DIM))
-    return _panel(Group(*parts), title, height)
-
-
-class RegisterCells:
-    """Registers packed as `*r9 3  ~r2 0.0  r1 1.5` cells, as many per line as the width
-    holds, on at most `lines` lines: the small screen's registers (the same choice and marks
-    as the table: changed, in flight, non-zero)."""
-
-    def __init__(self, session, core, lines: int):
-        self.session, self.core, self.lines = session, core, lines
-
-    def cells(self, regs: list[int]) -> list[tuple[str, str]]:
-        core = self.core
-        prev = self.session.previous_regs.get(core.name, core.regs)
-        flying = in_flight(core)
-        out = []
-        for r in regs:
-            w = core.regs[r]
-            changed = w != prev[r]
-            mark = "*" if changed else "~" if r in flying else " "
-            value = _float_text(core, w) if looks_float(core, w) else str(wrap32(w))
-            out.append((f"{mark}{_reg_name(r)} {value}",
-                        CHANGED if changed else PENDING if r in flying else ""))
-        return out
-
-    def __rich_console__(self, console, options):
-        width = options.max_width
-        regs, _ = register_rows(self.session, self.core, None)
-        if not regs:
-            yield Text("all registers are 0", style=DIM)
-            return
-        cells = self.cells(regs)
-        cell_w = min(max(len(c) for c, _ in cells) + 2, max(width, 1))
-        per_line = max(1, width // cell_w)
-        room = per_line * self.lines
-        if len(cells) > room:  # the last cell says how many more
-            cells = cells[:room - 1] + [(f"+{len(cells) - room + 1} more", DIM)]
-        for i in range(0, len(cells), per_line):
-            line = Text(no_wrap=True, overflow="crop")
-            for text, style in cells[i:i + per_line]:
-                line.append(f"{fit(text, cell_w - 2):<{cell_w}}", style=style or None)
-            yield line
-
-
-def register_cells_panel(session, lines: int, height: int | None = None) -> Panel:
-    title = f"registers pe{session.pe}.{session.stage}  (* changed, ~ in flight)"
-    return _panel(RegisterCells(session, session.core, lines), title, height)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -386,7 +358,7 @@ def scoreboard_table(session, core) -> Table | None:
             src = origin.get(r)
             by = f"{core.producer[r]} pc {src[0]}" if src else core.producer[r]
             value = _float_text(core, w) if looks_float(core, w) else str(wrap32(w))
-            rows.append((_reg_name(r), by, str(t), value))
+            rows.append((reg_label(core, r), by, str(t), value))
     if not rows:
         return None
     tab = Table(box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 1), show_edge=False)

@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from netsushisen.asm.listing import static_ilp, target_names
+from netsushisen.asm.listing import bundle_target, static_ilp, target_names
 from netsushisen.asm.objects import Program
 from netsushisen.emulator.machine import Machine
 
@@ -49,22 +49,39 @@ SCHEMA = {"name": "netsushisen-stats", "version": 1}
 def program_listing(program: Program) -> dict[str, list]:
     """Per bundle address, as columns (a list each, compact in the indented JSON): its
     label+offset, text, operation count, the code address a branch or jump names (`report
-    annotate` finds loops from the backward ones) and the source line. The statistics carry it
+    annotate` finds loops from the backward ones), the source line and the source lines of its
+    operations (`lines`: "ic.s:12, 13" — a scheduled bundle gathers several). The statistics carry it
     so a report reads the program beside its counters even when the kernel source has changed
     or is gone; the file name alone keeps the statistics the same wherever the kernels are."""
     labels = program.code_labels()
     names = target_names(program)  # one pass: label+offset of every address
-    out: dict[str, list] = {"label": [], "text": [], "ops": [], "target": [], "source": []}
+    out: dict[str, list] = {"label": [], "text": [], "ops": [], "target": [], "source": [],
+                            "lines": []}
     for addr, bundle in enumerate(program.bundles):
         real = [op for op in bundle if op.opcode.kind != "nop"]
         loc = program.source_map[addr] if addr < len(program.source_map) else None
         out["label"].append(names.get(addr, str(addr)))
         out["text"].append(" ; ".join(op.format(labels) for op in real) or "nop")
         out["ops"].append(len(real))
-        out["target"].append(next((op.args[-1] for op in real if op.opcode.kind in ("branch", "jump")
-                                   and isinstance(op.args[-1], int)), None))
+        out["target"].append(bundle_target(bundle))
         out["source"].append(f"{os.path.basename(loc.file)}:{loc.line}" if loc else None)
+        out["lines"].append(source_lines(program, addr))
     return out
+
+
+def source_lines(program: Program, addr: int) -> str | None:
+    """The distinct source lines of a bundle's operations, "file:line, line, other:line"."""
+    if addr >= len(program.op_sources) or not program.op_sources[addr]:
+        return None
+    parts, seen, last_file = [], set(), None
+    for s in program.op_sources[addr]:
+        if (s.file, s.line) in seen:
+            continue
+        seen.add((s.file, s.line))
+        name = os.path.basename(s.file)
+        parts.append(str(s.line) if name == last_file else f"{name}:{s.line}")
+        last_file = name
+    return ", ".join(parts)
 
 
 def collect(machine: Machine) -> dict:

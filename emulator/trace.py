@@ -30,6 +30,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, NamedTuple, Protocol, TextIO
 
+from netsushisen.asm.regnames import named_text, register_names
 from netsushisen.errors import NetsushisenError
 
 if TYPE_CHECKING:
@@ -65,6 +66,14 @@ def wanted(name: str, prefixes: list[str] | None) -> bool:
     return prefixes is None or any(name == p or name.startswith(p + ".") for p in prefixes)
 
 
+def bundle_text(core, pc: int) -> str:
+    """The bundle's text for a trace line, registers with their `.reg` names (`pri/r29`)."""
+    program = core.program
+    if program is None or not program.reg_names:
+        return core.bundles[pc].text
+    return named_text(program, pc) or "(empty)"
+
+
 class Tracer:
     def __init__(self, out: TextIO, processors: str | None = None, cycles: str | None = None):
         self.out = out
@@ -82,8 +91,7 @@ class Tracer:
             if not core.present or not self.wants(core.name):
                 continue
             if core.last_issued:
-                b = core.bundles[core.last_pc]
-                what = b.text
+                what = bundle_text(core, core.last_pc)
                 if core.halted:
                     self._halted.add(core.name)
             elif core.halted:
@@ -246,15 +254,16 @@ class TimelineTap:
             b = core.bundles[pc]
             first, _ = self._lanes[core.name]
             used: dict[str, int] = {}
+            names = register_names(core.program).labels(pc) if core.program else None
             ops = []
             for d in b.ops:
                 if not d.unit:
                     continue
                 k = used.get(d.unit, 0)
                 used[d.unit] = k + 1
-                ops.append((d.op.format(), d.m, first[d.unit] + k,
+                ops.append((d.op.format(None, names), d.m, first[d.unit] + k,
                             tuple(r for r in d.op.writes() if r), d.kind, d.lat))
-            info = self._bundles[key] = (core.label(pc), b.text, tuple(ops),
+            info = self._bundles[key] = (core.label(pc), bundle_text(core, pc), tuple(ops),
                                          tuple(r for r in b.reads if r))
         return info
 

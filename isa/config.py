@@ -431,6 +431,18 @@ def load_config(path: str | Path | None = None, overrides: list[str] | None = No
     return config
 
 
+def config_from_dict(data: dict[str, Any], source: str = "config") -> MachineConfig:
+    """The configuration a statistics file records (`MachineConfig.to_dict`), read back so a
+    report can reason with the machine the run had; every problem at once, named after `source`."""
+    config = MachineConfig()
+    problems: list[tuple[str, str]] = []
+    _apply(config, data, "", problems)
+    if problems:
+        raise ConfigError([Diagnostic(message, file=source) for _, message in problems])
+    config.validate(source)
+    return config
+
+
 def apply_override(config: MachineConfig, item: str) -> None:
     """Apply one `--set path.to.field=value` (dict fields take `ic.latency.fdiv=20`)."""
     if "=" not in item:

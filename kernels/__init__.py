@@ -8,6 +8,20 @@ from pathlib import Path
 
 KERNELS = Path(__file__).resolve().parent
 
+KERNEL_SETS = {"classic": "the 1992-style kernels as first written: hand-packed bundles, one list "
+                          "cell at a time (kernels/classic/)"}
+"""Other bundled kernel sets, by name: `render --kernels classic` runs them (docs/kernels.md)."""
+
+
+def kernel_folder(name_or_dir: str | Path | None) -> Path:
+    """The folder a `--kernels` value means: none, the bundled kernels; the name of a bundled
+    set (KERNEL_SETS) that is not also a folder here, that set; else the folder as given."""
+    if name_or_dir is None or str(name_or_dir) == "":
+        return KERNELS
+    if str(name_or_dir) in KERNEL_SETS and not Path(name_or_dir).is_dir():
+        return KERNELS / str(name_or_dir)
+    return Path(name_or_dir)
+
 
 @lru_cache(maxsize=1)
 def protocol() -> dict[str, int]:

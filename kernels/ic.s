@@ -217,6 +217,68 @@ fan_a:      .space FAN_WORDS
 fan_b:      .space FAN_WORDS
 .endif
 
+# Every memory's copy of a block with nothing between them (each copy ends in branches):
+# `BOTH SPH_BLOCK` gives sph_g, then sph_r.
+.macro BOTH block
+.if HAS_GLOBAL
+    \block g, ldg, 1
+.endif
+.if HAS_RESIDENT
+    \block r, ldr, 0
+.endif
+.endm
+
+# The cell's kind dispatch (`m_t` = kind): a branch to every kind's block but the first kind's,
+# which follows. Kinds: polygon 0, sphere 1, cylinder 2, cone 3.
+# A reload (another slot's ray) loads the polygon setup (shears, axis flags) only when a polygon
+# test needs it (poly_<m>) if the scene has other kinds too: sx = +inf (never a real shear: |sx| <= 1)
+# marks it as not loaded.
+.equ LAZY_SETUP, HAS_POLYGONS && (HAS_SPHERES || HAS_CYLINDERS || HAS_CONES)
+.equ FIRST_CYL, HAS_CYLINDERS
+# Without two-sided primitives and patches (and without cones) a kind word is the kind itself
+# for every kind but the polygon (its vertex count, >= 3, sits from bit 8): DISPATCH compares the
+# word with 1 and 2 at once, without the `andi`.
+.equ EXACT_KW, N_KINDS > 1 && !HAS_TWO_SIDED && !HAS_PATCHES && !HAS_CONES
+.equ FIRST_SPH, HAS_SPHERES && !HAS_CYLINDERS
+.equ FIRST_POLY, HAS_POLYGONS && !HAS_SPHERES && !HAS_CYLINDERS
+.equ FIRST_CONE, HAS_CONES && !HAS_POLYGONS && !HAS_SPHERES && !HAS_CYLINDERS
+.macro DISPATCH m
+.if EXACT_KW
+.if HAS_SPHERES && FIRST_CYL
+    beq kw, one, sph_\m
+.endif
+.if HAS_POLYGONS && FIRST_CYL
+    bne kw, two, poly_\m
+.elif HAS_POLYGONS && FIRST_SPH
+    bne kw, one, poly_\m
+.endif
+.else
+.if N_KINDS > 1
+    { andi m_t, kw, KIND_MASK }
+.endif
+.if HAS_POLYGONS && !FIRST_POLY
+    beqz m_t, poly_\m
+.endif
+.if HAS_SPHERES && !FIRST_SPH
+    beq m_t, one, sph_\m
+.endif
+.if HAS_CONES && FIRST_CYL
+    bne m_t, two, cone_\m                                               # kind 2 or 3 left
+.elif HAS_CONES && FIRST_SPH
+    bne m_t, one, cone_\m                                               # kind 1 or 3 left
+.elif HAS_CONES && FIRST_POLY
+    bnez m_t, cone_\m
+.endif
+.endif
+.endm
+
+# The end of every test's cheap part: `go` = the test failed and another cell follows, so the
+# next cell starts at once (one taken branch instead of two). `more` = P >= 0 comes from an FP
+# compare of P's raw word: a non-negative integer is a non-negative (denormal or zero) float, a
+# negative one has its sign bit set (a negative float or a NaN: fle gives 0), in fp32 and fp64.
+# A test forms go = flt(thr, -disc) with thr = more ? +0 : +inf, i.e. more && disc < 0 (NaN: no),
+# where -disc is computed beside disc as the reversed subtraction (exactly -disc, also for 0).
+
 # ---- start -----------------------------------------------------------------------------------
 .text
 start:
@@ -228,6 +290,7 @@ start:
     { li cbuf, fan_a }
 .endif
     { li cur, -1 }
+    j main
 
 # ---- main: one message from OS ---------------------------------------------------------------
 .reg m_hdr = r38
@@ -248,6 +311,23 @@ start:
 .reg m_u   = r55
 .reg m_v   = r56
 .reg m_texit = r57
+# ---- the tests ------------------------------------------------------------------------------------
+.if HAS_POLYGONS
+.include "ic_polygon.inc"
+.endif
+.if HAS_SPHERES
+.include "ic_sphere.inc"
+.endif
+.if HAS_CYLINDERS
+.include "ic_cylinder.inc"
+.endif
+.if HAS_CONES
+.include "ic_cone.inc"
+.endif
+
+# ---- the hit --------------------------------------------------------------------------------------
+.include "ic_hit.inc"
+
 main:
     recv m_hdr, ring
     recv slot, ring
@@ -277,12 +357,13 @@ main:
     { \op fz1, [m_sb + (slot_table + SLOT_FZ1)] }
     { \op fz2, [m_sb + (slot_table + SLOT_FZ2)] }
 .endm
-
 # VISIT of a ray that is not in the registers: load it from the slot table.
 reload:
-    { slli m_sb, slot, SLOT_SHIFT }
+    { slli m_sb, slot, SLOT_SHIFT ; fmov cur, slot }
     SLOT_RAY ld
-.if HAS_POLYGONS
+.if LAZY_SETUP
+    { fsel best, shadow, tmax, pinf ; fsel lim, shadow, pinf, m_texit ; fmov sx, pinf }
+.elif HAS_POLYGONS
     { ld sx, [m_sb + (slot_table + SLOT_SX)] }
     { ld sy, [m_sb + (slot_table + SLOT_SY)] ; fsel best, shadow, tmax, pinf }
     { ld fx1, [m_sb + (slot_table + SLOT_FX1)] ; fsel lim, shadow, pinf, m_texit }
@@ -290,78 +371,52 @@ reload:
 .else
     { fsel best, shadow, tmax, pinf ; fsel lim, shadow, pinf, m_texit }
 .endif
-    { fmov cur, slot ; j visit }
-
-# VISIT_FIRST: the 13-word ray record follows. Pixel, info and weight go straight to the slot
-# table (only a HIT needs them); origin, direction, t_min, t_max stay in registers and reach the
-# table only if the ray needs another visit (write_back, after NEXT). Meanwhile the FP units do
-# golden's `ic_rays` setup: kz = axis of the largest |d| (ties x, y, z), kx = kz+1, ky = kx+1
-# (mod 3), kx <-> ky if d[kz] < 0; sx = d[kx]/d[kz], sy = d[ky]/d[kz]. The axes become 0/1 flags
-# (fz1 = [kz == 1], ...) for the polygon test's fsel permutation A[k] = f2 ? Az : (f1 ? Ay : Ax).
-# Unswapped: kz = 0 -> (kx, ky) = (1, 2); kz = 1 -> (2, 0); kz = 2 -> (0, 1).
-visit_first:
-    { slli m_sb, slot, SLOT_SHIFT }
-    recv m_t, ring
-    { st m_t, [m_sb + (slot_table + RAY_PIXEL)] }
-    recv m_t, ring
-    { st m_t, [m_sb + (slot_table + RAY_INFO)] }
-    { andi m_t, m_t, 3 }
-    { slt shadow, two, m_t }                        # kind 3
-    recv ox, ring
-    recv oy, ring
-    recv oz, ring
-    recv dx, ring
-.if HAS_POLYGONS
-    { recv dy, ring ; fabs m_ax, dx }
-    { recv dz, ring ; fabs m_ay, dy }
-    { recv tmin, ring ; fabs m_az, dz ; fle m_cxy, m_ay, m_ax }          # |dx| >= |dy|
-    { recv tmax, ring ; fle m_cxz, m_az, m_ax ; fle m_cyz, m_az, m_ay }  # |dx| >= |dz|, |dy| >= |dz|
-    { recv m_t, ring ; fsel m_kz0, m_cxy, m_cxz, r0 ; fsel m_ncyz, m_cyz, r0, one }
-    { st m_t, [m_sb + (slot_table + RAY_WR)] ; fsel fz1, m_kz0, r0, m_cyz ; fsel fz2, m_kz0, r0, m_ncyz }
-    { recv m_t, ring ; fsel m_u, fz1, dy, dx }
-    { st m_t, [m_sb + (slot_table + RAY_WG)] ; fsel m_dkz, fz2, dz, m_u }                # d[kz]
-    { recv m_t, ring ; flt m_neg, m_dkz, r0 }       # d[kz] < 0: swap kx, ky
-    { st m_t, [m_sb + (slot_table + RAY_WB)] ; fsel fx1, m_neg, fz2, m_kz0 ; fsel fx2, m_neg, m_kz0, fz1 ; fsel fy1, m_neg, m_kz0, fz2 }
-    { li dirty, 1 ; fsel fy2, m_neg, fz1, m_kz0 ; fsel m_u, fx1, dy, dx }
-    { fsel m_v, fy1, dy, dx ; fsel m_dkx, fx2, dz, m_u }                 # d[kx]
-    { mov cur, slot ; fsel m_dky, fy2, dz, m_v ; fdiv sx, m_dkx, m_dkz }  # d[ky]; sx
-    { fdiv sy, m_dky, m_dkz ; fsel lim, shadow, pinf, m_texit ; fsel best, shadow, tmax, pinf }
-.else
-    recv dy, ring
-    recv dz, ring
-    recv tmin, ring
-    recv tmax, ring
-    recv m_t, ring
-    { st m_t, [m_sb + (slot_table + RAY_WR)] }
-    recv m_t, ring
-    { st m_t, [m_sb + (slot_table + RAY_WG)] }
-    recv m_t, ring
-    { st m_t, [m_sb + (slot_table + RAY_WB)] ; fsel lim, shadow, pinf, m_texit ; fsel best, shadow, tmax, pinf }
-    { li dirty, 1 }
-    { mov cur, slot }
-.endif
-
+                                                                        # (falls into visit)
 # ---- the list ----------------------------------------------------------------------------------
+# One cell: P and S (ldg, in that order), the memory by the priority rule, the kind word, the kind
+# dispatch (DISPATCH), the kind's test. ICGM, the more common memory, falls through; so does the
+# scene's first kind (FIRST_*: cylinders, else spheres, else polygons, else cones), so a cell of
+# that kind in ICGM pays no taken branch before its test. Every test is expanded twice, one copy
+# per memory (BOTH), so no copy jumps to shared code.
 visit:
 cell_loop:
     { ldg pri, [cell + CELL_PRIORITY] }
     { ldg shp, [cell + CELL_SHAPE] }
 .if HAS_RESIDENT && HAS_GLOBAL
     { addi m_t, pri, RESIDENT_M }
-    { bgeu m_t, mlim, rec_g }
+    { bltu m_t, mlim, rec_r }                                           # |P| <= M: resident
 .endif
-
-# Kind dispatch (KIND_JUMP): only the kinds the scene has.
-.macro REC_LOAD m, ld
+.macro RECORD m, ld, slow                # slow: 1 for ICGM (a load holds issue t_c = 2 cycles)
 rec_\m:
     { \ld kw, [shp + REC_KIND] }
-    KIND_JUMP m_t, kw, \m
-.endm
-.if HAS_RESIDENT
-    REC_LOAD r, ldr
+    DISPATCH \m
+.if FIRST_CYL
+    CYL_BLOCK \m, \ld, \slow
+.elif FIRST_SPH
+    SPH_BLOCK \m, \ld, \slow
+.elif FIRST_POLY
+    POLY_BLOCK \m, \ld, \slow
+.else
+    CONE_BLOCK \m, \ld, \slow
 .endif
+.endm
 .if HAS_GLOBAL
-    REC_LOAD g, ldg
+    RECORD g, ldg, 1
+.endif
+.if HAS_RESIDENT
+    RECORD r, ldr, 0
+.endif
+.if HAS_POLYGONS && !FIRST_POLY
+    BOTH POLY_BLOCK
+.endif
+.if HAS_SPHERES && !FIRST_SPH
+    BOTH SPH_BLOCK
+.endif
+.if HAS_CYLINDERS && !FIRST_CYL
+    BOTH CYL_BLOCK
+.endif
+.if HAS_CONES && !FIRST_CONE
+    BOTH CONE_BLOCK
 .endif
 
 # A test's result beat `best` (the check ends every test): a shadow ray is occluded; a surface
@@ -403,20 +458,53 @@ occluded:
     { send ring, m_t }
     { send ring, slot }
     { fmov dirty, r0 ; j main }
-
-# ---- the tests ------------------------------------------------------------------------------------
+# VISIT_FIRST: the 13-word ray record follows. Pixel, info and weight go straight to the slot
+# table (only a HIT needs them); origin, direction, t_min, t_max stay in registers and reach the
+# table only if the ray needs another visit (write_back, after NEXT). Meanwhile the FP units do
+# golden's `ic_rays` setup: kz = axis of the largest |d| (ties x, y, z), kx = kz+1, ky = kx+1
+# (mod 3), kx <-> ky if d[kz] < 0; sx = d[kx]/d[kz], sy = d[ky]/d[kz]. The axes become 0/1 flags
+# (fz1 = [kz == 1], ...) for the polygon test's fsel permutation A[k] = f2 ? Az : (f1 ? Ay : Ax).
+# Unswapped: kz = 0 -> (kx, ky) = (1, 2); kz = 1 -> (2, 0); kz = 2 -> (0, 1).
+visit_first:
+    { slli m_sb, slot, SLOT_SHIFT }
+    recv m_t, ring
+    { st m_t, [m_sb + (slot_table + RAY_PIXEL)] }
+    recv m_t, ring
+    { st m_t, [m_sb + (slot_table + RAY_INFO)] }
+    { andi m_t, m_t, 3 }
+    { slt shadow, two, m_t }                        # kind 3
+    recv ox, ring
+    recv oy, ring
+    recv oz, ring
+    recv dx, ring
 .if HAS_POLYGONS
-.include "ic_polygon.inc"
+    { recv dy, ring ; fabs m_ax, dx }
+    { recv dz, ring ; fabs m_ay, dy }
+    { recv tmin, ring ; fabs m_az, dz ; fle m_cxy, m_ay, m_ax }          # |dx| >= |dy|
+    { recv tmax, ring ; fle m_cxz, m_az, m_ax ; fle m_cyz, m_az, m_ay }  # |dx| >= |dz|, |dy| >= |dz|
+    { recv m_t, ring ; fsel m_kz0, m_cxy, m_cxz, r0 ; fsel m_ncyz, m_cyz, r0, one }
+    { st m_t, [m_sb + (slot_table + RAY_WR)] ; fsel fz1, m_kz0, r0, m_cyz ; fsel fz2, m_kz0, r0, m_ncyz }
+    { recv m_t, ring ; fsel m_u, fz1, dy, dx }
+    { st m_t, [m_sb + (slot_table + RAY_WG)] ; fsel m_dkz, fz2, dz, m_u }                # d[kz]
+    { recv m_t, ring ; flt m_neg, m_dkz, r0 }       # d[kz] < 0: swap kx, ky
+    { st m_t, [m_sb + (slot_table + RAY_WB)] ; fsel fx1, m_neg, fz2, m_kz0 ; fsel fx2, m_neg, m_kz0, fz1 ; fsel fy1, m_neg, m_kz0, fz2 }
+    { li dirty, 1 ; fsel fy2, m_neg, fz1, m_kz0 ; fsel m_u, fx1, dy, dx }
+    { fsel m_v, fy1, dy, dx ; fsel m_dkx, fx2, dz, m_u }                 # d[kx]
+    { mov cur, slot ; fsel m_dky, fy2, dz, m_v ; fdiv sx, m_dkx, m_dkz }  # d[ky]; sx
+    { fdiv sy, m_dky, m_dkz ; fsel lim, shadow, pinf, m_texit }         # (two FP units left)
+    { fsel best, shadow, tmax, pinf ; j visit }
+.else
+    recv dy, ring
+    recv dz, ring
+    recv tmin, ring
+    recv tmax, ring
+    recv m_t, ring
+    { st m_t, [m_sb + (slot_table + RAY_WR)] }
+    recv m_t, ring
+    { st m_t, [m_sb + (slot_table + RAY_WG)] }
+    recv m_t, ring
+    { st m_t, [m_sb + (slot_table + RAY_WB)] ; fsel lim, shadow, pinf, m_texit ; fsel best, shadow, tmax, pinf }
+    { li dirty, 1 }
+    { mov cur, slot }
+    j visit
 .endif
-.if HAS_SPHERES
-.include "ic_sphere.inc"
-.endif
-.if HAS_CYLINDERS
-.include "ic_cylinder.inc"
-.endif
-.if HAS_CONES
-.include "ic_cone.inc"
-.endif
-
-# ---- the hit --------------------------------------------------------------------------------------
-.include "ic_hit.inc"

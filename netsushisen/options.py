@@ -418,8 +418,10 @@ def add_program_options(parser: argparse.ArgumentParser) -> None:
     add_defines(parser)
 
 
-def load_program(path: str, stage: str | None, defines: dict[str, int | float]):
-    """An object file or `.s` source for `stage`; with `stage` None the program says which
+def load_program(path: str, stage: str | None, defines: dict[str, int | float],
+                 config: MachineConfig | None = None):
+    """An object file or `.s` source for `stage` (a source's `.sched` regions scheduled for
+    `config`, the machine it will run on); with `stage` None the program says which
     processor it is for (the object's `proc`, the source's `.proc`)."""
     from netsushisen.asm.assembler import assemble_file
     from netsushisen.asm.objects import Program
@@ -428,7 +430,7 @@ def load_program(path: str, stage: str | None, defines: dict[str, int | float]):
     if p.suffix == ".s":
         if not p.is_file():
             raise NetsushisenError(Diagnostic("no such source file", file=path))
-        prog = assemble_file(p, proc=stage, defines=defines)
+        prog = assemble_file(p, proc=stage, defines=defines, config=config)
     else:
         prog = Program.load(p)
     if stage is not None and prog.proc != stage:
@@ -444,10 +446,10 @@ def machine_inputs(args: argparse.Namespace, extra_programs: list[str] = ()):
 
     config = config_from_args(args)
     defines = parse_defines(args.defines)
-    programs = {s: load_program(getattr(args, s), s, defines) if getattr(args, s) else None
+    programs = {s: load_program(getattr(args, s), s, defines, config) if getattr(args, s) else None
                 for s in STAGES}
     for path in extra_programs:
-        prog = load_program(path, None, defines)
+        prog = load_program(path, None, defines, config)
         if programs[prog.proc] is not None:
             raise NetsushisenError(Diagnostic(
                 f"a second {prog.proc.upper()} program (one program per processor)", file=path))

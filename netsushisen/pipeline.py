@@ -35,7 +35,7 @@ from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.images import MemoryImage, Segment
 from netsushisen.isa.processors import STAGES
 from netsushisen.isa.words import WordFormat, word_format
-from netsushisen.kernels import KERNELS, protocol
+from netsushisen.kernels import KERNELS, kernel_folder, protocol
 
 RAY_COUNTERS = ("eye_hits", "reflection", "refraction", "shadow")
 """SC's ray counters, at data labels `count_<name>` of kernels/sc.s."""
@@ -101,6 +101,12 @@ class RenderResult:
         return EXIT_CODES.get(self.run.status, 1)
 
 
+def schedule_key(config: MachineConfig) -> str:
+    """What of a configuration the assembler's scheduler reads (latencies, memory times,
+    branch penalties): kernels assembled for equal keys are equal."""
+    return repr((config.os, config.ic, config.sc, config.ic_memory, config.sc_memory))
+
+
 def kernel_defines(images: MachineImages, generic: bool = False, slots: int = DEFAULT_SLOTS,
                    extra: dict[str, int | float] | None = None) -> dict[str, int | float]:
     """The `-D` symbols of a scene's kernels: its databases, its needs (`HAS_*`, all 1 when
@@ -117,14 +123,24 @@ def kernel_defines(images: MachineImages, generic: bool = False, slots: int = DE
 
 
 def assemble_kernels(defines: dict[str, int | float], kernel_dir: str | Path | None = None,
-                     overrides: dict[str, str | Path] | None = None) -> dict[str, Program]:
-    """os.s, ic.s and sc.s from `kernel_dir` (default: the bundled kernels), or the files
-    `overrides` names per stage; an error in any is the assembler's located error."""
-    folder = Path(kernel_dir) if kernel_dir else KERNELS
+                     overrides: dict[str, str | Path] | None = None,
+                     config: MachineConfig | None = None) -> dict[str, Program]:
+    """os.s, ic.s and sc.s from `kernel_dir` (default: the bundled kernels; a bundled set's
+    name, e.g. "classic", that set), or the files `overrides` names per stage — sources, or
+    object files (`asm --scene SCENE -o`, loaded as they are) — their `.sched` regions
+    scheduled for `config` (the run's machine; default the default one); an error in any is
+    the assembler's located error."""
+    from netsushisen.options import load_program
+
+    folder = kernel_folder(kernel_dir)
     programs = {}
     for stage in STAGES:
         path = Path((overrides or {}).get(stage) or folder / f"{stage}.s")
-        programs[stage] = assemble_file(path, proc=stage, defines=defines, include_dirs=[KERNELS])
+        if path.suffix != ".s" and (overrides or {}).get(stage):
+            programs[stage] = load_program(str(path), stage, defines)
+            continue
+        programs[stage] = assemble_file(path, proc=stage, defines=defines, include_dirs=[KERNELS],
+                                        config=config)
     return programs
 
 
@@ -232,10 +248,11 @@ def prepare(scene: Scene | str, config: MachineConfig, res: int = 32, corners: b
     name = scene if isinstance(scene, str) else None
     inputs = kernel_inputs(scene, config, res, corners, generic, slots, defines, memo)
     scene, prepass, images, defines = inputs.scene, inputs.prepass, inputs.images, inputs.defines
-    key = ("kernels", str(kernel_dir), repr(kernels), tuple(sorted(defines.items())))
-    programs = (memo.get((name, *key), lambda: assemble_kernels(defines, kernel_dir, kernels))
+    key = ("kernels", str(kernel_dir), repr(kernels), tuple(sorted(defines.items())),
+           schedule_key(config))
+    programs = (memo.get((name, *key), lambda: assemble_kernels(defines, kernel_dir, kernels, config))
                 if memo is not None and name is not None
-                else assemble_kernels(defines, kernel_dir, kernels))
+                else assemble_kernels(defines, kernel_dir, kernels, config))
     images.check_programs(programs)
     wf = word_format(config.precision)
     return RenderSetup(scene, config, res, corners, generic, images, prepass, programs, defines,

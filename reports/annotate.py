@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from netsushisen.asm.listing import loop_ranges
 from netsushisen.isa.processors import PROCESSORS
 from netsushisen.reports.tables import Section, StatsError, present_processors
 
@@ -35,6 +36,8 @@ class BundleCounts:
     target: int | None
     issued: int = 0
     stalls: dict[str, int] = field(default_factory=dict)
+    lines: str | None = None
+    """The source lines of its operations (a scheduled bundle gathers several)."""
 
     @property
     def stalled(self) -> int:
@@ -55,6 +58,8 @@ def bundle_counts(stats: dict, name: str, p: dict) -> list[BundleCounts]:
     if listing:
         out = [BundleCounts(pc, *row) for pc, row in enumerate(
             zip(listing["label"], listing["text"], listing["ops"], listing["target"]))]
+        for b, lines in zip(out, listing.get("lines") or []):
+            b.lines = lines
     else:
         out = [BundleCounts(pc, (by_pc.get(pc) or {}).get("label", str(pc)), None, None, None)
                for pc in sorted(set(issued) | set(by_pc))]
@@ -92,14 +97,11 @@ class Loop:
 
 
 def find_loops(counts: list[BundleCounts]) -> list[Loop]:
-    """Loops from the backward branches and jumps, outermost first at each start address."""
-    ends: dict[int, int] = {}
-    for b in counts:
-        if b.target is not None and b.target <= b.pc:
-            ends[b.target] = max(ends.get(b.target, b.pc), b.pc)
+    """Loops from the backward branches and jumps (`asm.listing.loop_ranges`), outermost first
+    at each start address."""
     at = {b.pc: b for b in counts}
     loops = []
-    for start, end in ends.items():
+    for start, end in loop_ranges((b.pc, b.target) for b in counts):
         body = [at[pc] for pc in range(start, end + 1) if pc in at]
         stalls: dict[str, int] = {}
         for b in body:
@@ -109,7 +111,6 @@ def find_loops(counts: list[BundleCounts]) -> list[Loop]:
                           sum(b.cycles for b in body), sum(b.issued for b in body),
                           sum(b.issued * (b.ops or 0) for b in body), sum(b.ops or 0 for b in body),
                           stalls))
-    loops.sort(key=lambda lp: (lp.start, -lp.end))
     return loops
 
 
@@ -132,8 +133,8 @@ def annotate_sections(stats: dict, proc: str | None = None, top: int | None = No
     if order not in ORDERS:
         raise StatsError(f"--order {order}: one of {', '.join(ORDERS)}")
     listing = Section("bundles", "Annotated listing" + (" (hottest first)" if order == "hot" else ""),
-                      ["processor", "pc", "location", "bundle", "issued", "stall cycles", "stalls by cause",
-                       "share", "fill"],
+                      ["processor", "pc", "location", "bundle", "source lines", "issued", "stall cycles",
+                       "stalls by cause", "share", "fill"],
                       formats={"pc": "int", "issued": "int", "stall cycles": "int", "share": "pct",
                                "fill": "pct"},
                       caption="share = (issued + stall cycles) / the processor's cycles; fill = the "
@@ -163,7 +164,8 @@ def annotate_sections(stats: dict, proc: str | None = None, top: int | None = No
             if order == "program":
                 shown.sort(key=lambda b: b.pc)
         for b in shown:
-            listing.rows.append([name, b.pc, b.label, b.text, b.issued, b.stalled, stalls_text(b.stalls),
+            listing.rows.append([name, b.pc, b.label, b.text, b.lines, b.issued, b.stalled,
+                                 stalls_text(b.stalls),
                                  b.cycles / cycles,
                                  b.ops / slots if slots and b.ops is not None else None])
         for lp in find_loops(counts):
@@ -175,4 +177,11 @@ def annotate_sections(stats: dict, proc: str | None = None, top: int | None = No
     if without_text:
         listing.caption += (" — these statistics carry no program listing (written by an older "
                             "version): rerun to see the bundles' text and the loops")
+    if not any(row[4] and "," in row[4] for row in listing.rows):
+        # every bundle from one source line (no .sched region shown): the location says where,
+        # and the column would only take width from the operands
+        col = listing.columns.index("source lines")
+        listing.columns.pop(col)
+        for row in listing.rows:
+            row.pop(col)
     return [listing, loops]

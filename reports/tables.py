@@ -42,6 +42,10 @@ class Section:
     group_by: str | None = None
     """A column whose every value gets its own table in the table and Markdown formats (the
     value in the title, the column left out: narrower tables); JSON and CSV keep it."""
+    panels: list[list[str]] = field(default_factory=list)
+    """Column groups (each starting with the row's key columns) that the table format prints
+    as tables of their own, one under the other, when the whole table would not fit the width;
+    the other formats keep one table."""
 
     def cell(self, col: str, v) -> str:
         if v is None:
@@ -166,7 +170,8 @@ def split_groups(sections: list[Section]) -> list[Section]:
         for v in values:
             out.append(Section(s.key, f"{s.title}: {v}", s.columns[:k] + s.columns[k + 1:],
                                [r[:k] + r[k + 1:] for r in s.rows if r[k] == v], s.formats,
-                               s.caption if v == values[-1] else ""))
+                               s.caption if v == values[-1] else "",
+                               panels=[[c for c in p if c != s.group_by] for p in s.panels]))
     return out
 
 
@@ -179,10 +184,18 @@ def render_table(sections: list[Section], width: int | None = None) -> str:
     width = width or report_width()
     out = []
     for s in split_groups(sections):
-        t, need = rich_table(s, width)
+        tables = [rich_table(s, width)]
+        if tables[0][1] > width and s.panels:  # too wide: its column groups one under the other
+            tables = [rich_table(Section(s.key, s.title, p, [[r[s.columns.index(c)] for c in p]
+                                                              for r in s.rows], s.formats), width)
+                      for p in s.panels]
+        need = max(n for _, n in tables)
         console = Console(width=max(width, need), record=True, file=io.StringIO(), color_system=None)
         console.print(Text(s.title))  # title and caption wrap at the terminal, not the table
-        console.print(t)
+        for i, (t, _) in enumerate(tables):
+            if i:
+                console.print()
+            console.print(t)
         if s.caption:
             console.print(Text(s.caption))
         console.print()

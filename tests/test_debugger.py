@@ -176,7 +176,7 @@ def test_breakpoint_on_a_label_stops_in_the_cycle_the_bundle_issues(debug, files
 
 def test_the_screen_shows_the_stall_reason_and_the_scoreboard(debug, files):
     # after c3: fadd r3 (pc 2) waits for fmul's r2 (ready at 4)
-    code, out = debug(["step 4"], "--program", files / "chain.s", screen=True)
+    code, out = debug(["cycle 4"], "--program", files / "chain.s", screen=True)
     assert "last cycle 3 (4 cycles run)" in out
     assert "stall operand:fmul at pc 2 (start+2)" in out
     assert listing_rows(out, "!>")[0][:2] == ["!>", "2"]
@@ -213,20 +213,20 @@ def test_set_changes_what_follows(debug, files):
     assert "run ended at cycle 15: halted" in out
     # after c1 r9 = 3 is in the register; set it to 1: one iteration: loop c2, st c3, bnez c4
     # (not taken), done c5, halt c6 -> 7 cycles
-    code, out = debug(["step 2", "set r9 = 1", "continue", "print local[counter]",
+    code, out = debug(["cycle 2", "set r9 = 1", "continue", "print local[counter]",
                        "print f:r2"], "--program", files / "loop.s")
     assert "r9 = 1 (was 3)" in out
     assert "run ended at cycle 7: halted" in out
     assert "local[0] = 0  (0x00000000" in out
     assert "f:r2 = 1.5" in out
     # a result in flight overwrites a set register: li (c0) writes r9 in c1
-    code, out = debug(["step", "set r9 = 7", "step", "print r9"], "--program", files / "loop.s")
+    code, out = debug(["cycle", "set r9 = 7", "cycle", "print r9"], "--program", files / "loop.s")
     assert "note: r9 has a li result in flight (written in cycle 1)" in out
     assert "r9 = 3  (" in out
 
 
 def test_set_floats_memory_and_pc(debug, files):
-    code, out = debug(["step 2", "set r6 = 1.5f", "print f:r6", "set f:r7 = 2", "print f:r7",
+    code, out = debug(["cycle 2", "set r6 = 1.5f", "print f:r6", "set f:r7 = 2", "print f:r7",
                        "set x:r8 = 0x40490fdb", "print f:r8", "set *local[10] = 7",
                        "print local[10]", "set *table = 0.25", "print f:local[table]",
                        "set pc = done", "stepi", "print r3"],
@@ -275,7 +275,7 @@ sub:    addi r2, r1, 1  # c3
 def test_print_and_x(debug, files):
     img = files / "img.json"
     img.write_text(json.dumps({"icgm": [float(i) / 4 for i in range(8)]}))
-    code, out = debug(["step 3", "print r9", "print r9 * 2 + 1", "print loop", "print/x 255",
+    code, out = debug(["cycle 3", "print r9", "print r9 * 2 + 1", "print loop", "print/x 255",
                        "print f:r1 + 0.25", "print table", "print icgm[table + 2]",
                        "print f:icgm[table + 2]", "x/3f local[table]", "x/4 icgm 4",
                        "x/2d local 1", "print/x r1"],
@@ -301,7 +301,7 @@ def test_bad_commands_give_one_line_errors_and_the_session_goes_on(debug, files)
            "set r0 = 1", "set *icgm[0] = 1", "step -1", "info nothing", "watch icgm[0]",
            "print local[70000]", "pe 3", "proc xx", "delete 9", "print 1/0", "re"]
     (files / "img.json").write_text(json.dumps({"icgm": [1, 2, 3]}))
-    code, out = debug(bad + ["step", "print r9"], "--program", files / "loop.s", "--image",
+    code, out = debug(bad + ["cycle", "print r9"], "--program", files / "loop.s", "--image",
                       files / "img.json")
     errors = lines_with(out, "error: ")
     assert len(errors) == len(bad)
@@ -317,7 +317,7 @@ def test_bad_commands_give_one_line_errors_and_the_session_goes_on(debug, files)
 
 def test_the_end_of_the_run_is_shown_and_the_session_stays_open(debug, files):
     (files / "fault.s").write_text(".proc ic\n li r1, 70000\n ld r2, [r1]\n halt\n")
-    code, out = debug(["continue", "print r1", "step", "info stats"],
+    code, out = debug(["continue", "print r1", "cycle", "info stats"],
                       "--program", files / "fault.s")
     assert "run ended at cycle 2: fault (run-time fault)" in out
     assert "local memory address 70000 is outside" in out
@@ -332,7 +332,7 @@ def test_the_end_of_the_run_is_shown_and_the_session_stays_open(debug, files):
 
 
 def test_reverse_step_and_continue_in_batch(debug, files):
-    code, out = debug(["step 9", "info state", "step 30", "reverse-step 30", "info state",
+    code, out = debug(["cycle 9", "info state", "cycle 30", "reverse-cycle 30", "info state",
                        "break loop", "continue", "continue", "continue", "reverse-continue",
                        "print cycle"],
                       "--os", files / "os.s", "--ic", files / "ic.s", "--sc", files / "sc.s",
@@ -347,7 +347,7 @@ def test_reverse_step_and_continue_in_batch(debug, files):
 
 
 def test_help_trace_disassemble_views(debug, files):
-    code, out = debug(["help", "help break", "trace on", "step 2", "trace off", "disassemble loop",
+    code, out = debug(["help", "help break", "trace on", "cycle 2", "trace off", "disassemble loop",
                        "proc ic", "pe 1", "info registers", "info cache", "info checkpoints"],
                       "--os", files / "os.s", "--ic", files / "ic.s", "--sc", files / "sc.s",
                       "--image", files / "image.json", "--pes", "2")
@@ -367,7 +367,7 @@ def test_enter_repeats_the_last_command():
 
     s = loop_session()
     cmds = Commands(s)
-    cmds.execute("step 3")
+    cmds.execute("cycle 3")
     cmds.execute("", repeat_empty=True)
     assert s.machine.cycle == 6
     cmds.execute("")  # a batch's empty line does nothing
@@ -398,8 +398,8 @@ def test_scene_mode(cli, files):
     # place of the bundled ones: they do not understand the scene's messages, so the run may
     # fault, which the session shows and replays exactly
     script = files / "scene.txt"
-    script.write_text("step 40\ninfo state\nreverse-step 20\nstep 20\ninfo state\nrestart\n"
-                      "step 40\ninfo state\n")
+    script.write_text("cycle 40\ninfo state\nreverse-cycle 20\ncycle 20\ninfo state\nrestart\n"
+                      "cycle 40\ninfo state\n")
     code, out, err = cli("debug", "tetra:1", "--res", "2", "--os", files / "os.s", "--ic",
                          files / "ic.s", "--sc", files / "sc.s", "--batch", script, "--no-screen")
     assert code == 0, err
@@ -593,10 +593,10 @@ def digests(out: str) -> list[str]:
 
 def test_fast_forward_to_a_cycle_is_the_state_stepping_reaches(debug, files, compiled):
     shown = ["info state", "print pc", "print f:r6", "info registers", "info scoreboard",
-             "info fifo", "step 9", "info state", "print r2"]
+             "info fifo", "cycle 9", "info state", "print r2"]
     code, ff = debug(shown, *pipe_args(files), "--proc", "ic", "--fast-forward", "40")
     assert code == 0 and "fast-forward: cycle 40 reached with the compiled engine" in ff
-    code, ref = debug(["step 40", *shown], *pipe_args(files), "--proc", "ic")
+    code, ref = debug(["cycle 40", *shown], *pipe_args(files), "--proc", "ic")
     assert code == 0
     assert digests(ff) == digests(ref) and len(digests(ff)) == 2
     assert "state digest after 40 cycles" in ff and "state digest after 49 cycles" in ff
@@ -634,7 +634,7 @@ def test_fast_forward_in_scene_mode(cli, files, compiled):
     script.write_text("info state\nstep 7\ninfo state\n")
     code, ff, err = cli("debug", *scene, "--fast-forward", "33")
     assert code == 0, err
-    script.write_text("step 33\ninfo state\nstep 7\ninfo state\n")
+    script.write_text("cycle 33\ninfo state\nstep 7\ninfo state\n")
     code, ref, err = cli("debug", *scene)
     assert code == 0, err
     assert digests(ff) == digests(ref) and len(digests(ff)) == 2
@@ -671,10 +671,10 @@ def test_fast_forward_to_a_label_stops_with_the_pc_at_it(debug, files, compiled)
 
 
 def test_reverse_execution_stops_at_the_fast_forward_point(debug, files, compiled):
-    code, out = debug(["info state", "reverse-step", "step 30", "info state", "reverse-step 10",
-                       "step 10", "info state", "reverse-step 100", "info state", "break loop+9",
+    code, out = debug(["info state", "reverse-cycle", "cycle 30", "info state", "reverse-cycle 10",
+                       "cycle 10", "info state", "reverse-cycle 100", "info state", "break loop+9",
                        "continue", "continue", "reverse-continue", "reverse-continue",
-                       "reverse-continue", "print cycle", "step 5", "restart", "info state",
+                       "reverse-continue", "print cycle", "cycle 5", "restart", "info state",
                        "info checkpoints"],
                       *pipe_args(files), "--proc", "ic", "--fast-forward", "40",
                       "--checkpoint-interval", "8")
@@ -710,7 +710,7 @@ def test_fast_forward_errors_and_a_run_that_ends_first(debug, cli, files, compil
         assert code == 1 and message in err, (target, err)
         assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
     # the run ends (halts after 15 cycles) first: a note, and the session starts at the end
-    code, out = debug(["info state", "step", "reverse-step"], "--program", files / "loop.s",
+    code, out = debug(["info state", "cycle", "reverse-cycle"], "--program", files / "loop.s",
                       "--fast-forward", "1000")
     assert code == 0
     assert ("fast-forward: the run ended at cycle 15 (halted) before reaching cycle 1000: the "
@@ -727,7 +727,7 @@ def test_fast_forward_errors_and_a_run_that_ends_first(debug, cli, files, compil
 
 @pytest.mark.skipif(shutil.which("tmux") is None, reason="tmux is not installed "
                     "(apt-get install tmux); the batch tests cover the commands")
-@pytest.mark.parametrize("size", ["150x50", "80x24"])
+@pytest.mark.parametrize("size", ["80x24", "120x40", "200x60"])
 def test_interactive_session_in_tmux(tmp_path, size):
     out = tmp_path / "screen.txt"
     # the interpreter running the tests, not whatever `python3`/`netsushisen` PATH finds first
@@ -748,6 +748,13 @@ def test_interactive_session_in_tmux(tmp_path, size):
     assert [r for r in rows if r[:2] == ["addr", "label"]][0][2:6] == SLOTS["ic"]
     assert "registers pe0.ic" in stop
     assert ("fifos pe0" in stop) == (height >= 30)  # 80x24: listing and registers only
+    # the register names, the current bundle's operands whole, and the command line
+    assert "*shape/r4" in stop and "fadd sum/r6, shape/r4, r5" in stop
+    assert "fmul r9, shape/r4, r8" in stop and lines[-1].startswith("(nss)")
+    paged = [s for s in screens if s.startswith("(nss) help all")]
+    assert bool(paged) == (height < 45)  # help all is paged where it does not fit
+    if paged:
+        assert "--Type <RET> for more, q to quit, c to continue without paging--" in paged[0]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -822,7 +829,7 @@ a_very_long_label_name_here:
     factory = ProgramsFactory(load_config(None, []), {"ic": assemble_text(src)})
     s = Session(factory)
     s.add_breakpoint("0")
-    screen, _ = capture(s, 80, 24, ["step"])
+    screen, _ = capture(s, 80, 24, ["cycle"])
     assert max(len(line) for line in screen.splitlines()) <= 80
     rows = cells_of(screen)
     assert [r for r in rows if r[:2] == ["addr", "label"]][0][2:6] == SLOTS["ic"]
@@ -837,7 +844,7 @@ a_very_long_label_name_here:
 
 def test_layout_chooses_the_panels():
     s = pipe_session(pes=1, stage="ic")
-    screen, front = capture(s, 150, 50, ["step 5", "layout asm"])
+    screen, front = capture(s, 150, 50, ["cycle 5", "layout asm"])
     assert "listing pe0.ic" in screen and "registers" not in screen and "fifos" not in screen
     screen, front = capture(s, 80, 24, ["layout listing fifos"])
     assert "listing pe0.ic" in screen and "fifos pe0" in screen and "registers" not in screen
@@ -930,7 +937,7 @@ def test_display_at_every_stop(debug, files):
 
 def test_list_around_the_pc_a_label_and_a_line(debug, files):
     code, out = debug(["list", "list", "list loop.s:12", "list nowhere.s:3", "break done",
-                       "step 3", "list", "list done"], "--program", files / "loop.s")
+                       "cycle 3", "list", "list done"], "--program", files / "loop.s")
     blocks = out.split("(nss) ")
 
     def shown(block):  # (line number, mark or '') per listed line
@@ -1058,7 +1065,7 @@ def test_finish_continue_n_tbreak_display_after_the_fast_forward_hand_off(debug,
     script = ["tbreak leaf", "display r4", "rwatch local[0]", "continue", "finish",
               "info breakpoints", "continue"]
     code, ff = debug(script, "--program", files / "finish.s", "--fast-forward", "3")
-    code2, ref = debug(["step 3", *script], "--program", files / "finish.s")
+    code2, ref = debug(["cycle 3", *script], "--program", files / "finish.s")
     assert code == code2 == 0
 
     def answers(out):
@@ -1089,13 +1096,13 @@ top:    addi r1, r1, -1
     assert assemble_text(text).same_program(program)
     assert "bnez r1, top+1" in listing(program)
     (files / "targets.s").write_text(src)
-    code, out = debug(["disassemble 0", "step 4"], "--program", files / "targets.s")
+    code, out = debug(["disassemble 0", "cycle 4"], "--program", files / "targets.s")
     assert "bnez r1, top+1" in out and "j top" in out
     assert "[cycle 3] pe0.os issued pc 2 (top): addi r1, r1, -1" in out  # j c1, stall c2
 
 
 def test_small_fixes_info_stats_help_and_x0(debug, files):
-    code, out = debug(["info stats", "step 3", "info stats", "help reverse-continue",
+    code, out = debug(["info stats", "cycle 3", "info stats", "help reverse-continue",
                        "x/0 local 0", "x/0 local 99999"], "--program", files / "loop.s")
     assert "status None" not in out
     assert "running, 0 cycles run, 1 PE" in out and "running, 3 cycles run, 1 PE" in out
@@ -1119,8 +1126,9 @@ def test_tab_completion_by_context():
         return completions(s, line, begidx, line[begidx:])
 
     assert "break" in complete("") and "reverse-step" in complete("")
-    assert complete("reverse-") == ["continue", "step", "stepi"]  # only the three
-    assert complete("rev") == ["reverse-continue", "reverse-step", "reverse-stepi"]
+    assert complete("reverse-") == ["continue", "cycle", "step", "stepi"]  # only the four
+    assert complete("rev") == ["reverse-continue", "reverse-cycle", "reverse-step",
+                               "reverse-stepi"]
     mem = complete("x/4 ")
     assert {"local", "icgm", "resident", "scgm", "table", "counter"} <= set(mem)
     assert "r1" not in mem and "loop" not in mem

@@ -78,11 +78,12 @@ def render_pair(cli, tmp_path, monkeypatch):
     assembled: dict = {}
     assemble = pipeline.assemble_kernels
 
-    def cached(defines, kernel_dir=None, overrides=None):
+    def cached(defines, kernel_dir=None, overrides=None, config=None):
         key = (tuple(sorted(defines.items())), str(kernel_dir),
-               tuple(sorted((overrides or {}).items())))
+               tuple(sorted((overrides or {}).items())),
+               pipeline.schedule_key(config) if config else None)
         if key not in assembled:
-            assembled[key] = assemble(defines, kernel_dir, overrides)
+            assembled[key] = assemble(defines, kernel_dir, overrides, config)
         return assembled[key]
 
     monkeypatch.setattr(pipeline, "assemble_kernels", cached)

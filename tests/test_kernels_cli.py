@@ -71,7 +71,7 @@ def test_asm_scene_text_and_choices(cli, tmp_path):
 
 @pytest.mark.parametrize("argv,fragment", [
     (["asm", "--generic", "kernels/ic.s"], "--generic needs --scene"),
-    (["asm", "--set", "ring.fifo_depth=32", "x.s"], "--set needs --scene"),
+    (["asm", "--pes", "2", "x.s"], "--pes needs --scene"),  # --set: the machine .sched is for
     (["asm"], "give a SOURCE.s, or --scene"),
     (["asm", "--scene", "no_such_scene", "--stats"], "no_such_scene"),
     (["asm", "--scene", SCENE, "--res", "0", "--stats"], "--res 0"),
@@ -131,7 +131,7 @@ def test_exported_include_with_an_error_is_located(cli, tmp_path):
     out = tmp_path / "mine"
     assert cli("kernels", "export", out)[0] == 0
     lines = (out / "ic_polygon.inc").read_text().split("\n")
-    at = lines.index("tri_mid:                                                                # (shared from here)")
+    at = lines.index("poly_hit:")
     lines.insert(at + 1, "    fmadd t_nx, t_ny")
     (out / "ic_polygon.inc").write_text("\n".join(lines))
     code, _, err = cli("render", SCENE, "--res", "2", "--kernels", out, "-o", tmp_path / "x.png")

@@ -146,3 +146,17 @@ def test_cmu_round_robin_starts_at_input_cycle_mod_n(engine_name):
     assert _race(engine_name, 0, 1) == 22   # both at c4: input 0 (SC's own message) first
     assert _race(engine_name, 1, 2) == 11   # both at c5: input 1 (IC's, on the link) first
     assert _race(engine_name, 1, 3) == 11   # IC's alone at c5, SC's at c6
+
+
+def test_statistics_listing_names_the_source_lines_of_each_bundle():
+    """`programs.<stage>.listing.lines`: a bundle's distinct source lines, the file named when
+    it changes (a scheduled bundle gathers several lines; a macro's body lives in another file)."""
+    from netsushisen.asm.objects import SourceLoc
+    from netsushisen.emulator.stats import program_listing
+
+    p = assemble_text("{ li r1, 1 ; li r2, 2 }\nhalt\n", proc="os", filename="k/a.s")
+    p.op_sources = [(SourceLoc("k/a.s", 4), SourceLoc("k/a.s", 4), SourceLoc("k/a.s", 2),
+                     SourceLoc("k/b.inc", 9), SourceLoc("k/b.inc", 7)), (SourceLoc("k/a.s", 5),)]
+    assert program_listing(p)["lines"] == ["a.s:4, 2, b.inc:9, 7", "a.s:5"]
+    p.op_sources = p.op_sources[:1]
+    assert program_listing(p)["lines"] == ["a.s:4, 2, b.inc:9, 7", None]

@@ -53,8 +53,8 @@ def test_mutants_inside_annotations_are_set_aside_only_under_future_annotations(
 
 
 def test_the_sample_is_seeded_and_of_the_asked_size(mutate):
-    group = SimpleNamespace(name="g")
-    other = SimpleNamespace(name="h")
+    group = SimpleNamespace(name="g", opt_in=False)
+    other = SimpleNamespace(name="h", opt_in=False)
     mutants = [(group, _mutant("m.py", i, 0, occurrence=i)) for i in range(100)] + \
               [(other, _mutant("n.py", i, 0, occurrence=i)) for i in range(50)]
     a = mutate.choose(mutants, 30, 18, set(), [])
@@ -68,6 +68,36 @@ def test_the_sample_is_seeded_and_of_the_asked_size(mutate):
         mutate.choose(mutants, 30, 18, set(), ["x.py:core/NumberReplacer:0"])
 
 
+def test_an_opt_in_group_is_run_only_when_named(mutate):
+    usual = SimpleNamespace(name="g", opt_in=False)
+    extra = SimpleNamespace(name="compiled", opt_in=True)
+    mutants = [(usual, _mutant("m.py", i, 0, occurrence=i)) for i in range(40)] + \
+              [(extra, _mutant("c.py", i, 0, occurrence=i)) for i in range(40)]
+    assert {g.name for g, _ in mutate.choose(mutants, 0, 18, set(), [])} == {"g"}
+    assert {g.name for g, _ in mutate.choose(mutants, 10, 18, {"compiled"}, [])} == {"compiled"}
+    # the other groups' sample does not move when an opt-in group is added
+    assert mutate.choose(mutants, 10, 18, set(), []) == mutate.choose(mutants[:40], 10, 18, set(), [])
+
+
+def test_mutants_are_kept_to_the_named_functions(mutate, tmp_path, monkeypatch):
+    module = tmp_path / "m.py"
+    module.write_text("def a():\n    return 1\n\n\n@deco\ndef b():\n    return 2\n")
+    monkeypatch.setattr(mutate, "PROJECT", tmp_path)
+    assert mutate.function_spans(module) == {"a": (1, 2), "b": (5, 7)}
+    only_b = mutate.Group("g", ("m.py",), ("t.py",), functions=("b",))
+    assert not mutate.in_functions(_mutant("m.py", 2, 11), only_b)
+    assert mutate.in_functions(_mutant("m.py", 7, 11), only_b)
+    assert mutate.in_functions(_mutant("m.py", 2, 11), mutate.Group("g", ("m.py",), ("t.py",)))
+
+
+def test_a_compiled_group_runs_its_tests_on_the_compiled_engine_with_its_own_cache(mutate, tmp_path):
+    ref = mutate.test_command(tmp_path / "project", mutate.Group("g", ("m.py",), ("t.py",)))
+    comp = mutate.test_command(tmp_path / "project",
+                               mutate.Group("g", ("m.py",), ("t.py",), engine="compiled"))
+    assert "--engine reference" in ref and "NETSUSHISEN_CACHE" not in ref
+    assert "--engine compiled" in comp and f"NETSUSHISEN_CACHE={tmp_path / 'numba-cache'}" in comp
+
+
 def test_config_errors_name_the_file_and_the_entry(mutate, tmp_path):
     bad = tmp_path / "m.toml"
     bad.write_text('[[group]]\nname = "g"\nmodules = ["isa/nope.py"]\ntests = ["tests/test_isa.py"]\n')
@@ -76,6 +106,14 @@ def test_config_errors_name_the_file_and_the_entry(mutate, tmp_path):
     bad.write_text('[[group]]\nname = "g"\nmodules = ["isa/words.py"]\ntests = ["tests/test_isa.py"]\n'
                    '[[equivalent]]\nmodule = "isa/words.py"\n')
     with pytest.raises(mutate.MutateError, match=r"equivalent #1: missing operator, occurrence"):
+        mutate.load_settings(bad)
+    bad.write_text('[[group]]\nname = "g"\nmodules = ["isa/words.py"]\ntests = ["tests/test_isa.py"]\n'
+                   'engine = "fast"\n')
+    with pytest.raises(mutate.MutateError, match=r"group 'g': engine 'fast' is not reference or compiled"):
+        mutate.load_settings(bad)
+    bad.write_text('[[group]]\nname = "g"\nmodules = ["isa/words.py"]\ntests = ["tests/test_isa.py"]\n'
+                   'functions = ["nope"]\n')
+    with pytest.raises(mutate.MutateError, match=r"group 'g': no function nope in isa/words.py"):
         mutate.load_settings(bad)
     settings = mutate.load_settings()   # the project's own file is valid
     assert settings.sample >= 300 and all(e.reason for e in settings.equivalents)

@@ -136,3 +136,20 @@ def test_same_inputs_same_statistics():
     b = render(load_scene("tetra:2"), load_config(None, []), res=6, engine="reference")
     from netsushisen.emulator.stats import dumps
     assert dumps(a.stats) == dumps(b.stats)
+
+
+@pytest.mark.parametrize("spec", ["tetra", pytest.param("rings", marks=pytest.mark.slow)])
+def test_classic_kernels_render_like_golden(spec):
+    """`--kernels classic` (kernels/classic/, the 1992-style kernels kept for studies) still
+    assembles and renders the golden image, ids, ray counts and reference counts — and runs
+    other programs than the bundled ones, which are faster."""
+    from netsushisen.kernels import KERNELS, kernel_folder
+
+    assert kernel_folder("classic") == KERNELS / "classic"
+    scene, machine, golden = _pair(spec, 12, kernel_dir="classic")
+    _check_against_golden(scene, machine, golden, exact=True)
+    bundled = render(scene, load_config(None, []), res=12, engine=FAST)
+    assert machine.setup.programs["ic"].bundles != bundled.setup.programs["ic"].bundles
+    # ... and the bundled (issue 27) kernels take fewer machine cycles for the same image
+    assert np.array_equal(bundled.image_u8, machine.image_u8)
+    assert bundled.stats["run"]["cycles"] < machine.stats["run"]["cycles"]

@@ -6,7 +6,7 @@
 # Writes the demo pipeline of docs/debugger.md (OS -> IC -> SC -> COL, one PE) into a temporary
 # folder, starts the debugger in a detached tmux session of DRIVE_SIZE (default 150x50; the
 # screen is laid out for the size, docs/debugger.md), types commands with
-# `tmux send-keys` (breakpoint, continue, Enter to repeat, stepi, print, x, watch, reverse-step,
+# `tmux send-keys` (breakpoint, continue, Enter to repeat, stepi, print, x, watch, reverse-cycle,
 # Tab completion, a bad command) and appends each screen, captured with `tmux capture-pane`, to
 # OUT. Exit 0 when every step showed what it should, 1 otherwise. Needs tmux (apt-get install
 # tmux). PYTHON picks the interpreter that runs `python -m netsushisen.cli` (tests pass their
@@ -37,16 +37,19 @@ loop:   recv r1, host                       # header from DIS
 EOF
 cat > "$WORK/ic.s" <<'EOF'
 .proc ic
+.reg pix = r2
+.reg shape = r4
+.reg sum = r6
 loop:   recv r1, ring                       # header
-        recv r2, ring                       # pixel index
-        slli r3, r2, 2                      # 4 words per pixel
-        { ldg r4, [r3 + 1] ; lf r8, 0.5 }   # shape word, through the cache
-        ldr r5, [r2]                        # resident word
-        { fadd r6, r4, r5 ; fmul r9, r4, r8 }
+        recv pix, ring                      # pixel index
+        slli r3, pix, 2                     # 4 words per pixel
+        { ldg shape, [r3 + 1] ; lf r8, 0.5 }   # shape word, through the cache
+        ldr r5, [pix]                       # resident word
+        { fadd sum, shape, r5 ; fmul r9, shape, r8 }
         li r7, (DEST_SC << HDR_DEST_SHIFT) | (1 << HDR_CLS_SHIFT) | 2
         send ring, r7
-        send ring, r2
-        send ring, r6
+        send ring, pix
+        send ring, sum
         j loop
 EOF
 cat > "$WORK/sc.s" <<'EOF'
@@ -131,14 +134,40 @@ wait_prompt "start"
 { echo "===== start"; screen | sed -e 's/[[:space:]]*$//'; echo; } >> "$OUT"
 step "break loop+5"      "breakpoint 1 at ic pc 5"            "$((1 - QUICK))"
 step "continue"          "breakpoint 1: pe0.ic issued pc 5 (loop+5)"
+# at every size: the register names in the registers panel, the current bundle's operands whole
+for want in "*shape/r4" "fadd sum/r6, shape/r4, r5" "fmul r9, shape/r4, r8"; do
+    screen | grep -qF -- "$want" || { echo "drive_debugger: the stop does not show: $want" >&2; FAILED=1; }
+done
 step ""                  "breakpoint 1: pe0.ic issued pc 5 (loop+5)" "$((1 - QUICK))"
 step "stepi"             "issued pc 6"                         "$((1 - QUICK))"
-step "print f:r6"        "f:r6 = "                             0
+step "print f:sum"       "f:sum/r6 = "                         0
 step "x/4f icgm 0"       "icgm[0]:"                            0
-step "watch r6"          "watchpoint 2 on pe0.ic.r6"           0
-step "continue"          "watchpoint 2: pe0.ic.r6:"
-step "reverse-step 12"   "last cycle 22 (23 cycles run)"      "$((1 - QUICK))"
+step "watch sum"         "watchpoint 2 on pe0.ic.sum/r6"       0
+step "continue"          "watchpoint 2: pe0.ic.sum/r6:"
+step "reverse-cycle 12"  "last cycle 22 (23 cycles run)"      "$((1 - QUICK))"
 step "bogus"             "error: unknown command 'bogus'"      0
+step "help"              "Type \"help\" followed by a command name" 0
+# `help all` is longer than a short terminal: gdb's pager asks before each further page
+tmux -L "$SESSION" send-keys -t "$SESSION" -l "help all"
+tmux -L "$SESSION" send-keys -t "$SESSION" Enter
+if [ "$ROWS" -lt 45 ]; then
+    for _ in $(seq 1 100); do
+        screen | grep -qF -- "--Type <RET> for more" && break
+        sleep 0.1
+    done
+    { echo "===== (nss) help all"; screen | sed -e 's/[[:space:]]*$//'; echo; } >> "$OUT"
+    screen | grep -qF -- "--Type <RET> for more, q to quit, c to continue without paging--" \
+        || { echo "drive_debugger: help all was not paged" >&2; FAILED=1; }
+    before=$(screen)
+    tmux -L "$SESSION" send-keys -t "$SESSION" -l "q"
+    tmux -L "$SESSION" send-keys -t "$SESSION" Enter
+    wait_prompt "q (leave the pager)" "$before"
+else
+    wait_prompt "help all"
+    if [ "$ROWS" -ge 50 ] && screen | grep -qF -- "--Type <RET>"; then
+        echo "drive_debugger: help all paged on a tall terminal" >&2; FAILED=1
+    fi
+fi
 # Tab completion: `info reg<Tab>` completes to `info registers`
 tmux -L "$SESSION" send-keys -t "$SESSION" -l "info reg"
 tmux -L "$SESSION" send-keys -t "$SESSION" Tab
@@ -146,9 +175,26 @@ for _ in $(seq 1 100); do  # the completion is drawn when the front end gets to 
     screen | grep -q "(nss) info registers" && break
     sleep 0.1
 done
-# (on a short terminal the table's title has scrolled away: its last row, lr, is there)
-if [ "$ROWS" -ge 45 ]; then SHOWN="registers pe0.ic (* changed since the previous stop)"; else SHOWN="lr "; fi
-step "" "$SHOWN" "$((1 - QUICK))" "info reg<Tab> (completes to: info registers)"
+# 64 registers in one column on a short terminal: the pager asks; `c` shows the rest (lr last)
+if [ "$ROWS" -ge 45 ]; then
+    step "" "registers pe0.ic (* changed since the previous stop)" "$((1 - QUICK))" \
+        "info reg<Tab> (completes to: info registers)"
+else
+    before=$(screen)
+    tmux -L "$SESSION" send-keys -t "$SESSION" Enter
+    last() { screen | grep -v '^\s*$' | tail -n 1; }
+    for _ in $(seq 1 100); do
+        [ "$(screen)" != "$before" ] && last | grep -qE -- '^(--Type <RET>|\(nss\) *$)' && break
+        sleep 0.1
+    done
+    if last | grep -qF -- "--Type <RET> for more"; then
+        step "c" "lr " "$((1 - QUICK))" "info reg<Tab> (completes to: info registers), c at the pager"
+    elif [ "$ROWS" -lt 30 ]; then
+        echo "drive_debugger: info registers was not paged" >&2; FAILED=1
+    else
+        screen | grep -qF "lr " || { echo "drive_debugger: info registers shows no lr" >&2; FAILED=1; }
+    fi
+fi
 tmux -L "$SESSION" send-keys -t "$SESSION" -l "quit"
 tmux -L "$SESSION" send-keys -t "$SESSION" Enter
 for _ in $(seq 1 50); do

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import ast
+import functools
 import json
 import os
 import queue
@@ -52,6 +53,14 @@ class Group:
     name: str
     modules: tuple[str, ...]
     tests: tuple[str, ...]
+    engine: str = "reference"
+    """The engine the tests run on: `compiled` for the compiled engine's own code (each mutant
+    then compiles its loop, about a minute, in a numba cache of its tree's own)."""
+    functions: tuple[str, ...] = ()
+    """Only mutants inside these top-level functions (all of the modules' when empty)."""
+    opt_in: bool = False
+    """Left out of the default sample; run with `--group NAME` (so adding such a group does
+    not change the seeded sample of the others)."""
 
 
 @dataclass(frozen=True)
@@ -107,7 +116,16 @@ def load_settings(path: Path = CONFIG) -> Settings:
             for rel in g[key]:
                 if not (PROJECT / rel).is_file():
                     raise MutateError(f"{where}: group {name!r}: {key[:-1]} {rel!r} does not exist")
-        groups.append(Group(name, tuple(g["modules"]), tuple(g["tests"])))
+        engine = g.get("engine", "reference")
+        if engine not in ("reference", "compiled"):
+            raise MutateError(f"{where}: group {name!r}: engine {engine!r} is not reference or compiled")
+        functions = tuple(g.get("functions", ()))
+        missing = set(functions) - {f for rel in g["modules"] for f in function_spans(PROJECT / rel)}
+        if missing:
+            raise MutateError(f"{where}: group {name!r}: no function {', '.join(sorted(missing))} "
+                              f"in {', '.join(g['modules'])}")
+        groups.append(Group(name, tuple(g["modules"]), tuple(g["tests"]), engine, functions,
+                            bool(g.get("opt-in", False))))
     if not groups:
         raise MutateError(f"{where}: no [[group]]")
     equivalents = []
@@ -147,10 +165,13 @@ def make_tree(workdir: Path, index: int) -> Path:
     return tree
 
 
-def test_command(tree: Path, tests: tuple[str, ...]) -> str:
-    """The group's tests on the copy: reference engine, one process, stop at the first failure."""
-    return shlex.join(["env", "-C", str(tree), f"PYTHONPATH={tree}", sys.executable, "-m", "pytest",
-                       "-p", "no:xdist", "-x", "-q", "--engine", "reference", *tests])
+def test_command(tree: Path, group: Group) -> str:
+    """The group's tests on the copy: its engine, one process, stop at the first failure. The
+    compiled engine caches its code under the tree (a mutant's loop is a new cache entry, never
+    one the user's runs load)."""
+    cache = [f"NETSUSHISEN_CACHE={tree.parent / 'numba-cache'}"] if group.engine == "compiled" else []
+    return shlex.join(["env", "-C", str(tree), f"PYTHONPATH={tree}", *cache, sys.executable, "-m",
+                       "pytest", "-p", "no:xdist", "-x", "-q", "--engine", group.engine, *group.tests])
 
 
 def enumerate_mutants(groups: tuple[Group, ...], session: Path) -> list[tuple[Group, object]]:
@@ -194,6 +215,23 @@ def annotation_spans(module: Path) -> list[tuple[tuple[int, int], tuple[int, int
     return [((n.lineno, n.col_offset), (n.end_lineno, n.end_col_offset)) for n in notes]
 
 
+@functools.lru_cache(maxsize=None)
+def function_spans(module: Path) -> dict[str, tuple[int, int]]:
+    """Top-level functions of a module: name -> (first line, last line), decorators included."""
+    tree = ast.parse(module.read_text())
+    return {n.name: (min([n.lineno, *(d.lineno for d in n.decorator_list)]), n.end_lineno)
+            for n in tree.body if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))}
+
+
+def in_functions(mutant, group: Group) -> bool:
+    """Whether a mutant lies in one of its group's functions (every mutant when none named)."""
+    if not group.functions:
+        return True
+    spec = mutant.mutations[0]
+    spans = function_spans(PROJECT / spec.module_path)
+    return any(spans[f][0] <= spec.start_pos[0] <= spans[f][1] for f in group.functions if f in spans)
+
+
 def in_annotation(mutant, spans: dict) -> bool:
     spec = mutant.mutations[0]
     where = (spec.start_pos[0], spec.start_pos[1])
@@ -212,7 +250,7 @@ def choose(mutants: list, sample: int, seed: int, groups: set[str], wanted: list
             raise MutateError(f"--mutant: no mutant {', '.join(missing)} (MODULE:OPERATOR:OCCURRENCE, "
                               "as results.json names them)")
         return chosen
-    pool = [(g, w) for g, w in mutants if not groups or g.name in groups]
+    pool = [(g, w) for g, w in mutants if g.name in groups or (not groups and not g.opt_in)]
     if sample and sample < len(pool):
         picked = sorted(random.Random(seed).sample(range(len(pool)), sample))
         pool = [pool[i] for i in picked]
@@ -222,7 +260,7 @@ def choose(mutants: list, sample: int, seed: int, groups: set[str], wanted: list
 def baseline(tree: Path, group: Group) -> float:
     """The group's tests on the unmutated copy must pass; returns their wall seconds."""
     start = time.monotonic()
-    proc = subprocess.run(shlex.split(test_command(tree, group.tests)), capture_output=True, text=True)
+    proc = subprocess.run(shlex.split(test_command(tree, group)), capture_output=True, text=True)
     if proc.returncode != 0:
         tail = (proc.stdout + proc.stderr).strip().splitlines()[-1:] or ["(no output)"]
         raise MutateError(f"group {group.name!r}: the tests fail before any mutation: {tail[0]}")
@@ -334,7 +372,7 @@ def main(argv: list[str] | None = None) -> int:
         mutants = enumerate_mutants(settings.groups, args.workdir / "session.sqlite")
         spans = {m: annotation_spans(PROJECT / m) for g in settings.groups for m in g.modules}
         typed = [(g, w) for g, w in mutants if in_annotation(w, spans)]
-        mutants = [(g, w) for g, w in mutants if not in_annotation(w, spans)]
+        mutants = [(g, w) for g, w in mutants if not in_annotation(w, spans) and in_functions(w, g)]
         kept: list[Outcome] = []
         if args.retest:
             kept, wanted = earlier(args.retest)
@@ -368,7 +406,7 @@ def main(argv: list[str] | None = None) -> int:
             result = mutate_and_test([MutationSpec(tree / spec.module_path, spec.operator_name,
                                                    spec.occurrence, spec.start_pos, spec.end_pos,
                                                    spec.operator_args)],
-                                     test_command(tree, group.tests), timeouts[group])
+                                     test_command(tree, group), timeouts[group])
             outcome = classify(group, item, result, time.monotonic() - start, equivalents)
             outcome.diff = outcome.diff.replace(f"{tree}/", "")
             return outcome

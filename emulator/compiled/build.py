@@ -232,7 +232,7 @@ def no_wraparound():
 def run_loop(module, args: tuple) -> int:
     """module.run_loop(*args). The first call in a process compiles the loop (or loads it from
     the disk cache) under no_wraparound()."""
-    if module.run_loop.signatures:
+    if getattr(module.run_loop, "signatures", True):  # (no attribute: NUMBA_DISABLE_JIT=1)
         return module.run_loop(*args)
     with no_wraparound():
         return module.run_loop(*args)

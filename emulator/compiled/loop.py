@@ -815,6 +815,11 @@ def run_cycles(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn,
             rr = c % rn
         rr_c = c
         dis_changed = False
+        # whether some processor issued in cycle c itself: one that then ran ahead reads as not
+        # issued (its C_LAST_ISSUED speaks for the last cycle it stepped), yet its bundle in
+        # cycle c may have popped a FIFO — a slot free from c + 1 for a CMU or a sender to
+        # take — so the cycle is not quiet (skip_quiet)
+        issued_in_c = False
         # DIS (machine.Dis.step)
         if dis[D_DYNAMIC] and dis[D_NEXT] < nmsgs:
             best = -1
@@ -881,6 +886,8 @@ def run_cycles(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn,
                             wake_all(cs, stpc, npes * 3, c, p)
                             g[G_CYCLE] = c + 1
                             return S_FAULT
+                        if t == c and cs[p, C_LAST_ISSUED]:
+                            issued_in_c = True
                         t += 1
                         if not ahead or cs[p, C_SLEEP] or cs[p, C_HALTED]:
                             break
@@ -1013,7 +1020,7 @@ def run_cycles(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn,
         sp = g[G_STOP_P]
         if sp >= 0 and cs[sp, C_PC] == g[G_STOP_PC] and not cs[sp, C_HALTED]:
             return S_STOPPED
-        if not any_issued and not dis_changed:
+        if not any_issued and not dis_changed and not issued_in_c:
             skip_quiet(c, until, limit, npes, W, cs, regs, wbn, wbr, wbw, stpc, pes, pw, cflags,
                        g)
     return S_RUNNING

@@ -7,7 +7,8 @@
 
 SCENE is a built-in SPD scene (tetra, balls, mount, rings, ...; `balls:2` for size factor 2) or
 an .nff file. The kernels are assembled for the scene's needs unless --generic; --kernels DIR (or
---os/--ic/--sc FILE) runs your own kernels instead of the bundled ones. The image, ids and JSON
+--os/--ic/--sc FILE) runs your own kernels instead of the bundled ones (`--kernels classic`: the
+bundled 1992-style set, kernels/classic/). The image, ids and JSON
 are written whatever the run's end (a deadlock or fault keeps what was computed); the exit code
 is the run's (0 done, 2 fault, 3 deadlock, 4 cycle limit). The engine is the compiled one unless
 --engine says otherwise (netsushisen/options.py). On a terminal a progress bar shows the eye
@@ -48,7 +49,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
                        "that exists: never overwritten unless named here)", metavar="PNG")
     parser.add_argument("--ids", help="save the eye rays' hit-primitive ids (int32 .npy, -1 background)")
     add_json(parser, "write the statistics as JSON to FILE (- : standard output, no summary)")
-    parser.add_argument("--kernels", help="folder with your own os.s, ic.s, sc.s")
+    parser.add_argument("--kernels", help="folder with your own os.s, ic.s, sc.s, or `classic` "
+                        "for the bundled 1992-style kernels")
     for stage in ("os", "ic", "sc"):
         parser.add_argument(f"--{stage}", help=f"your own {stage.upper()} kernel source")
     add_quiet(parser)

@@ -6,6 +6,7 @@
     netsushisen report memory   STATS.json
     netsushisen report annotate STATS.json [--proc pe0.ic] [--top N] [--order hot|program]
                                 [--plot FILE.png]
+    netsushisen report bounds   STATS.json [--proc pe0.ic] [--top N] [--optimum-ops N]
     netsushisen report diff     A.json B.json [--changed]
     each also: [--format table|json|csv|md] [--table NAME] [-o FILE|DIR] [--width N]
     netsushisen report flat     STATS.json [-o FILE]   (one statistic a line, gem5's stats.txt)
@@ -18,6 +19,8 @@ region ρ (resident share), μ (cache hit rate), the measured mean access time a
 t = t_r·{ρ + (1 − ρ)(8 − 6μ)}. annotate: the program listing with, per bundle, times issued,
 stall cycles by cause, share of the processor's cycles and slot fill, hottest first or in
 program order, and a summary per loop; `--plot` draws the cycles per bundle along the listing.
+bounds: per loop and block the static bounds (units, ports, recurrence, critical path; the
+optimum of small blocks by CP-SAT) beside its cycles per run and stalls per run by cause.
 diff: the inputs that differ, then every processor's and memory region's figures in A and B
 with the change and relative change (`--changed`: only the figures that changed). flat: every
 statistic as `name value # description (unit)`, dotted stable names (reports/flat.py). Every
@@ -45,6 +48,7 @@ REPORTS = {"ilp": "ILP per processor, slot fill, register ports, hottest code",
            "stalls": "cycles by stall cause and by code location; --explain: what the causes mean",
            "memory": "resident share ρ, cache hit rate μ, access time t per database region",
            "annotate": "the program listing with cycles, stalls and slot fill per bundle; loops",
+           "bounds": "every loop's and block's static bounds beside its cycles per run, stalls by cause",
            "diff": "compare two statistics files: inputs that differ, then every figure's change",
            "flat": "every statistic, one a line: name value # description (unit)"}
 PLOT_SUFFIXES = (".png", ".svg", ".pdf")
@@ -63,6 +67,20 @@ def _common(p: argparse.ArgumentParser) -> None:
 def _top(p: argparse.ArgumentParser, default: str) -> None:
     p.add_argument("--top", type=int, default=None, metavar="N", help=f"code locations per processor "
                    f"(default {default})")
+
+
+def _proc(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--proc", metavar="NAME", help="one processor (pe0.ic), or a stage (ic: "
+                   "every PE's); default every processor")
+
+
+def add_optimum_option(p: argparse.ArgumentParser) -> None:
+    """`--optimum-ops N` (report bounds, asm --bounds)."""
+    from netsushisen.asm.bounds import OPTIMUM_MAX_OPS
+
+    p.add_argument("--optimum-ops", type=int, default=OPTIMUM_MAX_OPS, metavar="N",
+                   help=f"blocks up to N operations get CP-SAT's optimum schedule length "
+                        f"(default {OPTIMUM_MAX_OPS}; 0: none)")
 
 
 def _plot(p: argparse.ArgumentParser, what: str) -> None:
@@ -87,16 +105,18 @@ def configure(parser: argparse.ArgumentParser) -> None:
             p.add_argument("stats", metavar="STATS.json", nargs="?" if kind == "stalls" else None,
                            help="statistics file (run --json / render --json)")
         _common(p)
-        if kind in ("ilp", "stalls", "annotate"):
+        if kind in ("ilp", "stalls", "annotate", "bounds"):
             _top(p, {"ilp": "5", "stalls": "10", "annotate": "20 hottest; every bundle with "
-                     "--order program"}[kind])
+                     "--order program", "bounds": "20 hottest blocks"}[kind])
         if kind == "stalls":
             p.add_argument("--explain", action="store_true", help="add what each cause means; "
                            "without STATS.json: print the glossary of every cause")
             _plot(p, "the cycles by cause per processor as stacked bars")
+        if kind == "bounds":
+            _proc(p)
+            add_optimum_option(p)
         if kind == "annotate":
-            p.add_argument("--proc", metavar="NAME", help="one processor (pe0.ic), or a stage (ic: "
-                           "every PE's); default every processor")
+            _proc(p)
             p.add_argument("--order", choices=("hot", "program"), default="hot",
                            help="hottest bundles first (default) or in program order")
             _plot(p, "the cycles charged to each bundle along the listing")
@@ -110,6 +130,9 @@ def sections_for(args: argparse.Namespace, stats: dict, other: dict | None = Non
                                **({"explain": args.explain} if kind == "stalls" else {}))
     if kind == "annotate":
         return report_sections(kind, stats, args.proc, top, args.order)
+    if kind == "bounds":
+        from netsushisen.reports.bounds import bounds_report
+        return bounds_report(stats, args.proc, top, args.optimum_ops, str(args.stats))
     if kind == "diff":
         return report_sections(kind, stats, other, args.changed)
     return report_sections(kind, stats)
@@ -119,6 +142,8 @@ def _check(args: argparse.Namespace) -> None:
     """Option errors, before any file is read."""
     if getattr(args, "top", None) is not None and args.top < 0:
         raise StatsError("--top must not be negative")
+    if getattr(args, "optimum_ops", 0) < 0:
+        raise StatsError("--optimum-ops must not be negative")
     if getattr(args, "width", None) is not None and args.width < 20:
         raise StatsError(f"--width {args.width}: a table needs at least 20 columns")
     plot = getattr(args, "plot", None)

@@ -1,0 +1,230 @@
+"""Linear assembly: a `.sched` ... `.endsched` region's operations into bundles.
+
+The region is cut into blocks — a label starts one, a control transfer or halt ends one — and
+each block is list-scheduled (asm/scheduler.py); a block that a `.pipeline` label heads and whose
+last operation branches back to that label is software-pipelined (asm/pipeline.py), or
+list-scheduled with the reason it could not be. The result is a `Layout` of region-local
+operation indices (renamed where pipelined) that the assembler turns into bundles.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from netsushisen.asm.checker import check_bundle
+from netsushisen.asm.dependences import ends_block
+from netsushisen.asm.objects import Op, SourceLoc
+from netsushisen.asm.parser import Directive, Loc
+from netsushisen.asm.pipeline import Layout, Placed, PipelineReport, materialize, pipeline_loop
+from netsushisen.asm.scheduler import list_schedule
+from netsushisen.isa.config import MachineConfig
+from netsushisen.isa.processors import Processor
+
+
+@dataclass
+class RegionLoop:
+    """A `.pipeline` mark: the region-local index of the loop's head and how to name it."""
+
+    head: int
+    name: str
+    where: str
+
+
+@dataclass
+class Region:
+    """A `.sched` ... `.endsched` region: pending bundles first..end (one operation each)."""
+
+    loc: Loc
+    first: int
+    end: int = -1
+    starts: set[int] = field(default_factory=set)  # region-local indices labels point at
+    loops: list[RegionLoop] = field(default_factory=list)
+    temps: list[int] = field(default_factory=list)
+
+
+def blocks(n: int, ops: list[Op], starts: set[int]) -> list[tuple[int, int]]:
+    """[start, end) of each block of a region's operations."""
+    out = []
+    first = 0
+    for i in range(n):
+        if i in starts and i > first:
+            out.append((first, i))
+            first = i
+        if ends_block(ops[i]):
+            out.append((first, i + 1))
+            first = i + 1
+    if first < n:
+        out.append((first, n))
+    return out
+
+
+def schedule_region(ops: list[Op], targets: list[int | None], starts: set[int],
+                    loops: list[RegionLoop], temps: list[int], proc: Processor,
+                    config: MachineConfig) -> tuple[Layout, dict[int, int], list[PipelineReport]]:
+    """The region's layout, where each block start (region-local index) lands, and a report per
+    `.pipeline` loop. `targets[i]`: the region-local index operation i branches to, if inside."""
+    layout = Layout()
+    starts_at: dict[int, int] = {}
+    reports = []
+    heads = {loop.head: loop for loop in loops}
+    for a, b in blocks(len(ops), ops, starts | set(heads)):
+        starts_at[a] = len(layout.bundles)
+        body = ops[a:b]
+        loop = heads.get(a)
+        if loop is not None:
+            report = PipelineReport(loop.name, loop.where, 0)
+            reports.append(report)
+            if targets[b - 1] != a:
+                report.ops = len(body)
+                report.reason = "it is not a single-block loop (its last operation does not branch back to its head)"
+            else:
+                sub = pipeline_loop(body, proc, config, temps, report)
+                if sub is not None:
+                    prefix = f"{loop.name}."
+                    for bundle in sub.bundles:
+                        layout.bundles.append([_shift(p, a, prefix) for p in bundle])
+                    for name, at in sub.labels.items():
+                        layout.labels[prefix + name] = starts_at[a] + at
+                    continue
+        for bundle in list_schedule(body, proc, config):
+            layout.bundles.append([Placed(a + i) for i in bundle])
+    starts_at[len(ops)] = len(layout.bundles)
+    return layout, starts_at, reports
+
+
+def _shift(p: Placed, offset: int, prefix: str) -> Placed:
+    return Placed(p.index + offset if p.index >= 0 else -1, p.reads, p.writes, p.mnemonic,
+                  prefix + p.target if p.target else "", p.op,
+                  p.source + offset if p.source >= 0 else -1)
+
+
+class RegionAssembly:
+    """The assembler's handling of `.sched` regions (a mixin of `assembler.Assembler`, as
+    `macros.MacroExpansion` is: it uses its state `st`, `config`, `_resolve_ops`)."""
+
+    def _sched_directive(self, d: Directive) -> None:
+        """`.sched`, `.endsched`, `.pipeline`, `.temps` (docs/scheduling.md)."""
+        st = self.st
+        name, args = d.name, d.args
+        if name != "temps" and args:
+            st.error(f".{name} takes no arguments", d.loc)
+            return
+        if name == "sched":
+            if st.region is not None:
+                st.error(f".sched inside a .sched region (opened at line {st.region.loc.line})", d.loc)
+                return
+            st.region = Region(d.loc, len(st.bundles))
+            st.regions.append(st.region)
+            return
+        if st.region is None:
+            st.error(f".{name} outside a .sched region", d.loc)
+            return
+        if name == "endsched":
+            if st.pipeline_mark is not None:
+                st.error(".pipeline must be followed by the loop's label", st.pipeline_mark)
+                st.pipeline_mark = None
+            st.region.end = len(st.bundles)
+            st.region = None
+        elif name == "pipeline":
+            st.pipeline_mark = d.loc
+        else:  # temps: rA-rB or registers, comma-separated
+            if not args:
+                st.error(".temps takes registers: .temps r40-r47 or .temps r40, r41", d.loc)
+            for a in args:
+                regs = self._temps_arg(a)
+                if regs is None:
+                    st.error(".temps takes registers: rA-rB (a range) or rA", a.loc)
+                    continue
+                st.region.temps.extend(r for r in regs if r not in st.region.temps)
+
+    def _temps_arg(self, a) -> list[int] | None:
+        from netsushisen.asm.assembler import register_index
+
+        aliases = self.st.aliases
+        if a.kind != "expr":
+            return None
+        e = a.value
+        if e[0] == "name" and register_index(e[1], aliases):
+            return [register_index(e[1], aliases)]
+        if e[0] == "bin" and e[1] == "sub" and e[2][0] == "name" and e[3][0] == "name":
+            lo, hi = register_index(e[2][1], aliases), register_index(e[3][1], aliases)
+            if lo and hi and lo <= hi:
+                return list(range(lo, hi + 1))
+        return None
+
+    def _schedule(self, proc, resolved: list[list[Op]], sources: list[list[SourceLoc]],
+                  smap: list[SourceLoc]):
+        """Lay the `.sched` regions out as scheduled bundles: schedule each region on the
+        serial layout's operations, move every code label to its new address, resolve the
+        operations again against the moved labels, and build the bundles."""
+        st = self.st
+        regions = {r.first: r for r in st.regions if r.end > r.first}
+        old_to_new: dict[int, int] = {}
+        plan = []
+        addr = i = 0
+        while i < len(st.bundles):
+            r = regions.get(i)
+            if r is None:
+                old_to_new[i] = addr
+                plan.append((i, None, None, addr))
+                addr, i = addr + 1, i + 1
+                continue
+            ops = [resolved[k][0] for k in range(r.first, r.end)]
+            self.region_lines |= {(s.file, s.line, s.via) for k in range(r.first, r.end)
+                                  for s in sources[k]}
+            targets = []
+            for op in ops:
+                t = next((a for o, a in zip(op.opcode.operands, op.args) if o.kind == "label"), None)
+                targets.append(t - r.first if t is not None and r.first <= t < r.end else None)
+            layout, starts_at, reports = schedule_region(ops, targets, r.starts, r.loops, r.temps,
+                                                         proc, self.config)
+            self.pipeline_reports.extend(reports)
+            for local, off in starts_at.items():
+                old_to_new.setdefault(r.first + local, addr + off)
+            plan.append((i, r, layout, addr))
+            addr, i = addr + len(layout.bundles), r.end
+        old_to_new.setdefault(len(st.bundles), addr)
+        for sym in st.symbols.values():
+            if sym.kind == "text":
+                sym.value = old_to_new[int(sym.value)]
+        final = self._resolve_ops(proc, addr)
+        bundles: list[tuple[Op, ...]] = []
+        op_sources: list[tuple[SourceLoc, ...]] = []
+        new_smap: list[SourceLoc] = []
+        for i, r, layout, at in plan:
+            if r is None:
+                bundles.append(tuple(final[i]))
+                op_sources.append(tuple(sources[i]))
+                new_smap.append(smap[i])
+                continue
+            ops = [final[k][0] for k in range(r.first, r.end)]
+            for bundle in layout.bundles:
+                made, srcs, first = [], [], None
+                for p in bundle:
+                    op = materialize(p, ops)
+                    if p.target:
+                        target = at + layout.labels[p.target]
+                        op = Op(op.mnemonic, tuple(target if o.kind == "label" else a
+                                                   for o, a in zip(op.opcode.operands, op.args)))
+                    made.append(op)
+                    k = r.first + (p.index if p.index >= 0 else p.source)
+                    srcs.append(sources[k][0])
+                    first = k if first is None else min(first, k)
+                for problem in check_bundle(proc, made):
+                    st.error(f"internal error: the scheduler made a bundle that breaks a rule: "
+                             f"{problem}", r.loc)
+                bundles.append(tuple(made))
+                op_sources.append(tuple(srcs))
+                new_smap.append(smap[first])  # the bundle's earliest source line
+        spans = [(r.first, r.end, at, at + len(layout.bundles))
+                 for _, r, layout, at in plan if r is not None]
+
+        def moved(i: int, end: bool) -> int:
+            """Serial bundle index -> its address after scheduling (a region's first and end
+            map to the scheduled region's; `end`: the index ends a range)."""
+            for first, stop, new, new_end in spans:
+                if first < i < stop or (i == first and not end):
+                    return new_end if end else new
+            return old_to_new.get(i, addr)
+
+        return bundles, op_sources, new_smap, moved

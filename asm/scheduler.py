@@ -1,0 +1,167 @@
+"""The list scheduler of linear assembly (`.sched` regions): a block's operations into bundles.
+
+Cycle by cycle, the ready operations (every predecessor placed, its latency elapsed) are placed
+highest priority first — the longest latency-weighted path to the end of the block
+(`DependenceGraph.heights`), then serial order, so the result is deterministic — wherever the
+processor's resources allow (`Reservations`): unit slots (an unpipelined unit stays busy for its
+latency), distinct register reads within the read ports, register writes within the write ports
+both per bundle and per completion cycle (T5), one control transfer, nothing issued while a load
+holds issue (T6). The order kept is the dependence graph's (asm/dependences.py). Empty cycles are
+dropped from the output: the interlocks wait there just as long.
+
+`Reservations` also serves the modulo scheduler (asm/pipeline.py): with `ii` set, cycles are
+folded modulo II into the rows of a modulo reservation table.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+
+from netsushisen.asm.dependences import DependenceGraph, dependences, unit_busy
+from netsushisen.asm.objects import Op
+from netsushisen.isa.config import MachineConfig
+from netsushisen.isa.processors import Processor
+
+
+@dataclass
+class _Row:
+    units: Counter = field(default_factory=Counter)
+    reads: set = field(default_factory=set)
+    writes: int = 0
+    completions: int = 0
+    control: int = 0
+    ops: int = 0
+    blocked: int = 0  # load holds covering this cycle
+
+
+class Reservations:
+    """Resource use per cycle (or per row modulo `ii`) of the bundles being built."""
+
+    def __init__(self, proc: Processor, config: MachineConfig, ii: int | None = None):
+        self.proc, self.config, self.ii = proc, config, ii
+        self.rows: dict[int, _Row] = {}
+
+    def _row(self, cycle: int) -> _Row:
+        key = cycle % self.ii if self.ii else cycle
+        row = self.rows.get(key)
+        if row is None:
+            row = self.rows[key] = _Row()
+        return row
+
+    def _claims(self, op: Op, cycle: int, latency: int, hold: int, reads) -> list:
+        unit = None if op.opcode.kind == "nop" else self.proc.unit(op.opcode.unit)
+        out = []
+        if unit is not None:
+            for k in range(unit_busy(op, self.proc, self.config)):
+                out.append((cycle + k, "unit", unit))
+        out.append((cycle, "op", reads))
+        n = len(op.writes())
+        if n:
+            out.append((cycle, "writes", n))
+            out.append((cycle + latency, "completions", n))
+        if op.opcode.is_control:
+            out.append((cycle, "control", 1))
+        for k in range(1, hold):
+            out.append((cycle + k, "blocked", 1))
+        return out
+
+    def fits(self, op: Op, cycle: int, latency: int, hold: int, reads=None) -> bool:
+        """Whether `op` can issue in `cycle` beside what is placed (`reads`: the register names
+        it reads, if not `op.reads()` — the modulo scheduler passes names per iteration)."""
+        reads = frozenset(op.reads() if reads is None else reads)
+        claims = self._claims(op, cycle, latency, hold, reads)
+        if self.ii and hold > self.ii:  # a load holding issue for a whole II blocks its own row
+            return False
+        proc = self.proc
+        # group claims per row (a modulo row may be claimed twice by one op)
+        per: dict[int, dict] = {}
+        for c, kind, v in claims:
+            key = c % self.ii if self.ii else c
+            d = per.setdefault(key, {"unit": Counter(), "writes": 0, "completions": 0,
+                                     "control": 0, "blocked": 0, "reads": None})
+            if kind == "unit":
+                d["unit"][v] += 1
+            elif kind == "op":
+                d["reads"] = v
+            else:
+                d[kind] += v
+        for key, d in per.items():
+            row = self.rows.get(key) or _Row()
+            for unit, n in d["unit"].items():
+                if row.units[unit] + n > proc.units.get(unit, 0):
+                    return False
+            if d["reads"] is not None:
+                if row.blocked or (not proc.vliw and row.ops):
+                    return False
+                if len(row.reads | d["reads"]) > proc.read_ports:
+                    return False
+            if row.writes + d["writes"] > proc.write_ports:
+                return False
+            if row.completions + d["completions"] > proc.write_ports:
+                return False
+            if row.control + d["control"] > 1:
+                return False
+            if d["blocked"] and (row.ops or (d["reads"] is not None)):
+                return False
+        return True
+
+    def place(self, op: Op, cycle: int, latency: int, hold: int, reads=None) -> None:
+        reads = frozenset(op.reads() if reads is None else reads)
+        for c, kind, v in self._claims(op, cycle, latency, hold, reads):
+            row = self._row(c)
+            if kind == "unit":
+                row.units[v] += 1
+            elif kind == "op":
+                row.ops += 1
+                row.reads |= v
+            else:
+                setattr(row, kind, getattr(row, kind) + v)
+
+
+def list_schedule(ops: list[Op] | tuple[Op, ...], proc: Processor, config: MachineConfig,
+                  graph: DependenceGraph | None = None) -> list[list[int]]:
+    """One block's operations (serial order; a control transfer or halt only last) as bundles of
+    operation indices, each bundle in serial order."""
+    time = issue_times(ops, proc, config, graph)
+    by_cycle: dict[int, list[int]] = {}
+    for i, t in enumerate(time):
+        by_cycle.setdefault(t, []).append(i)
+    return [sorted(by_cycle[t]) for t in sorted(by_cycle)]
+
+
+def issue_times(ops: list[Op] | tuple[Op, ...], proc: Processor, config: MachineConfig,
+                graph: DependenceGraph | None = None) -> list[int]:
+    """The cycle the list scheduler issues each operation in (empty cycles kept)."""
+    g = graph or dependences(ops, proc, config)
+    n = len(g.ops)
+    if n == 0:
+        return []
+    res = Reservations(proc, config)
+    time: list[int | None] = [None] * n
+    waiting = [sum(1 for e in g.preds(i) if e.distance == 0) for i in range(n)]
+    earliest = [0] * n
+    ready = {i for i in range(n) if waiting[i] == 0}
+    key = {i: (-g.heights[i], i) for i in range(n)}
+    left = n
+    cycle = 0
+    while left:
+        for i in sorted((i for i in ready if earliest[i] <= cycle), key=key.__getitem__):
+            if res.fits(g.ops[i], cycle, g.latencies[i], g.holds[i]):
+                res.place(g.ops[i], cycle, g.latencies[i], g.holds[i])
+                time[i] = cycle
+                ready.discard(i)
+                left -= 1
+                for e in g.succs(i):
+                    if e.distance:
+                        continue
+                    earliest[e.dst] = max(earliest[e.dst], cycle + e.latency)
+                    waiting[e.dst] -= 1
+                    if waiting[e.dst] == 0:
+                        ready.add(e.dst)
+        # newly ready operations with latency 0 may join this cycle's bundle
+        if any(earliest[i] <= cycle and res.fits(g.ops[i], cycle, g.latencies[i], g.holds[i])
+               for i in ready):
+            continue
+        cycle += 1
+    return time  # type: ignore[return-value]

@@ -49,6 +49,8 @@ class Row:
     values: dict[str, float | None] = field(default_factory=dict)  # what was measured itself
     ci_low: float | None = None  # sampled rows: 95 % interval of total cycles
     ci_high: float | None = None
+    timing: "Timing | None" = None  # the repeated runs behind `seconds` (their median)
+    emulated: bool = False  # a precision computed in software: its seconds are not its cost
 
     def to_json(self) -> dict:
         out = {"scene": self.scene, "setting": self.setting, "truth": self.truth,
@@ -57,7 +59,55 @@ class Row:
                "values": {k: _num(v) for k, v in self.values.items()}}
         if self.ci_low is not None:
             out["ci_low"], out["ci_high"] = float(self.ci_low), float(self.ci_high)
+        if self.timing is not None:
+            out["timing"] = self.timing.to_json()
+        if self.emulated:
+            out["emulated"] = True
         return out
+
+
+@dataclass
+class Timing:
+    """Wall seconds of a row over repeated runs (each run timed whole, every stage of the row's
+    basis in it) and the median of each component stage. The row's `seconds` is the median; two
+    rows whose [low, high] ranges overlap cannot be told apart by time (`indistinguishable`)."""
+
+    runs: list[float]
+    components: dict[str, float] = field(default_factory=dict)  # stage -> median seconds
+
+    @property
+    def median(self) -> float:
+        return float(np.median(self.runs)) if self.runs else 0.0
+
+    @property
+    def low(self) -> float:
+        return float(min(self.runs)) if self.runs else 0.0
+
+    @property
+    def high(self) -> float:
+        return float(max(self.runs)) if self.runs else 0.0
+
+    def to_json(self) -> dict:
+        return {"runs": [float(x) for x in self.runs], "median": self.median, "low": self.low,
+                "high": self.high, "components": {k: float(v) for k, v in self.components.items()}}
+
+    @staticmethod
+    def of(runs: list[float], components: dict[str, list[float]] | None = None) -> "Timing":
+        """A timing from each run's total and each component's per-run seconds."""
+        return Timing(list(runs), {k: float(np.median(v)) for k, v in (components or {}).items()})
+
+
+def indistinguishable(a: Row, b: Row) -> bool:
+    """Whether two rows' repeated times overlap (min–max), so neither is measurably cheaper."""
+    if a.timing is None or b.timing is None:
+        return False
+    return a.timing.low <= b.timing.high and b.timing.low <= a.timing.high
+
+
+def time_ties(rows: list[Row]) -> list[tuple[str, str]]:
+    """Settings next to each other in median time whose spreads overlap (one scene's rows)."""
+    timed = sorted((r for r in rows if r.timing is not None and not r.emulated), key=lambda r: r.seconds)
+    return [(a.setting, b.setting) for a, b in zip(timed, timed[1:]) if indistinguishable(a, b)]
 
 
 def _num(v):
@@ -234,6 +284,10 @@ def axis_sentences(axis: str, rows: list[Row]) -> list[str]:
         others = [r for r in mine if not r.truth]
         if truth is None or not others:
             continue
+        ties = time_ties(mine)
+        if ties:
+            out.append(f"{scene}: indistinguishable in time (spreads of the repeated runs overlap): "
+                       + "; ".join(f"{a} ≈ {b}" for a, b in ties) + ".")
         if axis == "precision":
             worst = max(others, key=lambda r: r.error["rmse_u8"])
             exact = [r.setting for r in others if not any(r.error.values())]

@@ -11,13 +11,14 @@ import pytest
 
 from netsushisen.accuracy import (depth_rows, fidelity_rows, machine_point, precision_rows, prepass_rows,
                                   prepass_sides, round_bf16, sampled_row, strata_bounds, stratified_tiles,
-                                  with_sets)
+                                  timed, warm_up, with_sets)
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.golden import render as golden_render
 from netsushisen.isa.config import MachineConfig
 from netsushisen.pipeline import render
-from netsushisen.reports.accuracy import (Row, axis_sentences, depth_settles, image_errors, relative,
-                                          sampled_estimate, stratified_estimate, traced_rays)
+from netsushisen.reports.accuracy import (Row, Timing, axis_sentences, depth_settles, image_errors,
+                                          indistinguishable, relative, sampled_estimate, stratified_estimate,
+                                          time_ties, traced_rays)
 from netsushisen.reports.summary import memory_figures
 
 # ------------------------------------------------------------------------------------------------
@@ -147,19 +148,26 @@ def _truth_rows_zero(rows: list[Row]) -> None:
 @pytest.mark.heavy
 def test_precision_axis(engine_name):
     scene = load_scene("balls")
-    rows = {r.setting: r for r in precision_rows(scene, 4, MachineConfig(), engine_name)}
+    rows = {r.setting: r for r in precision_rows(scene, 4, MachineConfig(), engine_name, repeats=2)}
     _truth_rows_zero(list(rows.values()))
     assert rows["machine fp32"].error == rows["golden fp32"].error  # the machine is the golden model
     assert not any(rows["machine fp64"].error.values())
     assert rows["machine fp32"].cost["cycles"] > 0
     assert any(rows["golden fp16"].error.values())
+    # times: every row the median of 2 runs, but software-emulated precisions: marked, one run
+    emulated = {s for s, r in rows.items() if r.emulated}
+    assert emulated == {"golden fp16", "golden bf16 scene"}
+    assert all(len(r.timing.runs) == (1 if s in emulated else 2) and r.seconds == r.timing.median
+               for s, r in rows.items())
+    m = rows["machine fp32"].timing
+    assert set(m.components) == {"host", "machine"} and 0 < m.components["host"] < m.high
 
 
 @pytest.mark.heavy
 def test_depth_axis_rays_grow_and_equal_the_golden_model(engine_name):
     scene = load_scene("balls")
     config = MachineConfig()
-    rows = depth_rows(scene, 6, config, engine_name, depths=(1, 2, 3), truth_depth=4)
+    rows = depth_rows(scene, 6, config, engine_name, depths=(1, 2, 3), truth_depth=4, repeats=1)
     _truth_rows_zero(rows)
     assert [r.values["depth"] for r in rows] == [1, 2, 3, 4]
     rays = [r.cost["rays"] for r in rows]
@@ -175,7 +183,7 @@ def test_depth_axis_rays_grow_and_equal_the_golden_model(engine_name):
 def test_depth_axis_without_mirrors_or_glass_stops_at_depth_1(engine_name):
     scene = load_scene("tetra")
     assert not scene.reflective and not scene.transparent
-    rows = depth_rows(scene, 4, MachineConfig(), engine_name, depths=(1, 2, 3))
+    rows = depth_rows(scene, 4, MachineConfig(), engine_name, depths=(1, 2, 3), repeats=1)
     for r in rows:
         assert not any(r.error.values())
         assert r.cost == rows[0].cost
@@ -184,7 +192,7 @@ def test_depth_axis_without_mirrors_or_glass_stops_at_depth_1(engine_name):
 
 @pytest.mark.heavy
 def test_prepass_axis(engine_name):
-    rows = prepass_rows(load_scene("tetra"), 8, MachineConfig(), engine_name)
+    rows = prepass_rows(load_scene("tetra"), 8, MachineConfig(), engine_name, repeats=1)
     _truth_rows_zero(rows)
     assert [r.setting for r in rows] == ["pre-pass 1x1 (config share)", "pre-pass 8x8"]
     assert rows[-1].cost["rays"] == 64 and rows[-1].cost["ray_share"] == 1
@@ -193,7 +201,8 @@ def test_prepass_axis(engine_name):
 @pytest.mark.heavy
 def test_fidelity_full_run_equals_render_statistics(engine_name):
     config = MachineConfig()
-    rows = fidelity_rows(load_scene("tetra"), 6, config, engine_name, shares=(0.25, 0.5), n_tiles=8)
+    rows = fidelity_rows(load_scene("tetra"), 6, config, engine_name, shares=(0.25, 0.5), n_tiles=8,
+                         repeats=1)
     _truth_rows_zero(rows)
     full = next(r for r in rows if r.truth)
     stats = render("tetra", config, res=6, engine=engine_name).stats
@@ -219,7 +228,7 @@ def test_sampled_with_every_tile_is_the_full_run_up_to_the_warm_up_residue(engin
     the whole history: 1.3 % here at 8x8 (0.65 % before issue 13 re-rounded the grid and moved
     tetra's voxelisation; 0.46 % at 16x16), 0.1–0.25 % at 32x32; `sample_tiles`)."""
     rows = fidelity_rows(load_scene("tetra"), 8, MachineConfig(), engine_name, shares=(0.5, 1.0),
-                         n_tiles=8, reference_budget=0)
+                         n_tiles=8, reference_budget=0, repeats=1)
     truth = next(r for r in rows if r.truth).values["cycles"]
     half, every = [r for r in rows if r.ci_low is not None]
     assert every.values["tiles"] == 8 and every.ci_low == every.values["cycles"] == every.ci_high
@@ -234,13 +243,45 @@ def test_sampled_with_every_tile_is_the_full_run_up_to_the_warm_up_residue(engin
 def test_sampled_rows_change_with_the_sample(engine_name):
     def intervals(seed: int):
         rows = fidelity_rows(load_scene("balls"), 4, MachineConfig(), engine_name, shares=(0.25,),
-                             n_tiles=8, seed=seed, reference_budget=0)
+                             n_tiles=8, seed=seed, reference_budget=0, repeats=1)
         r = next(r for r in rows if r.ci_low is not None)
         return r.values["tiles"], r.ci_low, r.ci_high
 
     a, b = intervals(1), intervals(2)
     assert a[0] == b[0] == 2
     assert a[1:] != b[1:]
+
+
+# ------------------------------------------------------------------------------------------------
+# Times
+
+
+def test_timing_is_the_median_and_overlapping_spreads_are_ties():
+    t = Timing.of([3.0, 1.0, 2.0], {"host": [0.5, 0.1, 0.3]})
+    assert (t.median, t.low, t.high, t.components) == (2.0, 1.0, 3.0, {"host": 0.3})
+
+    def row(setting, runs, emulated=False):
+        tm = Timing.of(runs)
+        return Row("depth", "s", setting, False, {}, tm.median, {}, "", timing=tm, emulated=emulated)
+
+    a, b, c = row("a", [1.0, 1.2, 1.1]), row("b", [1.15, 1.3, 1.25]), row("c", [2.0, 2.1, 2.2])
+    assert indistinguishable(a, b) and not indistinguishable(a, c)
+    assert time_ties([c, b, a]) == [("a", "b")]
+    b2 = row("b", [1.21, 1.3, 1.25])  # no longer overlapping a: the tie goes
+    assert time_ties([c, b2, a]) == []
+    assert time_ties([a, row("e", [1.1], emulated=True)]) == []  # emulation's time is no cost
+
+
+def test_timed_runs_the_function_each_time():
+    calls = []
+    value, t = timed(lambda: calls.append(1) or len(calls), 4)
+    assert value == 4 and len(t.runs) == 4 and t.low <= t.median <= t.high
+
+
+def test_warm_up_runs_every_precision_once_before_any_row():
+    warm = warm_up(load_scene("tetra"), MachineConfig(), "compiled")
+    assert set(warm) == {"machine fp32", "machine fp64"}
+    assert all(v > 0 for v in warm.values())
 
 
 # ------------------------------------------------------------------------------------------------
@@ -251,7 +292,8 @@ def test_cli_bad_input_is_one_line(cli, tmp_path):
     for argv, needle in ((("tetra", "--axes", "precision,speed"), "unknown axis 'speed'"),
                          (("nosuchscene",), "nosuchscene"),
                          (("tetra", "--res", "0"), "--res 0"),
-                         (("tetra", "--engine", "warp"), "warp")):
+                         (("tetra", "--engine", "warp"), "warp"),
+                         (("tetra", "--repeats", "0"), "--repeats 0")):
         code, out, err = cli("accuracy", *argv, "--out", tmp_path / "x", "--quiet")
         assert code == 1, (argv, err)
         assert needle in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
@@ -261,7 +303,8 @@ def test_cli_bad_input_is_one_line(cli, tmp_path):
 @pytest.mark.slow  # 45 s: every axis, the fidelity axis's reference-engine row included
 def test_cli_writes_every_file_and_keeps_the_contract(cli, tmp_path):
     out = tmp_path / "acc"
-    code, stdout, err = cli("accuracy", "tetra", "--res", "4", "--engine", "compiled", "--out", out)
+    code, stdout, err = cli("accuracy", "tetra", "--res", "4", "--engine", "compiled", "--out", out,
+                            "--repeats", "2")
     assert code == 0, err
     for axis in ("precision", "depth", "prepass", "fidelity"):
         assert (out / f"accuracy_{axis}.csv").stat().st_size > 0
@@ -277,6 +320,10 @@ def test_cli_writes_every_file_and_keeps_the_contract(cli, tmp_path):
             assert isinstance(r["setting"], str) and r["how"]
             if r["truth"]:
                 assert all(v == 0 for v in r["error"].values())
+            if r["setting"] != "(e) reference engine" and not r.get("emulated"):
+                assert len(r["timing"]["runs"]) == 2 and r["seconds"] == r["timing"]["median"]
+    assert set(data["warm_up_seconds"]) >= {"machine fp32", "machine fp64"} and data["repeats"] == 2
+    assert [r.get("emulated", False) for r in data["axes"]["precision"]].count(True) == 2
     sampled = [r for r in data["axes"]["fidelity"] if r["setting"].startswith("(c)")]
     assert len(sampled) == 3 and all(r["ci_low"] <= r["ci_high"] for r in sampled)
     report = (out / "report.md").read_text()

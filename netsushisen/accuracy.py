@@ -40,7 +40,7 @@ from netsushisen.host.scenes import Scene
 from netsushisen.isa.config import MachineConfig, apply_override
 from netsushisen.pipeline import RenderResult, RenderSetup, finish, prepare
 from netsushisen.reports.accuracy import (Row, Timing, fidelity_errors, hit_id_share, ic_regions, image_errors,
-                                          memory_point, ray_errors, relative, stratified_estimate,
+                                          memory_point, ray_errors, regression_estimate, relative,
                                           traced_rays)
 from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
 
@@ -52,7 +52,7 @@ consecutive samples in the order DIS hands them out (so a tile's predecessor is 
 did just before it: its warm-up)."""
 SAMPLE_SHARES = (0.10, 0.25, 0.50)
 """Shares of the tiles the sampled rows simulate. Each share's n tiles are a stratified random
-sample (`stratified_tiles`): the tiles cut into n // 2 strata of consecutive tiles, 2 drawn in each."""
+sample (`stratified_tiles`): the tiles cut into n // 4 strata of consecutive tiles, 4 drawn in each."""
 REFERENCE_BUDGET = 2_000_000
 """Cycles the reference engine (≈60 k cycles/s) is given; a longer run is compared over this
 prefix with the compiled engine's, and its full time extrapolated (0: no reference row)."""
@@ -416,29 +416,32 @@ def tile_auxiliary(setup: RenderSetup, n_tiles: int = TILES) -> dict[str, list[i
     return {"tests": cut(tests), "rays": cut(rays)}
 
 
-def strata_bounds(n_tiles: int, n: int) -> list[int]:
-    """Bounds of the strata of an n-tile sample: n // 2 runs of consecutive tiles (DIS order),
-    as equal as they come; [0, n_tiles] for fewer than 4 tiles."""
-    return np.linspace(0, n_tiles, max(1, n // 2) + 1).round().astype(int).tolist()
+PER_STRATUM = 4
+"""Tiles drawn in each stratum of consecutive tiles. Four, not two: the stratified jackknife
+needs a stable spread within each stratum; with two per stratum its 95 % intervals covered
+89–94 % of redraws (docs/accuracy.md)."""
 
 
-def stratified_tiles(rng: np.random.Generator, n_tiles: int, n: int) -> list[int]:
-    """n tiles of n_tiles: 2 at random in each stratum of `strata_bounds` (an odd n's extra one
-    in the largest stratum), sorted.
+def strata_bounds(n_tiles: int, n: int, per_stratum: int = PER_STRATUM) -> list[int]:
+    """Bounds of the strata of an n-tile sample: n // per_stratum runs of consecutive tiles (DIS
+    order), as equal as they come; [0, n_tiles] for fewer than 2·per_stratum tiles."""
+    return np.linspace(0, n_tiles, max(1, n // per_stratum) + 1).round().astype(int).tolist()
+
+
+def stratified_tiles(rng: np.random.Generator, n_tiles: int, n: int, per_stratum: int = PER_STRATUM
+                     ) -> list[int]:
+    """n tiles of n_tiles: n // H at random in each of the H strata of `strata_bounds` (the
+    remainder one more each in the first strata), sorted.
 
     Why strata: a tile's cycles follow where it lies in the image (background rows against the
     objects; next tiles' cycles correlate 0.84 on tetra, 0.75 on balls at 32x32), so a simple
-    random sample of the tiles can fall mostly on the cheap rows — seed 1992's 32 of 64 took 18
-    of the 22 tiles 0–6 and 49–63 (top and bottom rows: 1.4–13 k cycles against a mean of
-    18.9 k) and put tetra 27 % low, and the same draw served every scene. Spread over the strata, every
-    part of the image is sampled in proportion; the estimate stays unbiased and over all draws
-    its spread halves at 25 and 50 % (tetra 21 → 10 % and 12 → 5 %, balls 8.6 → 4.4 % and
-    5.0 → 2.4 %, at a 95 % interval's coverage of 92–95 %)."""
-    bounds = strata_bounds(n_tiles, n)
+    random sample of the tiles can fall mostly on the cheap rows; spread over the strata, every
+    part of the image is sampled in proportion."""
+    bounds = strata_bounds(n_tiles, n, per_stratum)
     sizes = np.diff(bounds)
-    take = [2] * len(sizes) if n >= 2 else [1]
-    if sum(take) < n:
-        take[int(np.argmax(sizes))] += n - sum(take)
+    take = [n // len(sizes)] * len(sizes)
+    for i in range(n - sum(take)):
+        take[i % len(take)] += 1
     out = []
     for lo, size, k in zip(bounds, sizes, take):
         out += (lo + rng.choice(size, min(k, size), replace=False)).tolist()
@@ -447,15 +450,17 @@ def stratified_tiles(rng: np.random.Generator, n_tiles: int, n: int) -> list[int
 
 def sampled_row(scene: str, share: float, tiles: dict[int, dict], chosen: list[int], truth: dict,
                 mem: dict, n_tiles: int = TILES, engine: str = "compiled",
-                strata: list[int] | None = None, host: list[float] | None = None) -> Row:
+                strata: list[int] | None = None, host: list[float] | None = None,
+                aux: list[float] | None = None) -> Row:
     """The SMARTS row of `chosen` tiles (their samples in `tiles`), drawn in the strata whose
     bounds are `strata` (None: one stratum, a simple random sample). Its time per repetition is
     the host preparation (`host`, one per repetition) plus every chosen tile's two runs."""
     bounds = strata or [0, n_tiles]
     samples = [tiles[t] for t in chosen]
-    groups = [([tiles[t]["cycles"] for t in chosen if lo <= t < hi], hi - lo)
-              for lo, hi in zip(bounds, bounds[1:])]
-    est, low, high = stratified_estimate([g for g in groups if g[0]])
+    x = np.ones(n_tiles) if aux is None else np.asarray(aux, np.float64)
+    groups = [([tiles[t]["cycles"] for t in chosen if lo <= t < hi], [x[t] for t in chosen if lo <= t < hi],
+               x[lo:hi]) for lo, hi in zip(bounds, bounds[1:])]
+    est, low, high = regression_estimate([g for g in groups if g[0]])
     res = sum(s["res"] for s in samples)
     acc = sum(s["acc"] for s in samples)
     hits = sum(s["hits"] for s in samples)
@@ -472,9 +477,10 @@ def sampled_row(scene: str, share: float, tiles: dict[int, dict], chosen: list[i
                timing.median, {"cycles": sum(s["simulated"] for s in samples)},
                f"{len(chosen)} of {n_tiles} tiles (runs of consecutive eye samples in DIS order, "
                f"chosen at random, stratified: {len(groups)} strata of consecutive tiles) each "
-               f"simulated on the {engine} engine after the tile before it as warm-up (warm-up + "
-               "tile minus warm-up alone); total cycles = Σ stratum tiles × stratum mean with a "
-               "95 % Student-t interval from the tiles' spread within the strata; ρ, μ, t from the "
+               f"simulated on the {engine} engine after a warm-up of at least {WARM_SAMPLES} eye "
+               "samples (warm-up + tile minus warm-up alone); total cycles by the stratified "
+               "regression estimator on the golden model's intersection tests per tile, a 95 % "
+               "interval from the stratified jackknife widened by the warm-up allowance; ρ, μ, t from the "
                "tiles' IC counters; cost: cycles simulated, warm-ups included; seconds: host "
                "preparation + the tiles' runs",
                values, low, high, timing=timing)
@@ -531,9 +537,10 @@ def fidelity_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
     chosen = [stratified_tiles(rng, n_tiles, n) for n in counts]
     samples = sample_tiles(setup, engine, sorted(set().union(*chosen)), n_tiles, progress, repeats)
     host = [ft.components["host"]] * max(1, repeats)
+    aux = tile_auxiliary(setup, n_tiles)["tests"]
     for share, n, tiles in zip(shares, counts, chosen):
         rows.append(sampled_row(name, share, samples, tiles, truth, mem, n_tiles, engine,
-                                strata_bounds(n_tiles, n), host))
+                                strata_bounds(n_tiles, n), host, aux))
     if engine != "reference" and reference_budget > 0:
         rows.append(reference_row(setup, full, full_seconds, truth, engine, reference_budget, progress,
                                   ft.components["host"]))

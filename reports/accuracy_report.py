@@ -210,9 +210,11 @@ def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
                         alpha=0.6)
             if r.ci_low is not None and axis == "fidelity":
                 truth = next(t for t in rows if t.scene == scene and t.truth).values["cycles"]
-                lo = abs(r.ci_low - truth) / truth
-                hi = abs(r.ci_high - truth) / truth
-                ax.plot([x, x], [max(min(lo, hi, y), floor), max(lo, hi, y)], color=c, lw=1, alpha=0.6)
+                # the interval as the errors it allows: from its nearest to its farthest end, and
+                # down to the exact floor when it contains the truth (an error of 0 is allowed)
+                lo, hi = (r.ci_low - truth) / truth, (r.ci_high - truth) / truth
+                near = 0.0 if lo <= 0 <= hi else min(abs(lo), abs(hi))
+                ax.plot([x, x], [max(near, floor), max(abs(lo), abs(hi), floor)], color=c, lw=1, alpha=0.6)
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.axhline(floor, color="grey", ls="--", lw=0.8)

@@ -46,6 +46,10 @@ from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_str
 
 DEPTHS = tuple(range(1, 9))
 TRUTH_DEPTH = 10
+TRUTH_CAP = 40
+"""The depth axis's truth starts at TRUTH_DEPTH and doubles (10, 20, 40) until two consecutive
+truths give the same 8-bit golden image; TRUTH_CAP is the last tried (the row then says the truth
+did not converge)."""
 TILES = 64
 """Sampling units of the sampled cycle-accurate rows: the eye samples cut into this many runs of
 consecutive samples in the order DIS hands them out (so a tile's predecessor is what the full run
@@ -235,13 +239,31 @@ def precision_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
 # Depth
 
 
+def converged_truth(scene: Scene, config: MachineConfig, res: int, start: int = TRUTH_DEPTH,
+                    cap: int = TRUTH_CAP, progress: Progress = _quiet) -> tuple[int, bool, list[int]]:
+    """(truth depth, whether it converged, depths tried): golden renders at start, 2·start, …
+    (the last at most `cap`) until two consecutive ones give the same 8-bit image; the deeper of
+    the equal pair is the truth (depth `cap` and False when none did)."""
+    tried, previous, d = [], None, start
+    while True:
+        progress(f"{scene.name} depth truth: {d}")
+        u8 = golden.render(scene, with_sets(config, **{"render.max_depth": d}), res=res).image_u8
+        tried.append(d)
+        if previous is not None and np.array_equal(u8, previous):
+            return d, True, tried
+        if d >= cap:
+            return d, False, tried
+        previous, d = u8, min(2 * d, cap)
+
+
 def depth_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
                progress: Progress = _quiet, depths=DEPTHS, truth_depth: int = TRUTH_DEPTH,
-               repeats: int = REPEATS) -> list[Row]:
+               repeats: int = REPEATS, cap: int = TRUTH_CAP) -> list[Row]:
     """Each depth's golden image against the truth's, and the machine's cycles and time at that
     depth. A row's seconds are the machine's alone (host preparation + run, the cost of running
     at that depth); the golden render's time, which only serves the comparison, is not added."""
     name = scene.name
+    truth_depth, converged, tried = converged_truth(scene, config, res, truth_depth, cap, progress)
     measured = {}
     for d in (truth_depth, *depths):
         progress(f"{name} depth {d}")
@@ -261,7 +283,8 @@ def depth_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
                         f"{engine} engine (its rays "
                         + ("equal" if r.rays == g.rays else "DIFFER from") + " the golden model's)",
                         {"depth": d, "psnr_db": psnr, "machine_rays": traced_rays(r.rays),
-                         "golden_seconds": g.seconds}, timing=mt))
+                         "golden_seconds": g.seconds, "truth_depth": truth_depth,
+                         "truth_converged": converged, "truth_depths_tried": len(tried)}, timing=mt))
     return sorted(rows, key=lambda r: r.values["depth"])
 
 

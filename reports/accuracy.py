@@ -366,6 +366,12 @@ def axis_sentences(axis: str, rows: list[Row]) -> list[str]:
                           "no setting equals the fp64 truth exactly."))
         elif axis == "depth":
             d = depth_settles(mine)
+            td = truth.values.get("truth_depth")
+            if td is not None:
+                out.append(f"{scene}: truth depth {td} — " + (
+                    "its 8-bit image equals the one before it in 10, 20, 40 (converged)"
+                    if truth.values.get("truth_converged") else
+                    "the cap: the image still changed up to it (NOT converged)") + ".")
             if d == 1:
                 out.append(f"{scene}: no change past depth 1 — nothing spawns secondary surface "
                            "rays (no mirrors or glass), so every depth gives the same image, rays "

@@ -20,13 +20,13 @@ from netsushisen.reports.tables import Section, render_md, render_table
 SCHEMA = {"name": "netsushisen-accuracy", "version": 1}
 
 PLOT_METRIC = {"precision": ("rmse_u8", "image RMS error (8-bit levels)"),
-               "depth": ("rmse_u8", "image RMS error against depth 10 (8-bit levels)"),
+               "depth": ("rmse_u8", "image RMS error against the truth depth (8-bit levels)"),
                "prepass": ("cycles", "relative error of machine cycles"),
                "fidelity": ("cycles", "relative error of total cycles")}
 """The error each axis's plot shows (the tables show them all)."""
 
 TITLES = {"precision": "Precision: error against the golden model in fp64",
-          "depth": "Ray depth: error against depth 10",
+          "depth": "Ray depth: error against the converged truth depth",
           "prepass": "Pre-pass resolution: against the full-resolution ranking",
           "fidelity": "Simulation fidelity: against the full cycle-accurate run"}
 
@@ -38,7 +38,10 @@ HOW = {
                  "centres, radii, cone ends, materials, lights, camera) to bfloat16 and then computes "
                  "in float32: only the stored values are bf16, not the arithmetic. The machine rows run "
                  "the kernels; their cost is machine cycles.",
-    "depth": "Truth: depth 10 (the table says from which depth the 8-bit image stops changing). "
+    "depth": "Truth: the golden image at depth 10, 20, 40 until two consecutive ones are 8-bit "
+             "identical (the row says which depth and whether it converged; 40 is the cap); the table "
+             "says from which depth the 8-bit image stops changing. Seconds: the machine's (host "
+             "preparation + run) at that depth. "
              "Rays are the golden model's (the machine's equal them; the `how` column says so per "
              "row), cycles the machine's at the same depth.",
     "prepass": "The pre-pass (paper §4.3) ranks primitives by references in a coarse golden render "

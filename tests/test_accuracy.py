@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from netsushisen.accuracy import (depth_rows, fidelity_rows, machine_point, precision_rows, prepass_rows,
+from netsushisen.accuracy import (converged_truth, depth_rows, fidelity_rows, machine_point, precision_rows, prepass_rows,
                                   prepass_sides, round_bf16, sampled_row, strata_bounds, stratified_tiles,
                                   timed, warm_up, with_sets)
 from netsushisen.host.catalog import load_scene
@@ -149,13 +149,24 @@ def _depth_row(depth: int, max_u8: float, truth: bool = False) -> Row:
 def test_depth_sentence_flips_with_the_data():
     rows = [_depth_row(d, 0) for d in (1, 2, 3)] + [_depth_row(10, 0, True)]
     assert depth_settles(rows) == 1
-    assert "no change past depth 1" in axis_sentences("depth", rows)[0]
+    assert "no change past depth 1" in " ".join(axis_sentences("depth", rows))
     rows[0] = _depth_row(1, 7)
     assert depth_settles(rows) == 2
     text = axis_sentences("depth", rows)[0]
     assert "no change past depth 1" not in text and "stops changing at depth 2" in text
     rows[2] = _depth_row(3, 1)
     assert depth_settles(rows) is None
+    rows[-1].values |= {"truth_depth": 40, "truth_converged": False}
+    assert "truth depth 40" in " ".join(axis_sentences("depth", rows))
+    assert "NOT converged" in " ".join(axis_sentences("depth", rows))
+    rows[-1].values["truth_converged"] = True
+    assert "NOT converged" not in " ".join(axis_sentences("depth", rows))
+
+
+def test_depth_truth_converges_or_says_it_did_not():
+    tetra, balls = load_scene("tetra"), load_scene("balls")
+    assert converged_truth(tetra, MachineConfig(), 4, start=1, cap=4) == (2, True, [1, 2])
+    assert converged_truth(balls, MachineConfig(), 4, start=1, cap=1) == (1, False, [1])  # mirrors
 
 
 def test_prepass_sides():
@@ -197,7 +208,8 @@ def test_precision_axis(engine_name):
 def test_depth_axis_rays_grow_and_equal_the_golden_model(engine_name):
     scene = load_scene("balls")
     config = MachineConfig()
-    rows = depth_rows(scene, 6, config, engine_name, depths=(1, 2, 3), truth_depth=4, repeats=1)
+    rows = depth_rows(scene, 6, config, engine_name, depths=(1, 2, 3), truth_depth=4, repeats=1,
+                      cap=4)
     _truth_rows_zero(rows)
     assert [r.values["depth"] for r in rows] == [1, 2, 3, 4]
     rays = [r.cost["rays"] for r in rows]
@@ -206,7 +218,7 @@ def test_depth_axis_rays_grow_and_equal_the_golden_model(engine_name):
         g = golden_render(scene, with_sets(config, **{"render.max_depth": r.values["depth"]}), res=6)
         assert r.cost["rays"] == traced_rays(g.rays) == r.values["machine_rays"]
     assert rows[0].error["max_u8"] > 0  # balls has mirrors: depth 1 misses the reflections
-    assert "no change past depth 1" not in axis_sentences("depth", rows)[0]
+    assert "no change past depth 1" not in " ".join(axis_sentences("depth", rows))
 
 
 @pytest.mark.heavy
@@ -214,10 +226,11 @@ def test_depth_axis_without_mirrors_or_glass_stops_at_depth_1(engine_name):
     scene = load_scene("tetra")
     assert not scene.reflective and not scene.transparent
     rows = depth_rows(scene, 4, MachineConfig(), engine_name, depths=(1, 2, 3), repeats=1)
+    assert rows[-1].values["truth_depth"] == 20 and rows[-1].values["truth_converged"]
     for r in rows:
         assert not any(r.error.values())
         assert r.cost == rows[0].cost
-    assert "no change past depth 1" in axis_sentences("depth", rows)[0]
+    assert "no change past depth 1" in " ".join(axis_sentences("depth", rows))
 
 
 @pytest.mark.heavy

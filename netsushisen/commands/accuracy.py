@@ -5,7 +5,7 @@
                          [--seed N] [--repeats N] [--quiet]
 
 Axes (default all): precision (golden fp64 truth; golden fp32, fp16, bf16-rounded scene; the
-machine in fp32 and fp64), depth (truth depth 10; depth 1 … 8), prepass (pre-pass sizes against
+machine in fp32 and fp64), depth (truth: depth 10, 20, 40 until two give the same 8-bit image; depth 1 … 8), prepass (pre-pass sizes against
 the full-resolution ranking), fidelity (analytic, trace-driven, sampled cycle-accurate with 95 %
 intervals, the full run on the engine as truth, the reference engine). SCENEs default to the
 paper's four (tetra balls mount rings); --res defaults to 32. Writes into DIR (default

@@ -17,6 +17,8 @@ positional with intensity light_colour / sqrt(#lights) (NFF gives none). There i
 
 from __future__ import annotations
 
+from netsushisen.host.scale import check_scale
+
 import time
 from dataclasses import dataclass, field, replace
 
@@ -236,6 +238,7 @@ def render(scene: Scene, config: MachineConfig | None = None, res: int = 64, cor
     start = time.perf_counter()
     config = config or MachineConfig()
     precision = precision or config.precision
+    check_scale(scene, precision)
     dt = dtype_of(precision)
     if grid is None:  # conservative in the precision it is traversed in
         grid = build_grid(scene, config if config.precision == precision else replace(config, precision=precision))

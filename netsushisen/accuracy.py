@@ -12,8 +12,13 @@ renders (host/golden.py) and machine runs through the engine interface (via `ren
   fidelity   truth the full cycle-accurate run; analytic, trace-driven, sampled (SMARTS), the
              reference engine
 
-Machine seconds are the engine's (build, run, read-out); the host preparation every machine row
-shares (grid, pre-pass, images, kernels) is not counted.
+Times: before any timed row, `warm_up` compiles and runs every engine path once per precision (a
+tiny render on the machine and on the golden model), so the one-time numba compile is reported
+once (`warm_up`'s seconds) and charged to no row. Each row is then timed over `REPEATS` runs (the
+CLI's --repeats) and shows their median and min–max spread (`reports.accuracy.Timing`). Every row
+includes host preparation: a golden row times `golden.render` with its grid built inside; a
+machine row times `prepare` (grid, pre-pass, memory images, kernels, eye rays) plus the engine's
+build, run and read-out, shown as the components "host" and "machine".
 """
 
 from __future__ import annotations
@@ -34,25 +39,37 @@ from netsushisen.host.prepass import coarse_resolution
 from netsushisen.host.scenes import Scene
 from netsushisen.isa.config import MachineConfig, apply_override
 from netsushisen.pipeline import RenderResult, RenderSetup, finish, prepare
-from netsushisen.reports.accuracy import (Row, fidelity_errors, hit_id_share, ic_regions, image_errors,
-                                          memory_point, ray_errors, relative, stratified_estimate,
+from netsushisen.reports.accuracy import (Row, Timing, fidelity_errors, hit_id_share, ic_regions, image_errors,
+                                          memory_point, ray_errors, regression_estimate, relative,
                                           traced_rays)
 from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
 
 DEPTHS = tuple(range(1, 9))
 TRUTH_DEPTH = 10
+TRUTH_CAP = 40
+"""The depth axis's truth starts at TRUTH_DEPTH and doubles (10, 20, 40) until two consecutive
+truths give the same 8-bit golden image; TRUTH_CAP is the last tried (the row then says the truth
+did not converge)."""
 TILES = 64
 """Sampling units of the sampled cycle-accurate rows: the eye samples cut into this many runs of
 consecutive samples in the order DIS hands them out (so a tile's predecessor is what the full run
 did just before it: its warm-up)."""
 SAMPLE_SHARES = (0.10, 0.25, 0.50)
 """Shares of the tiles the sampled rows simulate. Each share's n tiles are a stratified random
-sample (`stratified_tiles`): the tiles cut into n // 2 strata of consecutive tiles, 2 drawn in each."""
+sample (`stratified_tiles`): the tiles cut into n // 4 strata of consecutive tiles, 4 drawn in each."""
 REFERENCE_BUDGET = 2_000_000
 """Cycles the reference engine (≈60 k cycles/s) is given; a longer run is compared over this
 prefix with the compiled engine's, and its full time extrapolated (0: no reference row)."""
 CALIBRATION_RES = 8
 """The analytic and trace-driven rows' cycles come from one machine run this small."""
+
+REPEATS = 3
+"""Runs each timed row is measured over (the median is its seconds, min–max its spread)."""
+WARM_RES = 2
+"""Side of the tiny renders `warm_up` compiles and warms every path with."""
+EMULATED = ("golden fp16", "golden bf16 scene")
+"""Settings computed in software (numpy float16; bf16-rounded values): their wall time is the
+emulation's, not the precision's cost (their cost is rays traced), so they are timed once."""
 
 Progress = Callable[[str], None]
 
@@ -85,6 +102,47 @@ def run_machine(setup: RenderSetup, engine: str, max_cycles: int | None = None
                                f"{run.status} at cycle {run.cycles:,}"
                                + (f": {run.error.format()}" if run.error else ""))
     return result, seconds
+
+
+def timed(fn: Callable[[], object], repeats: int = REPEATS) -> tuple[object, Timing]:
+    """fn() run `repeats` times: (the last result, the runs' timing)."""
+    runs, result = [], None
+    for _ in range(max(1, repeats)):
+        start = time.perf_counter()
+        result = fn()
+        runs.append(time.perf_counter() - start)
+    return result, Timing.of(runs)
+
+
+def machine_timed(scene: Scene, config: MachineConfig, res: int, engine: str, repeats: int = REPEATS,
+                  max_cycles: int | None = None) -> tuple[RenderSetup, RenderResult, Timing]:
+    """(setup, result, timing) of a machine row: `repeats` times host preparation (`prepare`)
+    then the engine's build, run and read-out; components "host" and "machine"."""
+    host, machine = [], []
+    setup = result = None
+    for _ in range(max(1, repeats)):
+        start = time.perf_counter()
+        setup = prepare(scene, config, res)
+        host.append(time.perf_counter() - start)
+        result, seconds = run_machine(setup, engine, max_cycles)
+        machine.append(seconds)
+    return setup, result, Timing.of([h + m for h, m in zip(host, machine)],
+                                    {"host": host, "machine": machine})
+
+
+def warm_up(scene: Scene, config: MachineConfig, engine: str,
+            precisions: tuple[str, ...] = ("fp32", "fp64"), progress: Progress = _quiet) -> dict[str, float]:
+    """Compile and warm the engine once per precision before any timed row: a WARM_RES render
+    (the compiled engine's numba compile, ~45 s per precision on a cold cache, or its cache
+    load). Seconds per precision, reported once and charged to no row. The golden model is numpy
+    (nothing to compile), so it needs no warm-up."""
+    out = {}
+    for precision in dict.fromkeys((*precisions, config.precision)):
+        progress(f"warm-up: {engine} engine {precision}")
+        start = time.perf_counter()
+        run_machine(prepare(scene, with_sets(config, precision=precision), WARM_RES), engine)
+        out[f"machine {precision}"] = time.perf_counter() - start
+    return out
 
 
 def machine_point(stats: dict) -> dict[str, float]:
@@ -125,43 +183,55 @@ def round_scene(scene: Scene, rounder: Callable[[np.ndarray], np.ndarray]) -> Sc
                                   apex_radius=r(cn.apex_radius)))
 
 
-def _image_row(axis, scene, setting, truth_img, u8, ids, rays, seconds, cost, how, values=None) -> Row:
+def _image_row(axis, scene, setting, truth_img, u8, ids, rays, timing: Timing, cost, how, values=None) -> Row:
     errors, psnr = image_errors(u8, truth_img.image_u8)
     errors = {"hit_ids": hit_id_share(ids, truth_img.hit_ids)} | errors | ray_errors(rays, truth_img.rays)
-    return Row(axis, scene, setting, False, errors, seconds, cost, how, {"psnr_db": psnr} | (values or {}))
+    return Row(axis, scene, setting, False, errors, timing.median, cost, how,
+               {"psnr_db": psnr} | (values or {}), timing=timing, emulated=setting in EMULATED)
+
+
+def _golden(scene: Scene, config: MachineConfig, res: int, precision: str | None, repeats: int):
+    """A golden render timed over `repeats` runs (grid built inside each: host preparation)."""
+    def once():
+        with np.errstate(all="ignore"):
+            return golden.render(scene, config, res=res, precision=precision)
+    return timed(once, repeats)
 
 
 def precision_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
-                   progress: Progress = _quiet) -> list[Row]:
+                   progress: Progress = _quiet, repeats: int = REPEATS) -> list[Row]:
     name = scene.name
     progress(f"{name} precision: golden fp64")
-    truth = golden.render(scene, config, res=res, precision="fp64")
+    truth, tt = _golden(scene, config, res, "fp64", repeats)
     rows = [_image_row("precision", name, "golden fp64", truth, truth.image_u8, truth.hit_ids, truth.rays,
-                       truth.seconds, {"rays": traced_rays(truth.rays)},
+                       tt, {"rays": traced_rays(truth.rays)},
                        "the golden numpy model in float64: the truth")]
     rows[0].truth = True
     variants = (
         ("golden fp32", scene, "fp32", "the golden numpy model in float32 (the machine's precision)"),
         ("golden fp16", scene, "fp16", "the golden model run with numpy float16 as its precision: every "
          "stored value and every operation rounded to float16 (shine 100000 overflows to inf; Phong's "
-         "pow goes through libm in float64 and is rounded into the float16 pixel sums)"),
+         "pow goes through libm in float64 and is rounded into the float16 pixel sums); its seconds "
+         "are numpy's software emulation of float16, not what fp16 hardware would take: its cost is "
+         "the rays traced"),
         ("golden bf16 scene", round_scene(scene, round_bf16), "fp32", "every number of the scene "
          "(vertices, normals, centres, radii, cone ends, materials, lights, camera) rounded to "
-         "bfloat16 (8 significant bits, nearest even); the golden model then computes in float32"),
+         "bfloat16 (8 significant bits, nearest even); the golden model then computes in float32 "
+         "(an emulation of bf16 storage: its seconds are not bf16's cost; its cost is the rays traced)"),
     )
     for setting, sc, precision, how in variants:
         progress(f"{name} precision: {setting}")
-        with np.errstate(all="ignore"):
-            g = golden.render(sc, config, res=res, precision=precision)
-        rows.append(_image_row("precision", name, setting, truth, g.image_u8, g.hit_ids, g.rays, g.seconds,
+        # an emulation's time is not the setting's cost: one run (fp16 is numpy's slowest path)
+        g, gt = _golden(sc, config, res, precision, 1 if setting in EMULATED else repeats)
+        rows.append(_image_row("precision", name, setting, truth, g.image_u8, g.hit_ids, g.rays, gt,
                                {"rays": traced_rays(g.rays)}, how))
     for precision in ("fp32", "fp64"):
         progress(f"{name} precision: machine {precision}")
-        setup = prepare(scene, with_sets(config, precision=precision), res)
-        r, seconds = run_machine(setup, engine)
+        _, r, mt = machine_timed(scene, with_sets(config, precision=precision), res, engine, repeats)
         rows.append(_image_row("precision", name, f"machine {precision}", truth, r.image_u8, r.hit_ids, r.rays,
-                               seconds, {"rays": traced_rays(r.rays), "cycles": r.run.cycles},
-                               f"the kernels on the {engine} engine in {precision}; cost in machine cycles"))
+                               mt, {"rays": traced_rays(r.rays), "cycles": r.run.cycles},
+                               f"the kernels on the {engine} engine in {precision}; cost in machine cycles; "
+                               "seconds: host preparation + the engine's run"))
     return rows
 
 
@@ -169,28 +239,52 @@ def precision_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
 # Depth
 
 
+def converged_truth(scene: Scene, config: MachineConfig, res: int, start: int = TRUTH_DEPTH,
+                    cap: int = TRUTH_CAP, progress: Progress = _quiet) -> tuple[int, bool, list[int]]:
+    """(truth depth, whether it converged, depths tried): golden renders at start, 2·start, …
+    (the last at most `cap`) until two consecutive ones give the same 8-bit image; the deeper of
+    the equal pair is the truth (depth `cap` and False when none did)."""
+    tried, previous, d = [], None, start
+    while True:
+        progress(f"{scene.name} depth truth: {d}")
+        u8 = golden.render(scene, with_sets(config, **{"render.max_depth": d}), res=res).image_u8
+        tried.append(d)
+        if previous is not None and np.array_equal(u8, previous):
+            return d, True, tried
+        if d >= cap:
+            return d, False, tried
+        previous, d = u8, min(2 * d, cap)
+
+
 def depth_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
-               progress: Progress = _quiet, depths=DEPTHS, truth_depth: int = TRUTH_DEPTH) -> list[Row]:
+               progress: Progress = _quiet, depths=DEPTHS, truth_depth: int = TRUTH_DEPTH,
+               repeats: int = REPEATS, cap: int = TRUTH_CAP) -> list[Row]:
+    """Each depth's golden image against the truth's, and the machine's cycles and time at that
+    depth. A row's seconds are the machine's alone (host preparation + run, the cost of running
+    at that depth); the golden render's time, which only serves the comparison, is not added."""
     name = scene.name
+    truth_depth, converged, tried = converged_truth(scene, config, res, truth_depth, cap, progress)
     measured = {}
     for d in (truth_depth, *depths):
         progress(f"{name} depth {d}")
         cfg = with_sets(config, **{"render.max_depth": d})
         g = golden.render(scene, cfg, res=res)
-        r, seconds = run_machine(prepare(scene, cfg, res), engine)
-        measured[d] = (g, r, seconds)
+        _, r, mt = machine_timed(scene, cfg, res, engine, repeats)
+        measured[d] = (g, r, mt)
     tg, tr, ts = measured[truth_depth]
     rows = []
-    for d, (g, r, seconds) in measured.items():
+    for d, (g, r, mt) in measured.items():
         errors, psnr = image_errors(g.image_u8, tg.image_u8)
         t = d == truth_depth
         rows.append(Row("depth", name, f"depth {d}", t, {k: 0.0 for k in errors} if t else errors,
-                        g.seconds + seconds, {"rays": traced_rays(g.rays), "cycles": r.run.cycles},
+                        mt.median, {"rays": traced_rays(g.rays), "cycles": r.run.cycles},
                         f"golden {g.precision} image and rays at max_depth {d} against depth "
-                        f"{truth_depth}; machine cycles on the {engine} engine (its rays "
+                        f"{truth_depth}; machine cycles and seconds (host preparation + run) on the "
+                        f"{engine} engine (its rays "
                         + ("equal" if r.rays == g.rays else "DIFFER from") + " the golden model's)",
                         {"depth": d, "psnr_db": psnr, "machine_rays": traced_rays(r.rays),
-                         "golden_seconds": g.seconds, "machine_seconds": seconds}))
+                         "golden_seconds": g.seconds, "truth_depth": truth_depth,
+                         "truth_converged": converged, "truth_depths_tried": len(tried)}, timing=mt))
     return sorted(rows, key=lambda r: r.values["depth"])
 
 
@@ -210,33 +304,45 @@ def prepass_sides(res: int, share: float) -> list[int]:
 
 
 def prepass_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
-                 progress: Progress = _quiet) -> list[Row]:
+                 progress: Progress = _quiet, repeats: int = REPEATS) -> list[Row]:
+    """A row's seconds are its pre-pass's (the golden coarse render, over `repeats` preparations);
+    its time share is that against the main run's engine time."""
     name = scene.name
     measured = []
     for side in prepass_sides(res, config.prepass.share):
         progress(f"{name} pre-pass {side}x{side}")
-        setup = prepare(scene, with_sets(config, **{"prepass.share": (side / res) ** 2}), res)
+        cfg = with_sets(config, **{"prepass.share": (side / res) ** 2})
+        pre_runs, main_runs, host_runs = [], [], []
+        for _ in range(max(1, repeats)):
+            start = time.perf_counter()
+            setup = prepare(scene, cfg, res)
+            host_runs.append(time.perf_counter() - start)
+            pre_runs.append(setup.prepass.seconds)
+            r, seconds = run_machine(setup, engine)
+            main_runs.append(seconds)
         if setup.prepass.resolution != side:
             raise AssertionError(f"pre-pass side {setup.prepass.resolution}, wanted {side}")
-        r, seconds = run_machine(setup, engine)
-        measured.append((side, setup.prepass, machine_point(r.stats), seconds))
+        timing = Timing.of(pre_runs, {"prepass": pre_runs, "host": host_runs, "machine": main_runs})
+        measured.append((side, setup.prepass, machine_point(r.stats), timing))
     truth = measured[-1][2]
     rows = []
-    for side, pre, point, seconds in measured:
+    for side, pre, point, timing in measured:
         t = side == res
         default = side == coarse_resolution(res, config.prepass.share)
         errors = {"rho": abs(point["rho"] - truth["rho"]), "t": relative(point["t"], truth["t"]),
                   "cycles": relative(point["cycles"], truth["cycles"])}
         rows.append(Row("prepass", name, f"pre-pass {side}x{side}" + (" (config share)" if default else ""),
-                        t, errors, pre.seconds,
+                        t, errors, timing.median,
                         {"rays": pre.eye_rays, "ray_share": pre.eye_rays / (res * res),
-                         "time_share": pre.seconds / seconds, "cycles": point["cycles"]},
+                         "time_share": timing.median / timing.components["machine"],
+                         "cycles": point["cycles"]},
                         f"golden pre-pass at {side}x{side} ranks primitives, the top {pre.resident_count} "
                         f"of {len(pre.priorities)} resident; the main {res}x{res} run on the {engine} "
                         "engine gives ρ, t (IC shape data) and cycles; error against the "
                         f"{res}x{res} ranking (ρ: absolute)",
                         {"rho": point["rho"], "mu": point["mu"], "t": point["t"],
-                         "resident_count": pre.resident_count, "main_seconds": seconds}))
+                         "resident_count": pre.resident_count,
+                         "main_seconds": timing.components["machine"]}, timing=timing))
     return rows
 
 
@@ -259,8 +365,10 @@ def trace_point(setup: RenderSetup, res: int) -> tuple[dict, int, float]:
 
 
 def sample_tiles(setup: RenderSetup, engine: str, tiles: list[int], n_tiles: int = TILES,
-                 progress: Progress = _quiet) -> dict[int, dict]:
-    """Per sampled tile: its marginal cycles and IC counters, and the seconds spent.
+                 progress: Progress = _quiet, repeats: int = 1, warm_tiles: int | None = None
+                 ) -> dict[int, dict]:
+    """Per sampled tile: its marginal cycles and IC counters, and the seconds spent (`runs`: each
+    of `repeats` repetitions of its two runs; `seconds`: their median).
 
     A tile is a run of consecutive eye samples in DIS order. Each is simulated after a warm-up —
     the tile before it — as one run (warm-up + tile) minus a run of the warm-up alone, so the
@@ -277,6 +385,8 @@ def sample_tiles(setup: RenderSetup, engine: str, tiles: list[int], n_tiles: int
     tile 0, which has no warm-up, carries the one fill the full run has."""
     words = setup.host_words.reshape(setup.side * setup.side, -1)
     bounds = np.linspace(0, len(words), n_tiles + 1).round().astype(int)
+    if warm_tiles is None:
+        warm_tiles = warm_up_tiles(len(words), n_tiles)
 
     def run(first: int, last: int) -> tuple[dict, float]:
         first = max(first, 0)  # tile 0 has no warm-up
@@ -292,36 +402,69 @@ def sample_tiles(setup: RenderSetup, engine: str, tiles: list[int], n_tiles: int
     out = {}
     for i, tile in enumerate(tiles):
         progress(f"{setup.scene.name} fidelity: sampled tile {i + 1}/{len(tiles)}")
-        both, s1 = run(tile - 1, tile)
-        warm, s2 = run(tile - 1, tile - 1)
-        out[tile] = {k: both[k] - warm[k] for k in both} | {"seconds": s1 + s2,
+        runs = []
+        for _ in range(max(1, repeats)):
+            both, s1 = run(tile - warm_tiles, tile)
+            warm, s2 = run(tile - warm_tiles, tile - 1)
+            runs.append(s1 + s2)
+        out[tile] = {k: both[k] - warm[k] for k in both} | {"seconds": float(np.median(runs)), "runs": runs,
                                                             "simulated": both["cycles"] + warm["cycles"]}
     return out
 
 
-def strata_bounds(n_tiles: int, n: int) -> list[int]:
-    """Bounds of the strata of an n-tile sample: n // 2 runs of consecutive tiles (DIS order),
-    as equal as they come; [0, n_tiles] for fewer than 4 tiles."""
-    return np.linspace(0, n_tiles, max(1, n // 2) + 1).round().astype(int).tolist()
+WARM_SAMPLES = 16
+"""Eye samples a sampled tile's warm-up covers at least (`warm_up_tiles`). A warm-up too short
+leaves the caches colder and the pipeline emptier than the full run has them, and every tile's
+marginal comes out high: tetra at 16x16 (4 samples a tile), all 64 tiles sum to +5.5 % of the
+full run with a 1-tile (4-sample) warm-up, +2.9 % with 8 samples, +0.31 % with 16, −0.18 % with
+32; at 32x32 one 16-sample tile gives +0.11 % (tetra), +0.25 % (balls)."""
 
 
-def stratified_tiles(rng: np.random.Generator, n_tiles: int, n: int) -> list[int]:
-    """n tiles of n_tiles: 2 at random in each stratum of `strata_bounds` (an odd n's extra one
-    in the largest stratum), sorted.
+def warm_up_tiles(samples: int, n_tiles: int = TILES) -> int:
+    """Tiles of warm-up before a sampled tile: at least WARM_SAMPLES eye samples, at least one."""
+    per_tile = samples / n_tiles
+    return max(1, int(np.ceil(WARM_SAMPLES / per_tile))) if per_tile > 0 else 1
+
+
+def tile_auxiliary(setup: RenderSetup, n_tiles: int = TILES) -> dict[str, list[int]]:
+    """Per tile (as `sample_tiles` cuts them): the golden model's rays and intersection tests,
+    known for every tile from one golden render, no machine run."""
+    g = golden.render(setup.scene, setup.config, res=setup.res, corners=setup.corners, keep_trace=True,
+                      grid=setup.images.layout.grid)
+    n = setup.side * setup.side
+    bounds = np.linspace(0, n, n_tiles + 1).round().astype(int)
+    tests = np.bincount(g.trace_pixel, weights=np.diff(g.trace_ray_offsets), minlength=n)
+    rays = np.bincount(g.trace_pixel, minlength=n)
+    cut = lambda a: [int(a[lo:hi].sum()) for lo, hi in zip(bounds, bounds[1:])]  # noqa: E731
+    return {"tests": cut(tests), "rays": cut(rays)}
+
+
+PER_STRATUM = 4
+"""Tiles drawn in each stratum of consecutive tiles. Four, not two: the stratified jackknife
+needs a stable spread within each stratum; with two per stratum its 95 % intervals covered
+89–94 % of redraws (docs/accuracy.md)."""
+
+
+def strata_bounds(n_tiles: int, n: int, per_stratum: int = PER_STRATUM) -> list[int]:
+    """Bounds of the strata of an n-tile sample: n // per_stratum runs of consecutive tiles (DIS
+    order), as equal as they come; [0, n_tiles] for fewer than 2·per_stratum tiles."""
+    return np.linspace(0, n_tiles, max(1, n // per_stratum) + 1).round().astype(int).tolist()
+
+
+def stratified_tiles(rng: np.random.Generator, n_tiles: int, n: int, per_stratum: int = PER_STRATUM
+                     ) -> list[int]:
+    """n tiles of n_tiles: n // H at random in each of the H strata of `strata_bounds` (the
+    remainder one more each in the first strata), sorted.
 
     Why strata: a tile's cycles follow where it lies in the image (background rows against the
     objects; next tiles' cycles correlate 0.84 on tetra, 0.75 on balls at 32x32), so a simple
-    random sample of the tiles can fall mostly on the cheap rows — seed 1992's 32 of 64 took 18
-    of the 22 tiles 0–6 and 49–63 (top and bottom rows: 1.4–13 k cycles against a mean of
-    18.9 k) and put tetra 27 % low, and the same draw served every scene. Spread over the strata, every
-    part of the image is sampled in proportion; the estimate stays unbiased and over all draws
-    its spread halves at 25 and 50 % (tetra 21 → 10 % and 12 → 5 %, balls 8.6 → 4.4 % and
-    5.0 → 2.4 %, at a 95 % interval's coverage of 92–95 %)."""
-    bounds = strata_bounds(n_tiles, n)
+    random sample of the tiles can fall mostly on the cheap rows; spread over the strata, every
+    part of the image is sampled in proportion."""
+    bounds = strata_bounds(n_tiles, n, per_stratum)
     sizes = np.diff(bounds)
-    take = [2] * len(sizes) if n >= 2 else [1]
-    if sum(take) < n:
-        take[int(np.argmax(sizes))] += n - sum(take)
+    take = [n // len(sizes)] * len(sizes)
+    for i in range(n - sum(take)):
+        take[i % len(take)] += 1
     out = []
     for lo, size, k in zip(bounds, sizes, take):
         out += (lo + rng.choice(size, min(k, size), replace=False)).tolist()
@@ -330,14 +473,17 @@ def stratified_tiles(rng: np.random.Generator, n_tiles: int, n: int) -> list[int
 
 def sampled_row(scene: str, share: float, tiles: dict[int, dict], chosen: list[int], truth: dict,
                 mem: dict, n_tiles: int = TILES, engine: str = "compiled",
-                strata: list[int] | None = None) -> Row:
+                strata: list[int] | None = None, host: list[float] | None = None,
+                aux: list[float] | None = None) -> Row:
     """The SMARTS row of `chosen` tiles (their samples in `tiles`), drawn in the strata whose
-    bounds are `strata` (None: one stratum, a simple random sample)."""
+    bounds are `strata` (None: one stratum, a simple random sample). Its time per repetition is
+    the host preparation (`host`, one per repetition) plus every chosen tile's two runs."""
     bounds = strata or [0, n_tiles]
     samples = [tiles[t] for t in chosen]
-    groups = [([tiles[t]["cycles"] for t in chosen if lo <= t < hi], hi - lo)
-              for lo, hi in zip(bounds, bounds[1:])]
-    est, low, high = stratified_estimate([g for g in groups if g[0]])
+    x = np.ones(n_tiles) if aux is None else np.asarray(aux, np.float64)
+    groups = [([tiles[t]["cycles"] for t in chosen if lo <= t < hi], [x[t] for t in chosen if lo <= t < hi],
+               x[lo:hi]) for lo, hi in zip(bounds, bounds[1:])]
+    est, low, high = regression_estimate([g for g in groups if g[0]])
     res = sum(s["res"] for s in samples)
     acc = sum(s["acc"] for s in samples)
     hits = sum(s["hits"] for s in samples)
@@ -346,69 +492,86 @@ def sampled_row(scene: str, share: float, tiles: dict[int, dict], chosen: list[i
                          mem["t_r"], mem["t_c"], mem["t_g"])
     values = {"cycles": est, "rho": point["rho"], "mu": point["mu"], "t": point["t"],
               "tiles": len(chosen), "strata": len(groups), "covers": bool(low <= truth["cycles"] <= high)}
+    reps = min([len(s.get("runs", [s["seconds"]])) for s in samples] + [len(host or [0.0]) or 1])
+    tile_runs = [sum(s.get("runs", [s["seconds"]])[i] for s in samples) for i in range(reps)]
+    host_runs = (host or [0.0] * reps)[:reps]
+    timing = Timing.of([h + t for h, t in zip(host_runs, tile_runs)], {"host": host_runs, "machine": tile_runs})
     return Row("fidelity", scene, f"(c) sampled {100 * share:g} %", False, fidelity_errors(values, truth),
-               sum(s["seconds"] for s in samples), {"cycles": sum(s["simulated"] for s in samples)},
+               timing.median, {"cycles": sum(s["simulated"] for s in samples)},
                f"{len(chosen)} of {n_tiles} tiles (runs of consecutive eye samples in DIS order, "
                f"chosen at random, stratified: {len(groups)} strata of consecutive tiles) each "
-               f"simulated on the {engine} engine after the tile before it as warm-up (warm-up + "
-               "tile minus warm-up alone); total cycles = Σ stratum tiles × stratum mean with a "
-               "95 % Student-t interval from the tiles' spread within the strata; ρ, μ, t from the "
-               "tiles' IC counters; cost: cycles simulated, warm-ups included",
-               values, low, high)
+               f"simulated on the {engine} engine after a warm-up of at least {WARM_SAMPLES} eye "
+               "samples (warm-up + tile minus warm-up alone); total cycles by the stratified "
+               "regression estimator on the golden model's intersection tests per tile, a 95 % "
+               "interval from the stratified jackknife widened by the warm-up allowance; ρ, μ, t from the "
+               "tiles' IC counters; cost: cycles simulated, warm-ups included; seconds: host "
+               "preparation + the tiles' runs",
+               values, low, high, timing=timing)
 
 
 def fidelity_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
                   progress: Progress = _quiet, shares=SAMPLE_SHARES, n_tiles: int = TILES,
-                  seed: int = 1992, reference_budget: int = REFERENCE_BUDGET) -> list[Row]:
+                  seed: int = 1992, reference_budget: int = REFERENCE_BUDGET,
+                  repeats: int = REPEATS) -> list[Row]:
+    """Every row's seconds include host preparation (`prepare`, or the golden renders the model
+    rows need) and are the median of `repeats` runs; the reference engine's row is one run."""
     name = scene.name
     progress(f"{name} fidelity: full cycle-accurate")
-    setup = prepare(scene, config, res)
-    full, full_seconds = run_machine(setup, engine)
+    setup, full, ft = machine_timed(scene, config, res, engine, repeats)
+    full_seconds = ft.components["machine"]
     truth = machine_point(full.stats)
     mem = dataclasses.asdict(config.ic_memory)
     rows = [Row("fidelity", name, f"(d) full ({engine})", True,
-                {k: 0.0 for k in ("cycles", "rho", "mu", "t")}, full_seconds, {"cycles": truth["cycles"]},
-                f"the whole render on the {engine} engine: the truth", dict(truth))]
+                {k: 0.0 for k in ("cycles", "rho", "mu", "t")}, ft.median, {"cycles": truth["cycles"]},
+                f"the whole render on the {engine} engine: the truth (seconds: host preparation + run)",
+                dict(truth), timing=ft)]
     # the analytic and trace-driven rows take their cycles from one small machine run
     progress(f"{name} fidelity: analytic and trace-driven")
     cal_res = min(CALIBRATION_RES, res)
-    cal_setup = prepare(scene, config, cal_res)
-    cal, cal_seconds = run_machine(cal_setup, engine)
+    cal_setup, cal, ct = machine_timed(scene, config, cal_res, engine, repeats)
     cal_refs = golden.render(scene, config, res=cal_res, grid=cal_setup.images.layout.grid).total_references
     coarse = setup.prepass.resolution
-    a_point, _, a_seconds = trace_point(setup, coarse)
+    (a_point, _, _), a_t = timed(lambda: trace_point(setup, coarse), repeats)
+    pre = ft.components["host"]  # the pre-pass and grid the analytic model needs: the setup's
+    a_timing = Timing.of([pre + x + c for x, c in zip(a_t.runs, ct.runs)],
+                         {"host": [pre] * len(a_t.runs), "model": a_t.runs, "calibration": ct.runs})
     a = {"cycles": cal.run.cycles * (res / cal_res) ** 2, "rho": a_point["rho"], "mu": a_point["mu"],
          "t": a_point["t_model"]}
     rows.append(Row("fidelity", name, "(a) analytic", False, fidelity_errors(a, truth),
-                    setup.prepass.seconds + a_seconds + cal_seconds, {"cycles": cal.run.cycles},
+                    a_timing.median, {"cycles": cal.run.cycles},
                     f"ρ and μ from the {coarse}x{coarse} pre-pass render's trace through the resident + "
                     "cache model, t from the paper's t_r·{ρ + (1 − ρ)(8 − 6μ)}; cycles = a "
-                    f"{cal_res}x{cal_res} machine run × (pixels ratio)", a))
-    b_point, refs, b_seconds = trace_point(setup, res)
+                    f"{cal_res}x{cal_res} machine run × (pixels ratio)", a, timing=a_timing))
+    (b_point, refs, _), b_t = timed(lambda: trace_point(setup, res), repeats)
+    b_timing = Timing.of([pre + x + c for x, c in zip(b_t.runs, ct.runs)],
+                         {"host": [pre] * len(b_t.runs), "model": b_t.runs, "calibration": ct.runs})
     b = {"cycles": cal.run.cycles * refs / max(cal_refs, 1), "rho": b_point["rho"], "mu": b_point["mu"],
          "t": b_point["t"]}
     rows.append(Row("fidelity", name, "(b) trace-driven", False, fidelity_errors(b, truth),
-                    b_seconds + cal_seconds, {"cycles": cal.run.cycles, "references": refs},
+                    b_timing.median, {"cycles": cal.run.cycles, "references": refs},
                     f"the golden {res}x{res} IC reference trace, in the machine's serial ray order, "
                     "through the resident + direct-mapped cache model (reports/tracesim.py); cycles = "
-                    f"a {cal_res}x{cal_res} machine run × (intersection tests ratio)", b))
+                    f"a {cal_res}x{cal_res} machine run × (intersection tests ratio)", b, timing=b_timing))
     # sampled: a stratified random sample of tiles per share (`stratified_tiles`), each scene
     # its own draw (the seed and the scene's name), the tiles shared by shares simulated once
     n_tiles = min(n_tiles, setup.side * setup.side)
     rng = np.random.default_rng([seed, zlib.crc32(name.encode())])
     counts = [min(n_tiles, max(2, int(round(s * n_tiles)))) for s in shares]
     chosen = [stratified_tiles(rng, n_tiles, n) for n in counts]
-    samples = sample_tiles(setup, engine, sorted(set().union(*chosen)), n_tiles, progress)
+    samples = sample_tiles(setup, engine, sorted(set().union(*chosen)), n_tiles, progress, repeats)
+    host = [ft.components["host"]] * max(1, repeats)
+    aux = tile_auxiliary(setup, n_tiles)["tests"]
     for share, n, tiles in zip(shares, counts, chosen):
         rows.append(sampled_row(name, share, samples, tiles, truth, mem, n_tiles, engine,
-                                strata_bounds(n_tiles, n)))
+                                strata_bounds(n_tiles, n), host, aux))
     if engine != "reference" and reference_budget > 0:
-        rows.append(reference_row(setup, full, full_seconds, truth, engine, reference_budget, progress))
+        rows.append(reference_row(setup, full, full_seconds, truth, engine, reference_budget, progress,
+                                  ft.components["host"]))
     return rows
 
 
 def reference_row(setup: RenderSetup, full: RenderResult, full_seconds: float, truth: dict, engine: str,
-                  budget: int, progress: Progress = _quiet) -> Row:
+                  budget: int, progress: Progress = _quiet, host_seconds: float = 0.0) -> Row:
     """(e): the reference engine, whole when the run fits `budget` cycles, else over the first
     `budget` cycles against the compiled engine stopped at the same cycle (its time extrapolated)."""
     name = setup.scene.name
@@ -423,15 +586,17 @@ def reference_row(setup: RenderSetup, full: RenderResult, full_seconds: float, t
             == run_stats.dumps(run_stats.without_engine(other.stats)))
     point = machine_point(ref.stats)
     errors = fidelity_errors(point, machine_point(other.stats)) | {"differs": 0.0 if same else 1.0}
-    estimate = seconds if whole else seconds * truth["cycles"] / budget
-    return Row("fidelity", name, "(e) reference engine", False, errors, seconds,
+    estimate = host_seconds + (seconds if whole else seconds * truth["cycles"] / budget)
+    return Row("fidelity", name, "(e) reference engine", False, errors, host_seconds + seconds,
                {"cycles": ref.run.cycles},
                ("the whole render" if whole else f"the first {budget:,} cycles (its full time "
                 "extrapolated)") + " on the reference engine (plain Python), its statistics compared "
                f"byte for byte with the {engine} engine's" + ("" if whole else " over the same cycles")
-               + (": identical" if same else ": THEY DIFFER"),
+               + (": identical" if same else ": THEY DIFFER") + "; seconds: host preparation (the "
+               "full row's median) + one run of the engine (not repeated: it is ~100× slower)",
                point | {"identical": same, "seconds_full": estimate,
-                        "speedup": estimate / full_seconds if full_seconds else None})
+                        "speedup": (estimate - host_seconds) / full_seconds if full_seconds else None},
+               timing=Timing.of([host_seconds + seconds], {"host": [host_seconds], "machine": [seconds]}))
 
 
 AXIS_RUNNERS = {"precision": precision_rows, "depth": depth_rows, "prepass": prepass_rows,

@@ -14,6 +14,8 @@ engine interface (emulator/engine.py): `make_engine`, `run`, and then `frame`, `
 
 from __future__ import annotations
 
+from netsushisen.host.scale import check_scale
+
 import hashlib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -248,6 +250,7 @@ def prepare(scene: Scene | str, config: MachineConfig, res: int = 32, corners: b
     name = scene if isinstance(scene, str) else None
     inputs = kernel_inputs(scene, config, res, corners, generic, slots, defines, memo)
     scene, prepass, images, defines = inputs.scene, inputs.prepass, inputs.images, inputs.defines
+    check_scale(scene, config.precision)
     key = ("kernels", str(kernel_dir), repr(kernels), tuple(sorted(defines.items())),
            schedule_key(config))
     programs = (memo.get((name, *key), lambda: assemble_kernels(defines, kernel_dir, kernels, config))

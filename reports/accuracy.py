@@ -49,6 +49,8 @@ class Row:
     values: dict[str, float | None] = field(default_factory=dict)  # what was measured itself
     ci_low: float | None = None  # sampled rows: 95 % interval of total cycles
     ci_high: float | None = None
+    timing: "Timing | None" = None  # the repeated runs behind `seconds` (their median)
+    emulated: bool = False  # a precision computed in software: its seconds are not its cost
 
     def to_json(self) -> dict:
         out = {"scene": self.scene, "setting": self.setting, "truth": self.truth,
@@ -57,7 +59,55 @@ class Row:
                "values": {k: _num(v) for k, v in self.values.items()}}
         if self.ci_low is not None:
             out["ci_low"], out["ci_high"] = float(self.ci_low), float(self.ci_high)
+        if self.timing is not None:
+            out["timing"] = self.timing.to_json()
+        if self.emulated:
+            out["emulated"] = True
         return out
+
+
+@dataclass
+class Timing:
+    """Wall seconds of a row over repeated runs (each run timed whole, every stage of the row's
+    basis in it) and the median of each component stage. The row's `seconds` is the median; two
+    rows whose [low, high] ranges overlap cannot be told apart by time (`indistinguishable`)."""
+
+    runs: list[float]
+    components: dict[str, float] = field(default_factory=dict)  # stage -> median seconds
+
+    @property
+    def median(self) -> float:
+        return float(np.median(self.runs)) if self.runs else 0.0
+
+    @property
+    def low(self) -> float:
+        return float(min(self.runs)) if self.runs else 0.0
+
+    @property
+    def high(self) -> float:
+        return float(max(self.runs)) if self.runs else 0.0
+
+    def to_json(self) -> dict:
+        return {"runs": [float(x) for x in self.runs], "median": self.median, "low": self.low,
+                "high": self.high, "components": {k: float(v) for k, v in self.components.items()}}
+
+    @staticmethod
+    def of(runs: list[float], components: dict[str, list[float]] | None = None) -> "Timing":
+        """A timing from each run's total and each component's per-run seconds."""
+        return Timing(list(runs), {k: float(np.median(v)) for k, v in (components or {}).items()})
+
+
+def indistinguishable(a: Row, b: Row) -> bool:
+    """Whether two rows' repeated times overlap (min–max), so neither is measurably cheaper."""
+    if a.timing is None or b.timing is None:
+        return False
+    return a.timing.low <= b.timing.high and b.timing.low <= a.timing.high
+
+
+def time_ties(rows: list[Row]) -> list[tuple[str, str]]:
+    """Settings next to each other in median time whose spreads overlap (one scene's rows)."""
+    timed = sorted((r for r in rows if r.timing is not None and not r.emulated), key=lambda r: r.seconds)
+    return [(a.setting, b.setting) for a, b in zip(timed, timed[1:]) if indistinguishable(a, b)]
 
 
 def _num(v):
@@ -209,6 +259,74 @@ def stratified_estimate(strata) -> tuple[float, float, float]:
     return est, low, est + half
 
 
+WARM_UP_ALLOWANCE = 0.0015
+"""Relative widening of a sampled interval on each side for the warm-up residue: the sampled
+tiles' marginals sum to the full run within +0.12 % (tetra) and +0.18 % (balls) at 32x32 with
+the 16-sample warm-up (`netsushisen.accuracy.WARM_SAMPLES`), a bias no spread of the tiles shows."""
+
+
+def _regression_total(strata) -> float:
+    """Σ N_h·(ȳ_h + b·(X̄_h − x̄_h)) with b the slope pooled within the strata."""
+    num = den = 0.0
+    for y, x, xs in strata:
+        if len(y) > 1:
+            dx = x - x.mean()
+            num += float((dx * (y - y.mean())).sum())
+            den += float((dx * dx).sum())
+    b = num / den if den > 0 else 0.0
+    return sum(len(xs) * (float(y.mean()) + b * (float(xs.mean()) - float(x.mean()))) for y, x, xs in strata)
+
+
+def regression_estimate(strata, allowance: float = WARM_UP_ALLOWANCE) -> tuple[float, float, float]:
+    """(estimate, low, high) of a total from a stratified sample with an auxiliary known for every
+    unit: `strata` is a list of (sampled y, their x, every unit's x). The combined regression
+    estimator Σ N_h·(ȳ_h + b·(X̄_h − x̄_h)) (b pooled within strata); its variance by the stratified
+    delete-one jackknife Σ_h (1 − f_h)·(n_h − 1)/n_h·Σ_j (θ_(hj) − θ̄_h)² (it follows the slope's own
+    uncertainty, which a residual variance misses); ± t(n − H)·√V, widened by `allowance` of the
+    estimate on each side (the warm-up residue). Every unit sampled: the exact total."""
+    strata = [(np.asarray(y, np.float64), np.asarray(x, np.float64), np.asarray(xs, np.float64))
+              for y, x, xs in strata]
+    if not strata or any(len(y) == 0 for y, _, _ in strata):
+        raise ValueError("no samples")
+    est = _regression_total(strata)
+    if all(len(y) == len(xs) for y, _, xs in strata):
+        return est, est, est
+    var, n = 0.0, 0
+    for h, (y, x, xs) in enumerate(strata):
+        nh = len(y)
+        n += nh
+        if nh < 2:
+            return est, -math.inf, math.inf
+        reps = []
+        for j in range(nh):
+            keep = np.arange(nh) != j
+            reps.append(_regression_total(strata[:h] + [(y[keep], x[keep], xs)] + strata[h + 1:]))
+        r = np.asarray(reps)
+        var += (1 - nh / len(xs)) * (nh - 1) / nh * float(((r - r.mean()) ** 2).sum())
+    dof = n - len(strata)
+    half = t_quantile(dof) * math.sqrt(var) + allowance * abs(est)
+    return est, est - half, est + half
+
+
+def coverage(cycles, aux, full: float, n: int, redraws: int, seed: int = 0,
+             per_stratum: int = 4) -> float:
+    """Share of `redraws` stratified samples of n tiles whose interval covers `full` (the full
+    run's cycles): the tiles' marginal cycles and auxiliary measured once, so this is arithmetic."""
+    from netsushisen.accuracy import strata_bounds, stratified_tiles
+
+    y, x = np.asarray(cycles, np.float64), np.asarray(aux, np.float64)
+    rng = np.random.default_rng(seed)
+    bounds = strata_bounds(len(y), n, per_stratum)
+    hit = 0
+    for _ in range(redraws):
+        chosen = np.asarray(stratified_tiles(rng, len(y), n, per_stratum))
+        strata = [(y[c], x[c], x[lo:hi]) for lo, hi in zip(bounds, bounds[1:])
+                  for c in [chosen[(chosen >= lo) & (chosen < hi)]]]
+        _, low, high = regression_estimate(strata)
+        hit += low <= full <= high
+    return hit / redraws
+
+
 # ------------------------------------------------------------------------------------------------
 # What the numbers mean: one sentence per axis and scene
 
@@ -234,6 +352,10 @@ def axis_sentences(axis: str, rows: list[Row]) -> list[str]:
         others = [r for r in mine if not r.truth]
         if truth is None or not others:
             continue
+        ties = time_ties(mine)
+        if ties:
+            out.append(f"{scene}: indistinguishable in time (spreads of the repeated runs overlap): "
+                       + "; ".join(f"{a} ≈ {b}" for a, b in ties) + ".")
         if axis == "precision":
             worst = max(others, key=lambda r: r.error["rmse_u8"])
             exact = [r.setting for r in others if not any(r.error.values())]
@@ -244,6 +366,12 @@ def axis_sentences(axis: str, rows: list[Row]) -> list[str]:
                           "no setting equals the fp64 truth exactly."))
         elif axis == "depth":
             d = depth_settles(mine)
+            td = truth.values.get("truth_depth")
+            if td is not None:
+                out.append(f"{scene}: truth depth {td} — " + (
+                    "its 8-bit image equals the one before it in 10, 20, 40 (converged)"
+                    if truth.values.get("truth_converged") else
+                    "the cap: the image still changed up to it (NOT converged)") + ".")
             if d == 1:
                 out.append(f"{scene}: no change past depth 1 — nothing spawns secondary surface "
                            "rays (no mirrors or glass), so every depth gives the same image, rays "

@@ -21,13 +21,13 @@ from netsushisen.reports.tables import Section, render_md, render_table
 SCHEMA = {"name": "netsushisen-accuracy", "version": 1}
 
 PLOT_METRIC = {"precision": ("rmse_u8", "image RMS error (8-bit levels)"),
-               "depth": ("rmse_u8", "image RMS error against depth 10 (8-bit levels)"),
+               "depth": ("rmse_u8", "image RMS error against the truth depth (8-bit levels)"),
                "prepass": ("cycles", "relative error of machine cycles"),
                "fidelity": ("cycles", "relative error of total cycles")}
 """The error each axis's plot shows (the tables show them all)."""
 
 TITLES = {"precision": "Precision: error against the golden model in fp64",
-          "depth": "Ray depth: error against depth 10",
+          "depth": "Ray depth: error against the converged truth depth",
           "prepass": "Pre-pass resolution: against the full-resolution ranking",
           "fidelity": "Simulation fidelity: against the full cycle-accurate run"}
 
@@ -39,7 +39,10 @@ HOW = {
                  "centres, radii, cone ends, materials, lights, camera) to bfloat16 and then computes "
                  "in float32: only the stored values are bf16, not the arithmetic. The machine rows run "
                  "the kernels; their cost is machine cycles.",
-    "depth": "Truth: depth 10 (the table says from which depth the 8-bit image stops changing). "
+    "depth": "Truth: the golden image at depth 10, 20, 40 until two consecutive ones are 8-bit "
+             "identical (the row says which depth and whether it converged; 40 is the cap); the table "
+             "says from which depth the 8-bit image stops changing. Seconds: the machine's (host "
+             "preparation + run) at that depth. "
              "Rays are the golden model's (the machine's equal them; the `how` column says so per "
              "row), cycles the machine's at the same depth.",
     "prepass": "The pre-pass (paper §4.3) ranks primitives by references in a coarse golden render "
@@ -68,6 +71,16 @@ def _psnr(row: Row) -> str:
     return "∞" if v is None else f"{v:.1f}"
 
 
+def _secs(row: Row) -> str:
+    """A row's seconds: median and (min–max) of its repeated runs; an emulated precision's
+    marked so (its time is numpy's software emulation, not the setting's cost)."""
+    t = row.timing
+    text = f"{row.seconds:.2f}"
+    if t is not None and len(t.runs) > 1:
+        text += f" ({t.low:.2f}–{t.high:.2f})"
+    return text + (" emulation" if row.emulated else "")
+
+
 def _ci(row: Row) -> str:
     if row.ci_low is None:
         return ""
@@ -80,32 +93,32 @@ def axis_section(axis: str, rows: list[Row]) -> Section:
         cols = ["scene", "setting", "hit ids", "RMS", "max", ">1 off", "PSNR dB", "rays err",
                 "seconds", "rays", "cycles"]
         fmt = {"hit ids": "pct", "RMS": "f2", "max": "int", ">1 off": "pct", "rays err": "pct",
-               "seconds": "f2", "rays": "int", "cycles": "int"}
+               "rays": "int", "cycles": "int"}
         body = [[r.scene, r.setting + (" (truth)" if r.truth else ""), r.error["hit_ids"], r.error["rmse_u8"],
                  r.error["max_u8"], r.error["channels_off"], _psnr(r),
-                 max(r.error[f"rays_{k}"] for k in RAY_KINDS), r.seconds, r.cost.get("rays"),
+                 max(r.error[f"rays_{k}"] for k in RAY_KINDS), _secs(r), r.cost.get("rays"),
                  r.cost.get("cycles")] for r in rows]
     elif axis == "depth":
         cols = ["scene", "setting", "RMS", "max", ">1 off", "PSNR dB", "rays", "cycles", "seconds"]
-        fmt = {"RMS": "f2", "max": "int", ">1 off": "pct", "rays": "int", "cycles": "int", "seconds": "f2"}
+        fmt = {"RMS": "f2", "max": "int", ">1 off": "pct", "rays": "int", "cycles": "int"}
         body = [[r.scene, r.setting + (" (truth)" if r.truth else ""), r.error["rmse_u8"], r.error["max_u8"],
-                 r.error["channels_off"], _psnr(r), r.cost["rays"], r.cost["cycles"], r.seconds] for r in rows]
+                 r.error["channels_off"], _psnr(r), r.cost["rays"], r.cost["cycles"], _secs(r)] for r in rows]
     elif axis == "prepass":
         cols = ["scene", "setting", "ρ", "t", "cycles", "ρ err", "t err", "cycles err", "eye rays",
                 "time share", "seconds"]
         fmt = {"ρ": "f3", "t": "f3", "cycles": "int", "ρ err": "f3", "t err": "pct", "cycles err": "pct",
-               "eye rays": "int", "time share": "pct", "seconds": "f2"}
+               "eye rays": "int", "time share": "pct"}
         body = [[r.scene, r.setting + (" (truth)" if r.truth else ""), r.values["rho"], r.values["t"],
                  r.cost["cycles"], r.error["rho"], r.error["t"], r.error["cycles"], r.cost["rays"],
-                 r.cost["time_share"], r.seconds] for r in rows]
+                 r.cost["time_share"], _secs(r)] for r in rows]
     else:
         cols = ["scene", "setting", "cycles", "95 % interval", "ρ", "μ", "t", "cycles err", "ρ err",
                 "μ err", "t err", "seconds", "simulated"]
         fmt = {"cycles": "int", "ρ": "f3", "μ": "f3", "t": "f3", "cycles err": "pct", "ρ err": "pct",
-               "μ err": "pct", "t err": "pct", "seconds": "f2", "simulated": "int"}
+               "μ err": "pct", "t err": "pct", "simulated": "int"}
         body = [[r.scene, r.setting + (" (truth)" if r.truth else ""), r.values["cycles"], _ci(r),
                  r.values["rho"], r.values["mu"], r.values["t"], r.error["cycles"], r.error["rho"],
-                 r.error["mu"], r.error["t"], r.seconds, r.cost.get("cycles")] for r in rows]
+                 r.error["mu"], r.error["t"], _secs(r), r.cost.get("cycles")] for r in rows]
     return Section(axis, TITLES[axis], cols, body, fmt)
 
 
@@ -127,13 +140,16 @@ def write_json(path: Path, axes: dict[str, list[Row]], meta: dict) -> None:
 def write_csv(path: Path, rows: list[Row]) -> None:
     """Tidy: one line per scene × setting; every error, cost and value its own column."""
     keys = {w: list(dict.fromkeys(k for r in rows for k in getattr(r, w))) for w in ("error", "cost", "values")}
-    header = ["scene", "setting", "truth", "seconds"] + [f"{w}_{k}" for w in keys for k in keys[w]] + [
-        "ci_low", "ci_high", "how"]
+    header = ["scene", "setting", "truth", "seconds", "seconds_low", "seconds_high", "repeats", "emulated"] + [
+        f"{w}_{k}" for w in keys for k in keys[w]] + ["ci_low", "ci_high", "how"]
     with replacing(path, "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
         w.writerow(header)
         for r in rows:
-            w.writerow([r.scene, r.setting, r.truth, f"{r.seconds:.6f}"]
+            t = r.timing
+            w.writerow([r.scene, r.setting, r.truth, f"{r.seconds:.6f}",
+                        "" if t is None else f"{t.low:.6f}", "" if t is None else f"{t.high:.6f}",
+                        "" if t is None else len(t.runs), r.emulated]
                        + ["" if getattr(r, wh).get(k) is None else getattr(r, wh)[k]
                           for wh in keys for k in keys[wh]]
                        + ["" if r.ci_low is None else r.ci_low, "" if r.ci_high is None else r.ci_high, r.how])
@@ -180,22 +196,34 @@ def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
         mine = sorted((r for r in rows if r.scene == scene), key=plot_seconds)
         xs = [max(plot_seconds(r), 1e-4) for r in mine]
         ys = [r.error[metric] or floor for r in mine]
-        fx, fy = pareto_front(xs, ys)
+        # an emulated precision's wall time is not its cost: off the front, drawn hollow, labelled
+        costed = [(x, y) for r, x, y in zip(mine, xs, ys) if not r.emulated]
+        fx, fy = pareto_front([x for x, _ in costed], [y for _, y in costed])
         ax.step(fx, fy, where="post", color=c, alpha=0.45, lw=1.2)
         for r, x, y in zip(mine, xs, ys):
             m = MARKERS[settings.index(r.setting) % len(MARKERS)]
-            ax.scatter([x], [y], marker=m, s=130 if r.truth else 55, color=c,
-                       edgecolors="black" if r.truth else "none", linewidths=1.6, zorder=3)
+            if r.emulated:
+                ax.scatter([x], [y], marker=m, s=55, facecolors="none", edgecolors=c, linewidths=1.2, zorder=3)
+                ax.annotate("emulation", (x, y), textcoords="offset points", xytext=(4, 4), fontsize=6,
+                            color=c)
+            else:
+                ax.scatter([x], [y], marker=m, s=130 if r.truth else 55, color=c,
+                           edgecolors="black" if r.truth else "none", linewidths=1.6, zorder=3)
+            if r.timing is not None and len(r.timing.runs) > 1:  # the spread of the repeated runs
+                ax.plot([max(r.timing.low, 1e-4), max(r.timing.high, 1e-4)], [y, y], color=c, lw=0.8,
+                        alpha=0.6)
             if r.ci_low is not None and axis == "fidelity":
                 truth = next(t for t in rows if t.scene == scene and t.truth).values["cycles"]
-                lo = abs(r.ci_low - truth) / truth
-                hi = abs(r.ci_high - truth) / truth
-                ax.plot([x, x], [max(min(lo, hi, y), floor), max(lo, hi, y)], color=c, lw=1, alpha=0.6)
+                # the interval as the errors it allows: from its nearest to its farthest end, and
+                # down to the exact floor when it contains the truth (an error of 0 is allowed)
+                lo, hi = (r.ci_low - truth) / truth, (r.ci_high - truth) / truth
+                near = 0.0 if lo <= 0 <= hi else min(abs(lo), abs(hi))
+                ax.plot([x, x], [max(near, floor), max(abs(lo), abs(hi), floor)], color=c, lw=1, alpha=0.6)
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.axhline(floor, color="grey", ls="--", lw=0.8)
     ax.text(ax.get_xlim()[0], floor, " exact (error 0)", va="bottom", ha="left", fontsize=8, color="grey")
-    ax.set_xlabel("wall seconds (log)")
+    ax.set_xlabel("wall seconds, median of repeated runs (log; bars: min–max)")
     ax.set_ylabel(f"{label} (log)")
     ax.set_title(f"{TITLES[axis]} — {res}×{res}")
     from matplotlib.lines import Line2D
@@ -217,9 +245,19 @@ def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
 
 
 def report_markdown(axes: dict[str, list[Row]], meta: dict, files: list[str]) -> str:
+    warm = meta.get("warm_up_seconds") or {}
     lines = ["# What accuracy costs", "",
              f"`{meta['command']}` — {meta['res']}×{meta['res']}, machine rows on the `{meta['engine']}` "
              f"engine, {meta['machine']}; {meta['seconds']:.0f} s in all.", "",
+             f"Times: every row's seconds are the median of {meta.get('repeats', 1)} runs, shown with "
+             "their (min–max) spread; every row includes host preparation (golden rows build their "
+             "grid; machine rows run `prepare` — grid, pre-pass, memory images, kernels — and then the "
+             "engine; the components are in accuracy.json). Settings whose spreads overlap cannot be "
+             "told apart by time. Before any timed row each path was compiled and warmed once"
+             + (" (" + ", ".join(f"{k} {v:.1f} s" for k, v in warm.items()) + ")" if warm else "")
+             + ": no row carries numba's compile. Rows marked `emulation` (golden fp16, golden bf16 "
+             "scene) are computed in software: their time is not the precision's cost (their cost is "
+             "rays traced) and they are left off the plots' Pareto fronts.", "",
              "Each setting of each knob is one row: its error against that axis's truth and its cost "
              "(wall seconds on this machine, and rays traced or machine cycles, which do not depend "
              "on it). Every row's `how` (in accuracy.json and the CSV files) says how it was obtained.",

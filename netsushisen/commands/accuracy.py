@@ -2,16 +2,19 @@
 
     netsushisen accuracy [SCENE ...] [--res N] [--axes precision,depth,prepass,fidelity]
                          [--engine NAME] [--out DIR] [--config FILE] [--set field=value]...
-                         [--seed N] [--quiet]
+                         [--seed N] [--repeats N] [--quiet]
 
 Axes (default all): precision (golden fp64 truth; golden fp32, fp16, bf16-rounded scene; the
-machine in fp32 and fp64), depth (truth depth 10; depth 1 … 8), prepass (pre-pass sizes against
+machine in fp32 and fp64), depth (truth: depth 10, 20, 40 until two give the same 8-bit image; depth 1 … 8), prepass (pre-pass sizes against
 the full-resolution ranking), fidelity (analytic, trace-driven, sampled cycle-accurate with 95 %
 intervals, the full run on the engine as truth, the reference engine). SCENEs default to the
 paper's four (tetra balls mount rings); --res defaults to 32. Writes into DIR (default
 `accuracy/`): accuracy.json, accuracy_<axis>.csv and accuracy_<axis>.png per axis, report.md;
-prints a table per axis. Machine rows run on --engine (default the compiled engine). Ctrl-C
-writes what the finished scenes and axes give and exits 130.
+prints a table per axis. Machine rows run on --engine (default the compiled engine). Before any
+timed row every path is compiled and warmed once per precision (reported once, as "warm-up");
+each row's seconds are the median of --repeats runs (default 3) with their min–max spread, host
+preparation included on every row. Ctrl-C writes what the finished scenes and axes give and
+exits 130.
 """
 
 from __future__ import annotations
@@ -45,6 +48,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_output(parser, "output folder (default accuracy/)", metavar="DIR", default="accuracy")
     add_config_options(parser)
     parser.add_argument("--seed", type=int, default=1992, help="seed of the sampled tiles (default 1992)")
+    parser.add_argument("--repeats", type=int, default=3, metavar="N",
+                        help="runs each row is timed over: its seconds are their median (default 3)")
     add_quiet(parser, "no progress, no tables")
 
 
@@ -65,6 +70,7 @@ def _command(args: argparse.Namespace, scenes: list[str]) -> str:
         parts += ["--config", args.config]
     for s in args.sets:
         parts += ["--set", s]
+    parts += ["--repeats", str(args.repeats)]
     return " ".join(shlex.quote(p) for p in parts)
 
 
@@ -74,6 +80,8 @@ def _machine() -> str:
 
 def run(args: argparse.Namespace) -> int:
     check_resolution(args.res)
+    if args.repeats < 1:
+        raise NetsushisenError(f"--repeats {args.repeats}: at least 1 run per row")
     args.axes_text = args.axes
     axes = parse_axes(args.axes)
     engine = engine_from_args(args)
@@ -86,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
         raise NetsushisenError(Diagnostic("the output folder is a file", file=str(out)))
     out.mkdir(parents=True, exist_ok=True)
 
-    from netsushisen.accuracy import AXIS_RUNNERS, fidelity_rows
+    from netsushisen.accuracy import AXIS_RUNNERS, fidelity_rows, warm_up
     from netsushisen.host.nff import format_nff
     from netsushisen.reports.accuracy_report import tables_text, write_all
 
@@ -107,13 +115,16 @@ def run(args: argparse.Namespace) -> int:
             progress.update(task, description=description)
 
     interrupted = False
+    warm: dict[str, float] = {}
     try:
+        warm = warm_up(scenes[0], config, engine, progress=show)
         for scene in scenes:
             for axis in axes:
                 if axis == "fidelity":
-                    found = fidelity_rows(scene, args.res, config, engine, show, seed=args.seed)
+                    found = fidelity_rows(scene, args.res, config, engine, show, seed=args.seed,
+                                          repeats=args.repeats)
                 else:
-                    found = AXIS_RUNNERS[axis](scene, args.res, config, engine, show)
+                    found = AXIS_RUNNERS[axis](scene, args.res, config, engine, show, repeats=args.repeats)
                 rows[axis] += found
                 if progress is not None:
                     progress.advance(task)
@@ -129,12 +140,15 @@ def run(args: argparse.Namespace) -> int:
     meta = {"command": _command(args, specs), "res": args.res, "engine": engine,
             "machine": _machine(), "seconds": time.perf_counter() - start,
             "config": config.to_dict(), "interrupted": interrupted,
+            "repeats": args.repeats, "warm_up_seconds": warm,
             "scenes": {s.name: {"source": s.source,
                                 "sha256": hashlib.sha256(format_nff(s).encode()).hexdigest()}
                        for s in scenes}}
     paths = write_all(out, rows, meta) if rows else []
     if not args.quiet and rows:
         print(tables_text(rows), end="")
+        print("warm-up (compile and first run, charged to no row): "
+              + ", ".join(f"{k} {v:.1f} s" for k, v in warm.items()))
     if interrupted:
         done = ", ".join(f"{axis} ({len({r.scene for r in r_})} scenes)" for axis, r_ in rows.items())
         print("netsushisen accuracy: interrupted; " + (

@@ -96,6 +96,9 @@ class _State:
     """(file, line, expansion) -> the source line as assembled (a body line after substitution)."""
     macros: dict[str, Macro] = field(default_factory=dict)
     expansions: int = 0  # macro invocations so far: `\@`
+    expanded_lines: int = 0  # statements macros and .rept will produce (macros.charge_lines)
+    expanded_chars: int = 0  # characters macro substitution produced
+    repeat: int = 1  # the product of the counts of the .rept blocks being expanded
     regions: list[Region] = field(default_factory=list)
     region: Region | None = None  # the open one
     pipeline_mark: Loc | None = None  # a `.pipeline` waiting for its loop's label
@@ -142,7 +145,9 @@ def register_index(name: str, aliases: dict[str, tuple[int, Loc]] | None = None)
 
 
 def _read_source(path: Path, display: str) -> str:
-    data = path.read_bytes()
+    from netsushisen.limits import read_input
+
+    data = read_input(path, "source file")
     bad = data.find(b"\x00")
     try:
         text = data.decode("utf-8")

@@ -68,11 +68,11 @@ def evaluate(expr, lookup: Lookup, is_defined: Callable[[str], bool] | None = No
         b = evaluate(expr[3], lookup, is_defined)
         try:
             if op == "add":
-                return a + b
+                return _bounded(a + b)
             if op == "sub":
-                return a - b
+                return _bounded(a - b)
             if op == "mul":
-                return a * b
+                return _bounded(a * b)
             if op in ("div", "mod"):
                 if b == 0:
                     raise ExprError("division by zero in a constant expression", _loc_of(expr[3]))
@@ -107,6 +107,17 @@ def evaluate(expr, lookup: Lookup, is_defined: Callable[[str], bool] | None = No
             raise ExprError(f"{name}() takes {arity} argument{'s' if arity > 1 else ''}", loc)
         return fn(*(evaluate(a, lookup, is_defined) for a in args))
     raise ExprError(f"not an expression: {kind}")  # pragma: no cover
+
+
+def _bounded(v: Number) -> Number:
+    """An integer result within limits.MAX_CONSTANT_BITS: `.equ`s that square the previous one
+    would otherwise grow without end (2^40 squarings) and hang the assembler."""
+    from netsushisen.limits import MAX_CONSTANT_BITS
+
+    if isinstance(v, int) and v.bit_length() > MAX_CONSTANT_BITS:
+        raise ExprError(f"integer of more than {MAX_CONSTANT_BITS} bits in a constant expression "
+                        "(limits.MAX_CONSTANT_BITS)")
+    return v
 
 
 def _float_to_int(x: float, loc: Loc) -> int:

@@ -31,8 +31,9 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from netsushisen.asm.parser import Chunk, Expansion, Loc, parse_chunk, parse_macro_header
-from netsushisen.errors import Diagnostic
+from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.opcodes import OPCODES
+from netsushisen.limits import MAX_EXPANDED_CHARS, MAX_EXPANDED_LINES, MAX_STATEMENT_CHARS
 
 MAX_EXPANSION_DEPTH = 64
 """Macro invocations and `.rept`s nested deeper than this are an error (a macro that invokes
@@ -64,6 +65,7 @@ class Macro:
     body: list[Chunk]
     loc: Loc  # the `.macro` line
     order: int  # when it was defined (a use before it is an error)
+    size: int = 0  # statements one invocation produces, the macros it invokes included
 
 
 @dataclass
@@ -218,6 +220,19 @@ def substitute(chunk: Chunk, macro: Macro, values: dict[str, str], counter: int,
                  [_SUBST_RE.sub(sub, s) for s in chunk.source_lines], via)
 
 
+def static_size(body: list[Chunk], macros: dict[str, Macro]) -> int:
+    """Statements `body` produces at least: one a line, plus each invoked macro's own size (a
+    `.rept` inside counts its lines once here and charges its count when it runs); capped just
+    past limits.MAX_EXPANDED_LINES."""
+    size = 0
+    for c in body:
+        call = INVOKE_RE.match(c.text.lstrip())
+        size += 1 + (macros[call.group(2)].size if call and call.group(2) in macros else 0)
+        if size > MAX_EXPANDED_LINES:
+            return MAX_EXPANDED_LINES + 1
+    return size
+
+
 def repetition(body: list[Chunk], via: Expansion) -> list[Chunk]:
     """One repetition's copy of a `.rept` body: `\\+` (the iterations done so far, from 0, as
     GNU as) replaced in the body's own lines; a nested `.rept`'s lines keep theirs."""
@@ -300,7 +315,9 @@ class MacroExpansion:
                 prev = st.macros[name].loc
                 st.error(f"macro '{name}' is already defined (at {prev.file}:{prev.line})", at)
             else:
-                st.macros[name] = Macro(name, params, defaults, chunks[i:end], at, st.order)
+                body = chunks[i:end]
+                st.macros[name] = Macro(name, params, defaults, body, at, st.order,
+                                        static_size(body, st.macros))
             return end + 1
         if end is None:
             st.error(f"unterminated .rept: no .{closer} before the end of the file", at)
@@ -317,10 +334,40 @@ class MacroExpansion:
                 st.error(f".rept needs a count from 0 to {MAX_REPT}, got {count!r}", arg.loc)
                 count = None
         if count is not None and self._deep_enough(at, depth):
-            for r in range(1, count + 1):
-                via = Expansion("rept", f"{count}", at, r)
-                self._expand(repetition(chunks[i:end], via), base_dir, stack, depth)
+            self._charge(count * static_size(chunks[i:end], st.macros), at)
+            outer = st.repeat
+            st.repeat = min(outer * max(count, 1), MAX_EXPANDED_LINES + 1)
+            try:
+                for r in range(1, count + 1):
+                    via = Expansion("rept", f"{count}", at, r)
+                    self._expand(repetition(chunks[i:end], via), base_dir, stack, depth)
+            finally:
+                st.repeat = outer
         return end + 1
+
+    def _charge(self, lines: int, at: Loc) -> None:
+        """Count the statements an expansion will produce — times every enclosing .rept's
+        count, before any is produced — against limits.MAX_EXPANDED_LINES: nested .rept
+        blocks and macros that invoke macros stop at once, one line naming the limit."""
+        st = self.st
+        st.expanded_lines += lines * st.repeat
+        if st.expanded_lines > MAX_EXPANDED_LINES:
+            raise NetsushisenError(Diagnostic(
+                f"macros and .rept would produce more than {MAX_EXPANDED_LINES:,} statements "
+                "(limits.MAX_EXPANDED_LINES, macros and .rept together)", at.file, at.line, at.col))
+
+    def _charge_chars(self, body: list[Chunk], at: Loc) -> None:
+        st = self.st
+        for c in body:
+            if len(c.text) > MAX_STATEMENT_CHARS:
+                raise NetsushisenError(Diagnostic(
+                    f"a statement of this expansion is {len(c.text):,} characters long, more than "
+                    f"{MAX_STATEMENT_CHARS:,} (limits.MAX_STATEMENT_CHARS)", at.file, at.line, at.col))
+            st.expanded_chars += len(c.text)
+        if st.expanded_chars > MAX_EXPANDED_CHARS:
+            raise NetsushisenError(Diagnostic(
+                f"macro substitution would produce more than {MAX_EXPANDED_CHARS:,} characters "
+                "(limits.MAX_EXPANDED_CHARS)", at.file, at.line, at.col))
 
     def _deep_enough(self, at: Loc, depth: int) -> bool:
         if depth < MAX_EXPANSION_DEPTH:
@@ -345,6 +392,7 @@ class MacroExpansion:
             return
         if not self._deep_enough(at, depth):
             return
+        self._charge(macro.size, at)
         counter = st.expansions  # \@: macros expanded before this one (GNU as counts from 0)
         st.expansions += 1
         via = Expansion("macro", macro.name, at)
@@ -356,6 +404,7 @@ class MacroExpansion:
                 for n, line in enumerate(c.source_lines):
                     st.lines[(c.file, c.line + n, via)] = line
                 st.error(err.message, Loc(c.file, err.line or c.line, err.col, via))
+        self._charge_chars(body, at)
         self._expand(body, base_dir, stack, depth)
 
     def _expand(self, body: list[Chunk], base_dir: Path, stack: list[str], depth: int) -> None:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Union
@@ -106,6 +107,47 @@ class SourceLoc:
     first, joined by ` > `); "" for a bundle written out."""
 
 
+_INT32 = range(-(1 << 31), 1 << 31)
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.$]*\Z")
+
+
+def _problem(proc: str, bundles: list, data: list, labels: dict, defines: dict) -> str | None:
+    """What makes a decoded object impossible for its processor, or None: the checks the
+    assembler made (registers, immediates and offsets to their 32-bit fields, branch targets
+    inside the program, ports the processor has, opcodes it runs, names that are names), so
+    that a hand-edited object cannot run differently on the two engines."""
+    processor = PROCESSORS[proc]
+    for i, bundle in enumerate(bundles):
+        for op in bundle:
+            opcode = op.opcode
+            if proc not in opcode.procs:
+                return f"bundle {i}: {op.mnemonic} does not run on {proc.upper()}"
+            for spec, a in zip(opcode.operands, op.args):
+                if spec.kind in ("rd", "rs") and not 0 <= a < processor.registers:
+                    return f"bundle {i}: {op.mnemonic}: register {a} (registers are r0..r{processor.registers - 1})"
+                if spec.kind == "mem" and (not 0 <= a[0] < processor.registers or a[1] not in _INT32):
+                    return f"bundle {i}: {op.mnemonic}: memory operand {list(a)} (a register and a 32-bit offset)"
+                if spec.kind == "imm" and a not in _INT32:
+                    return f"bundle {i}: {op.mnemonic}: immediate {a} does not fit its 32-bit field"
+                if spec.kind == "label" and not 0 <= a < len(bundles):
+                    return f"bundle {i}: {op.mnemonic}: branch target {a} outside the program (0..{len(bundles) - 1})"
+                if spec.kind == "port":
+                    ports = processor.send_ports if opcode.sends_to_port else processor.recv_ports
+                    if a not in ports:
+                        return f"bundle {i}: {op.mnemonic}: port {a!r} ({proc.upper()} has {', '.join(ports)})"
+    for k, v in data:
+        if k not in ("i", "f") or (k == "i" and v not in _INT32):
+            return f"data word {k!r} {v!r} (a 32-bit integer 'i' or a float 'f')"
+    for name, (section, at) in labels.items():
+        size = len(bundles) if section == "text" else len(data)
+        if not _NAME.match(name) or section not in ("text", "data") or not 0 <= at <= size:
+            return f"label {name!r} at {section} {at}"
+    for name, v in defines.items():
+        if not _NAME.match(name) or isinstance(v, bool) or not isinstance(v, (int, float)):
+            return f"define {name!r} = {v!r}"
+    return None
+
+
 @dataclass(frozen=True)
 class RegName:
     """A `.reg` name in force over bundles `start..end-1` (the assembler resolves a name to the
@@ -184,7 +226,9 @@ class Program:
         }
 
     def save(self, path: str | Path) -> None:
-        Path(path).write_text(json.dumps(self.to_json(), indent=None, separators=(",", ":")) + "\n")
+        from netsushisen.outputs import write_text
+
+        write_text(path, json.dumps(self.to_json(), indent=None, separators=(",", ":")) + "\n")
 
     @classmethod
     def from_json(cls, obj: dict[str, Any], where: str = "<object>") -> "Program":
@@ -193,10 +237,10 @@ class Program:
 
         if not isinstance(obj, dict) or obj.get("format") != OBJECT_FORMAT:
             raise bad(f"not a {OBJECT_FORMAT} file")
-        if obj.get("version") != OBJECT_VERSION:
+        if obj.get("version") != OBJECT_VERSION or isinstance(obj.get("version"), bool):
             raise bad(f"version {obj.get('version')!r} is not {OBJECT_VERSION}")
         proc = obj.get("proc")
-        if proc not in PROCESSORS:
+        if not isinstance(proc, str) or proc not in PROCESSORS:
             raise bad(f"unknown processor {proc!r}")
         try:
             bundles = []
@@ -204,7 +248,7 @@ class Program:
                 ops = []
                 for item in raw:
                     mnemonic, *args = item
-                    if mnemonic not in OPCODES:
+                    if not isinstance(mnemonic, str) or mnemonic not in OPCODES:
                         raise bad(f"bundle {i}: unknown mnemonic {mnemonic!r}")
                     opcode = OPCODES[mnemonic]
                     if len(args) != len(opcode.operands):
@@ -232,19 +276,24 @@ class Program:
                          for n, r, a, b in obj.get("reg_names", [])]
         except NetsushisenError:
             raise
-        except (KeyError, TypeError, ValueError, IndexError) as err:
+        except (KeyError, TypeError, ValueError, IndexError, OverflowError, AttributeError) as err:
             raise bad(f"malformed content ({type(err).__name__}: {err})") from None
+        problem = _problem(proc, bundles, data, labels, defines)
+        if problem:
+            raise bad(problem)
         return cls(proc, bundles, data, labels, smap, defines, op_sources, reg_names)
 
     @classmethod
     def load(cls, path: str | Path) -> "Program":
         p = Path(path)
         try:
-            text = p.read_text(encoding="utf-8")
+            from netsushisen.limits import read_input
+
+            text = read_input(p, "object file").decode("utf-8")
             obj = json.loads(text)
-        except FileNotFoundError:
+        except (FileNotFoundError, IsADirectoryError):
             raise NetsushisenError(Diagnostic("no such object file", file=str(p))) from None
-        except (UnicodeDecodeError, json.JSONDecodeError):
+        except (UnicodeDecodeError, json.JSONDecodeError, RecursionError):
             raise NetsushisenError(Diagnostic(
                 f"not a {OBJECT_FORMAT} file (assemble the source with `netsushisen asm`)",
                 file=str(p))) from None

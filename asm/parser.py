@@ -330,8 +330,27 @@ def _expr_loc(expr) -> Loc | None:
     return _expr_loc(expr[2])  # ("bin", op, left, right)
 
 
+def _depth(tree, stop: int) -> int:
+    """The depth of a Lark tree, walked without recursion (stops counting past `stop`)."""
+    deepest, todo = 0, [(tree, 1)]
+    while todo:
+        node, d = todo.pop()
+        deepest = max(deepest, d)
+        if deepest > stop:
+            break
+        todo.extend((child, d + 1) for child in getattr(node, "children", ()))
+    return deepest
+
+
 def parse_chunk(chunk: Chunk) -> Statement | Diagnostic:
-    """Parse one logical statement; a syntax error comes back as a located Diagnostic."""
+    """Parse one logical statement; a syntax error comes back as a located Diagnostic, and so
+    does a statement longer than limits.MAX_STATEMENT_CHARS or an expression deeper than
+    limits.MAX_EXPRESSION_DEPTH (the tree is walked recursively afterwards)."""
+    from netsushisen.limits import MAX_EXPRESSION_DEPTH, MAX_STATEMENT_CHARS
+
+    if len(chunk.text) > MAX_STATEMENT_CHARS:
+        return Diagnostic(f"statement of {len(chunk.text):,} characters, more than "
+                          f"{MAX_STATEMENT_CHARS:,} (limits.MAX_STATEMENT_CHARS)", chunk.file, chunk.line, 1)
     try:
         tree = _lark().parse(chunk.text, start="start")
     except UnexpectedInput as err:
@@ -359,5 +378,9 @@ def parse_chunk(chunk: Chunk) -> Statement | Diagnostic:
         else:  # pragma: no cover - Lark's other UnexpectedInput kinds
             msg = f"syntax error: {err}"
         return Diagnostic(msg, chunk.file, line, col, chunk.source_line(line))
+    if _depth(tree, MAX_EXPRESSION_DEPTH) > MAX_EXPRESSION_DEPTH:
+        return Diagnostic(f"expression nested deeper than {MAX_EXPRESSION_DEPTH} levels "
+                          "(limits.MAX_EXPRESSION_DEPTH: operators and parentheses)",
+                          chunk.file, chunk.line, 1)
     labels, item = _ToAst(chunk).transform(tree)
     return Statement(labels, item, Loc(chunk.file, chunk.line, 1, chunk.via), chunk.source_lines)

@@ -134,7 +134,9 @@ def dumps(stats: dict) -> str:
 
 
 def write(machine: Machine, path: str | Path) -> None:
-    Path(path).write_text(dumps(collect(machine)), encoding="utf-8")
+    from netsushisen.outputs import write_text
+
+    write_text(path, dumps(collect(machine)))
 
 
 def ic_reference_counts(stats: dict, n_primitives: int) -> np.ndarray:

@@ -263,7 +263,12 @@ class MachineImages:
             arrays[f"regions.{key}"] = np.array(
                 [[r.start, r.end, REGION_NAMES.index(r.name), -1 if r.primitive is None else r.primitive]
                  for r in regs], dtype=np.int64).reshape(-1, 4)
-        np.savez(path, **arrays)
+        from netsushisen.outputs import write_file
+
+        def write(tmp: Path) -> None:
+            with open(tmp, "wb") as f:  # a file, not a name: np.savez would add ".npz" to it
+                np.savez(f, **arrays)
+        write_file(path, write)
 
     def check_programs(self, programs: dict) -> None:
         """Kernel `.data` is loaded at local address 0 and image words overwrite it: a program

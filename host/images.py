@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.outputs import write_bytes
 
 _SIGNATURE = b"\x89PNG\r\n\x1a\n"
 _COLOR_TYPES = {1: 0, 2: 4, 3: 2, 4: 6}  # channels -> PNG colour type
@@ -41,7 +42,7 @@ def encode_png(image: np.ndarray) -> bytes:
 
 
 def write_png(path: str | Path, image: np.ndarray) -> None:
-    Path(path).write_bytes(encode_png(image))
+    write_bytes(path, encode_png(image))
 
 
 def _unfilter(raw: bytes, h: int, w: int, c: int) -> np.ndarray:

@@ -36,7 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
-from netsushisen.errors import Diagnostic, SceneError
+from netsushisen.errors import Diagnostic, NetsushisenError, SceneError
+from netsushisen.outputs import write_text
 from netsushisen.host.nff_builder import SceneBuilder
 from netsushisen.host.nff_geometry import (FP32_EPS, MAX_WARNINGS, GeometryChecks, fp32_half_spacing,  # noqa: F401
                                            scene_warnings)
@@ -67,13 +68,17 @@ _MAX_SHOWN = 160  # longest source line quoted in a diagnostic
 def read_nff(path: str | Path) -> Scene:
     """Read an NFF file. Any problem with the file (missing, unreadable, malformed) is a
     `SceneError` located at the offending record."""
+    from netsushisen.limits import check_primitives, read_input
+
     path = Path(path)
     try:
-        data = path.read_bytes()
+        data = read_input(path, "scene file")
     except OSError as err:
         raise SceneError(Diagnostic(f"cannot read scene file: {err.strerror or err}",
                                     file=str(path))) from None
-    return parse_nff(data, filename=str(path))
+    scene = parse_nff(data, filename=str(path))
+    check_primitives(scene.n_primitives, str(path))
+    return scene
 
 
 def parse_nff(text: str | bytes, filename: str = "<string>") -> Scene:
@@ -447,7 +452,7 @@ def format_nff(scene: Scene) -> str:
 def write_nff(scene: Scene, path: str | Path) -> None:
     """Write `format_nff(scene)` to `path`; an unwritable path is a `SceneError`."""
     try:
-        Path(path).write_text(format_nff(scene), encoding="ascii")
-    except OSError as err:
-        raise SceneError(Diagnostic(f"cannot write NFF file: {err.strerror or err}",
-                                    file=str(path))) from None
+        write_text(path, format_nff(scene), encoding="ascii")
+    except NetsushisenError as err:
+        message = err.diagnostics[0].message.replace("cannot write:", "cannot write NFF file:")
+        raise SceneError(Diagnostic(message, file=str(path))) from None

@@ -92,7 +92,9 @@ class Results:
         """Write the statistics as JSON (as `--json` does), readable by `load_stats`."""
         from netsushisen.emulator.stats import dumps
 
-        Path(path).write_text(dumps(self.stats), encoding="utf-8")
+        from netsushisen.outputs import write_text
+
+        write_text(path, dumps(self.stats))
 
 
 def _document(stats: dict) -> dict:

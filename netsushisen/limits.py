@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from netsushisen.errors import NetsushisenError
+from netsushisen.errors import Diagnostic, NetsushisenError
 
 if TYPE_CHECKING:
     from netsushisen.isa.config import MachineConfig
@@ -70,6 +70,185 @@ engine allocates each at the deepest one's capacity."""
 LARGE_BYTES = 1 * GiB
 LARGE_RAYS = 1 << 18
 """A run past either of these prints its size when it starts (unless quiet)."""
+
+
+MAX_LATENCY = 4096
+"""Cycles of any unit latency, memory access time (t_r, t_c, t_g), link latency or branch
+penalty: the compiled engine's write-back ring has a slot (72 bytes) per cycle of the longest
+latency in every processor (a latency of 10^9 asked for 48 GiB); the paper's slowest access,
+t_g, is 8 cycles."""
+
+MAX_CYCLES = (1 << 62) - 1
+"""Cycles a run may be given (`max_cycles`, `ring.deadlock_cycles`): cycle counts are 64-bit
+integers in both engines."""
+
+MAX_FIFO_WORDS = 1 << 20
+"""Words of one ring FIFO or link channel (`ring.fifo_depth`, `ring.link_buffer_words`): the
+compiled engine allocates all 56 FIFOs of a PE at the deepest one's depth, 8 bytes a word (at
+this limit 470 MB a PE); the paper's CMU buffers hold tens of words."""
+
+MAX_GRID_RESOLUTION = 256
+"""Voxels per axis of either grid level (`grid.top_resolution`, `grid.sub_resolution`): a
+level has resolution³ cells (256³ = 16.8 M cells, two words each of OS memory, already 500×
+the default OS memory), built on the host at tens of bytes a cell (100,000 asked for 914 TiB)."""
+
+MAX_DEPTH = 64
+"""Levels of the ray tree (`render.max_depth`): the golden model keeps every sample's path, one
+word a level, and SC's kernel counts depth in a word; after a few dozen reflections a ray's
+weight is far below fp32's resolution (the SPD conventions use 5)."""
+
+FIELD_LIMITS: dict[str, tuple[float, float, str]] = {
+    "max_cycles": (0, MAX_CYCLES, "cycles; 0: no limit, cycle counts are 64-bit"),
+    "ring.deadlock_cycles": (1, MAX_CYCLES, "cycles; cycle counts are 64-bit"),
+    "ring.fifo_depth": (1, MAX_FIFO_WORDS, "words; the compiled engine's FIFO buffers"),
+    "ring.link_buffer_words": (1, MAX_FIFO_WORDS, "words; the compiled engine's FIFO buffers"),
+    "ring.link_latency": (1, MAX_LATENCY, "cycles; the compiled engine's write-back ring"),
+    "grid.top_resolution": (0, MAX_GRID_RESOLUTION,
+                            "voxels a side; 0: automatic, resolution³ cells on the host"),
+    "grid.sub_resolution": (0, MAX_GRID_RESOLUTION,
+                            "voxels a side; 0: automatic, resolution³ cells on the host"),
+    "grid.subdivide_threshold": (0, MAX_WORDS, "primitives"),
+    "render.max_depth": (1, MAX_DEPTH, "levels; a word a level for every sample"),
+    "render.min_weight": (0.0, 1.0, "as a ray's weight"),
+    "render.epsilon": (0.0, 1.0, "scene units; unused, kept for older files"),
+    **{f"{m}.{t}": (1, MAX_LATENCY, "cycles; the compiled engine's write-back ring")
+       for m in ("ic_memory", "sc_memory") for t in ("t_r", "t_c", "t_g")},
+    **{f"{c}.taken_branch_penalty": (0, MAX_LATENCY, "cycles; the compiled engine's write-back ring")
+       for c in ("os", "ic", "sc")},
+}
+"""Every configuration field that sizes memory or time, with its allowed range (both ends
+included), unit and reason; `{os,ic,sc}.latency.OP` share ring.link_latency's range."""
+
+
+MAX_EXPANDED_LINES = 1 << 20
+"""Statements one assembly may produce through macros and `.rept` together (1,048,576): more
+than any processor's program memory holds many times over; counted across every level, so
+nested `.rept`s (each within its own 65,536) or a macro invoking the previous one twice, 40
+deep, stop here at once instead of running for hours."""
+
+MAX_EXPANDED_CHARS = 64 << 20
+"""Characters of source one assembly may produce through macro substitution (64 MiB): a macro
+argument that doubles at each level of nesting reaches it after about 26 levels."""
+
+MAX_STATEMENT_CHARS = 1 << 16
+"""Characters of one statement after substitution (65,536)."""
+
+MAX_CONSTANT_BITS = 1024
+"""Bits of an integer in a constant expression (`.equ`, `-D`, operands): the machine's words
+are 32 or 64 bits; the margin lets intermediate results overflow and be masked, not grow
+without end."""
+
+MAX_EXPRESSION_DEPTH = 256
+"""Levels of one expression's tree (operators and parentheses): `1+1+…+1` with 200,000 terms is
+200,000 levels deep, and the assembler walks an expression recursively."""
+
+
+MAX_INPUT_BYTES = 256 * MiB
+"""Bytes of one input file (scene, source, object, configuration, statistics, spec): the
+project's largest inputs are a few MB; reading is bounded so `/dev/zero` or a runaway file
+cannot fill memory."""
+
+MAX_PRIMITIVES = 1 << 18
+"""Primitives of one scene (262,144): the host builds the grid, the databases and the
+pre-pass at hundreds of bytes a primitive and more where primitives overlap many voxels (1 M
+spheres, or 20,000 coincident ones, ran the host out of memory); the SPD scenes at size 4
+have under 10,000."""
+
+
+def read_input(path: str | Path, what: str = "input") -> bytes:
+    """The bytes of an input file, refused (one located line) when it is not a regular file
+    (`render /dev/zero`, a FIFO, a socket) or is larger than MAX_INPUT_BYTES. A missing file
+    or a folder raises FileNotFoundError / IsADirectoryError, for the caller's own message."""
+    import errno
+    import os
+    import stat
+
+    p = Path(path)
+    st = os.stat(p)
+    if stat.S_ISDIR(st.st_mode):
+        raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), str(p))
+    if not stat.S_ISREG(st.st_mode):
+        raise NetsushisenError(Diagnostic(f"this {what} is not a regular file (a device, pipe "
+                                          "or socket)", file=str(p)))
+    if st.st_size > MAX_INPUT_BYTES:
+        raise NetsushisenError(Diagnostic(f"{what} of {size_text(st.st_size)}, more than "
+                                          f"{size_text(MAX_INPUT_BYTES)} (limits.MAX_INPUT_BYTES)",
+                                          file=str(p)))
+    with open(p, "rb") as f:
+        return f.read(MAX_INPUT_BYTES + 1)
+
+
+MAX_GRID_CANDIDATES = 1 << 26
+"""(primitive, voxel) pairs the grid builder tests at once (67,108,864), and no more than the
+host's memory holds at GRID_BYTES_PER_CANDIDATE: primitives that overlap many voxels each —
+20,000 coincident spheres asked for 300 M pairs — are refused; tetra:8 (65,536 triangles)
+needs 2.4 M, the accuracy study's bfloat16-rounded balls 25 M."""
+
+GRID_BYTES_PER_CANDIDATE = 200
+"""Host bytes a candidate pair takes while the grid builder tests it (its owner, cell index,
+cell box and the temporaries of their computation)."""
+
+
+def check_grid_candidates(total: int) -> None:
+    """One line when the grid builder would test more pairs than MAX_GRID_CANDIDATES or than
+    the memory available holds."""
+    available = available_bytes()
+    need = total * GRID_BYTES_PER_CANDIDATE
+    if total > MAX_GRID_CANDIDATES or (available is not None and need > available):
+        raise NetsushisenError(
+            f"the grid would test {total:,} (primitive, voxel) pairs, about {size_text(need)} "
+            f"(limits.MAX_GRID_CANDIDATES {MAX_GRID_CANDIDATES:,} and the memory available: "
+            "primitives that overlap many voxels each, e.g. coincident or very large ones)")
+
+MAX_SWEEP_POINTS = 100_000
+"""Points of one sweep (scenes × the product of the axes) and values of one range: a point is
+a render of seconds to minutes, so 100,000 is already months of one core (9 axes of 10
+values asked for 10^9 points)."""
+
+
+def check_primitives(n: int, where: str) -> None:
+    """One line when a scene has more primitives than MAX_PRIMITIVES."""
+    if n > MAX_PRIMITIVES:
+        raise NetsushisenError(Diagnostic(f"{n:,} primitives, more than {MAX_PRIMITIVES:,} "
+                                          "(limits.MAX_PRIMITIVES: the host's grid and databases)",
+                                          file=where))
+
+
+def _fmt(v: float) -> str:
+    return f"{v:,}" if isinstance(v, int) else f"{v:g}"
+
+
+def range_problem(path: str, value: float, low: float, high: float, what: str) -> str | None:
+    """The one-line problem of a field outside low..high (NaN and infinities included)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return f"{path} must be a finite number (allowed {_fmt(low)}..{_fmt(high)} {what}), got {value}"
+    if value < low:
+        return f"{path} must be at least {_fmt(low)}, got {_fmt(value)} (allowed {_fmt(low)}.." \
+               f"{_fmt(high)} {what})"
+    if value > high:
+        return f"{path} must be at most {_fmt(high)}, got {_fmt(value)} (allowed {_fmt(low)}.." \
+               f"{_fmt(high)} {what})"
+    return None
+
+
+def field_problems(config: MachineConfig) -> list[str]:
+    """Every field of FIELD_LIMITS (and every latency override) outside its range."""
+    problems = []
+    for path, (low, high, what) in FIELD_LIMITS.items():
+        obj = config
+        for part in path.split("."):
+            obj = getattr(obj, part)
+        problem = range_problem(path, obj, low, high, what)
+        if problem:
+            problems.append(problem)
+    low, high, what = FIELD_LIMITS["ring.link_latency"]
+    for stage in ("os", "ic", "sc"):
+        for op, lat in getattr(config, stage).latency.items():
+            if isinstance(lat, int):
+                problem = range_problem(f"{stage}.latency.{op}", lat, low, high, what)
+                if problem:
+                    problems.append(problem)
+    return problems
 
 
 def machine_problems(config: MachineConfig) -> list[str]:

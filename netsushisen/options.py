@@ -56,6 +56,7 @@ from __future__ import annotations
 
 import argparse
 import difflib
+import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -174,7 +175,7 @@ def write_text(path: str, text: str) -> None:
         sys.stdout.write(text)
         sys.stdout.flush()
         return
-    write_output(path, lambda p: Path(p).write_text(text, encoding="utf-8"))
+    write_output(path, lambda p: p.write_text(text, encoding="utf-8"))
 
 
 def add_quiet(parser: argparse.ArgumentParser, help: str = "no progress bar, no summary") -> None:
@@ -345,7 +346,7 @@ def fresh_output(stem: str, suffix: str = ".png") -> str:
     browsers number a download rather than lose the earlier one)."""
     path = Path(f"{stem}{suffix}")
     n = 0
-    while path.exists():
+    while os.path.lexists(path):  # a dangling link is taken too: never written through
         n += 1
         path = Path(f"{stem}-{n}{suffix}")
     return str(path)
@@ -363,11 +364,45 @@ def check_output_folders(*paths: str | None) -> None:
 
 
 def write_output(path: str, write) -> None:
-    """`write(path)`, an OSError (no such folder, no permission) as a located one-line error."""
-    try:
-        write(path)
-    except OSError as err:
-        raise NetsushisenError(Diagnostic(f"cannot write: {err.strerror or err}", file=str(path))) from None
+    """`write(tmp)` for the file `path`, atomically and never through a link
+    (netsushisen/outputs.py); an OSError (no such folder, no permission, a full disk) as a
+    located one-line error, the earlier file untouched."""
+    from netsushisen.outputs import write_file
+
+    write_file(path, write)
+
+
+def write_outputs(outputs: list[tuple[str | None, object]]) -> None:
+    """A command's several outputs as one set (netsushisen/outputs.py `write_all`): each
+    (path, writer) with `writer(tmp)` writing the file, or with a str written as UTF-8 text; a
+    path None is skipped and a str to `-` goes to standard output once the files are in place.
+    A failure leaves every earlier file as it was."""
+    from netsushisen.outputs import write_all
+
+    files, stdout = [], []
+    for path, what in outputs:
+        if not path:
+            continue
+        if path == "-":
+            stdout.append(what)
+        elif isinstance(what, str):
+            files.append((path, lambda p, text=what: p.write_text(text, encoding="utf-8")))
+        else:
+            files.append((path, what))
+    write_all(files)
+    for text in stdout:
+        write_text("-", text)
+
+
+def npy_writer(array):
+    """A writer of `array` as .npy at exactly the path given (np.save on a name would add
+    `.npy` to a temporary's name)."""
+    import numpy as np
+
+    def write(path: Path) -> None:
+        with open(path, "wb") as f:
+            np.save(f, array)
+    return write
 
 
 # ---------------------------------------------------------------------------------------------

@@ -46,6 +46,7 @@ from typing import Any
 
 from netsushisen import __version__
 from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.limits import MAX_CONSTANT_BITS, MAX_SWEEP_POINTS, read_input
 from netsushisen.isa.config import MachineConfig, apply_override, dump_toml, load_config
 from netsushisen.options import MAX_RES
 
@@ -113,7 +114,12 @@ def _values(name: str, raw: Any, where) -> list[Any]:
         if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (start, stop, step)) \
                 or step <= 0 or stop < start:
             raise SpecError(where(f"'{name}': a range needs numbers with step > 0 and stop ≥ start"))
+        if not all(math.isfinite(v) for v in (start, stop, step)):
+            raise SpecError(where(f"'{name}': a range needs finite numbers"))
         n = int(math.floor((stop - start) / step + 1e-9)) + 1
+        if n > MAX_SWEEP_POINTS:
+            raise SpecError(where(f"'{name}': a range of {n:,} values, more than "
+                                  f"{MAX_SWEEP_POINTS:,} (limits.MAX_SWEEP_POINTS)"))
         if all(isinstance(v, int) for v in (start, stop, step)):
             return [start + i * step for i in range(n)]
         return [round(start + i * step, 12) for i in range(n)]
@@ -135,9 +141,23 @@ def evaluate(expr: str, names: dict[str, Any]) -> Any:
         if isinstance(node, ast.Name):
             if node.id not in names:
                 raise ValueError(f"unknown name {node.id!r} (parameters: {', '.join(names) or 'none'})")
-            return names[node.id]
+            value = names[node.id]
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ValueError(f"{node.id!r} is {value!r}, not a number")
+            return value
         if isinstance(node, ast.BinOp) and type(node.op) in _OPS:
-            return _OPS[type(node.op)](ev(node.left), ev(node.right))
+            a, b = ev(node.left), ev(node.right)
+            if isinstance(node.op, ast.Pow) and isinstance(a, int) and isinstance(b, int) \
+                    and abs(a) > 1 and b * math.log2(abs(a)) > MAX_CONSTANT_BITS:
+                raise ValueError(f"a power of more than {MAX_CONSTANT_BITS} bits "
+                                 "(limits.MAX_CONSTANT_BITS)")
+            v = _OPS[type(node.op)](a, b)
+            if isinstance(v, int) and v.bit_length() > MAX_CONSTANT_BITS:
+                raise ValueError(f"a result of more than {MAX_CONSTANT_BITS} bits "
+                                 "(limits.MAX_CONSTANT_BITS)")
+            if not isinstance(v, (int, float)):  # e.g. a complex power of a negative number
+                raise ValueError(f"{v!r} is not a real number")
+            return v
         if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
             v = ev(node.operand)
             return -v if isinstance(node.op, ast.USub) else v
@@ -148,6 +168,8 @@ def evaluate(expr: str, names: dict[str, Any]) -> Any:
         raise ValueError(f"not an expression: {err.msg}") from None
     except ZeroDivisionError:
         raise ValueError("division by zero") from None
+    except (OverflowError, RecursionError, MemoryError):
+        raise ValueError("the number or the expression is too large") from None
 
 
 def load_spec(path: str | Path) -> Spec:
@@ -155,10 +177,12 @@ def load_spec(path: str | Path) -> Spec:
     the base configuration, so a mistake is reported, located, before any point runs."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_input(path, "sweep spec").decode("utf-8")
         data = tomllib.loads(text)
-    except FileNotFoundError:
+    except (FileNotFoundError, IsADirectoryError):
         raise SpecError(Diagnostic("no such sweep spec", file=str(path))) from None
+    except RecursionError:
+        raise SpecError(Diagnostic("not valid TOML: nested too deeply", file=str(path))) from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
         raise SpecError(Diagnostic(f"not valid TOML: {err}", file=str(path))) from None
 
@@ -221,6 +245,11 @@ def load_spec(path: str | Path) -> Spec:
             spec.derive[name] = expr
     if not spec.axes and not errors:
         errors.append(where("nothing to vary: add a [vary] (or [zip]) table"))
+    total = len(spec.scenes) * math.prod(len(axis) for axis in spec.axes)
+    if total > MAX_SWEEP_POINTS:
+        errors.append(where(f"{total:,} points ({len(spec.scenes)} scenes × "
+                            f"{' × '.join(str(len(a)) for a in spec.axes)} values), more than "
+                            f"{MAX_SWEEP_POINTS:,} (limits.MAX_SWEEP_POINTS)"))
     if errors:
         raise SpecError(errors)
     _check_points(spec, text, where)

@@ -14,6 +14,7 @@ import csv
 import json
 from pathlib import Path
 
+from netsushisen.outputs import replacing, write_file, write_text
 from netsushisen.reports.accuracy import AXES, RAY_KINDS, Row, axis_sentences
 from netsushisen.reports.tables import Section, render_md, render_table
 
@@ -133,7 +134,7 @@ def write_json(path: Path, axes: dict[str, list[Row]], meta: dict) -> None:
     data = {"schema": SCHEMA} | meta | {
         "axes": {a: [r.to_json() for r in rows] for a, rows in axes.items()},
         "notes": {a: axis_sentences(a, rows) for a, rows in axes.items()}}
-    path.write_text(json.dumps(data, indent=1, allow_nan=False, ensure_ascii=False) + "\n", encoding="utf-8")
+    write_text(path, json.dumps(data, indent=1, allow_nan=False, ensure_ascii=False) + "\n")
 
 
 def write_csv(path: Path, rows: list[Row]) -> None:
@@ -141,7 +142,7 @@ def write_csv(path: Path, rows: list[Row]) -> None:
     keys = {w: list(dict.fromkeys(k for r in rows for k in getattr(r, w))) for w in ("error", "cost", "values")}
     header = ["scene", "setting", "truth", "seconds", "seconds_low", "seconds_high", "repeats", "emulated"] + [
         f"{w}_{k}" for w in keys for k in keys[w]] + ["ci_low", "ci_high", "how"]
-    with path.open("w", newline="", encoding="utf-8") as f:
+    with replacing(path, "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
         w.writerow(header)
         for r in rows:
@@ -239,7 +240,7 @@ def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
     ax.legend(handles=set_h, loc="upper left", bbox_to_anchor=(1.01, 1), fontsize=8, title="setting")
     ax.grid(True, which="major", alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path)
+    write_file(path, lambda p: fig.savefig(p, format=Path(path).suffix[1:] or None))
     plt.close(fig)
 
 
@@ -281,5 +282,5 @@ def write_all(out: Path, axes: dict[str, list[Row]], meta: dict) -> list[Path]:
     write_json(out / "accuracy.json", axes, meta)
     report = out / "report.md"
     paths.append(report)
-    report.write_text(report_markdown(axes, meta, [p.name for p in paths]), encoding="utf-8")
+    write_text(report, report_markdown(axes, meta, [p.name for p in paths]))
     return paths

@@ -19,6 +19,7 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
+from netsushisen.outputs import replacing, write_file
 from netsushisen.reports.paper import table1, table2
 from netsushisen.reports.paper_data import COUNTINGS, LOCAL_SHARES, SceneData
 
@@ -44,7 +45,7 @@ def write_csvs(scenes: list[SceneData], out: Path) -> list[Path]:
 
     def write(name: str, header: list[str], rows: list[list]) -> None:
         p = out / name
-        with p.open("w", newline="", encoding="utf-8") as f:
+        with replacing(p, "w", newline="", encoding="utf-8") as f:
             w = csv.writer(f)
             w.writerow(header)
             w.writerows(rows)
@@ -123,7 +124,7 @@ def figure3(scenes: list[SceneData], path: Path) -> None:
     ax.grid(alpha=0.3)
     ax.legend(loc="lower right", fontsize=7)
     fig.tight_layout()
-    fig.savefig(path)
+    write_file(path, lambda p: fig.savefig(p, format=Path(path).suffix[1:] or None))
     plt.close(fig)
 
 
@@ -147,7 +148,7 @@ def figure4(scenes: list[SceneData], path: Path) -> None:
     fig.suptitle(f"Figure 4: cache miss rate, cache-only local memory ({_suffix(scenes)}, direct-mapped, "
                  f"{scenes[0].block_bytes}-byte blocks)\n{scenes[0].options.describe()}", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path)
+    write_file(path, lambda p: fig.savefig(p, format=Path(path).suffix[1:] or None))
     plt.close(fig)
 
 
@@ -198,7 +199,7 @@ def figure5(scenes: list[SceneData], path: Path, what: str = "ref") -> None:
                  "axis clipped above the curves; clipped 100 %-resident points: arrow and value",
                  fontsize=9)
     fig.tight_layout()
-    fig.savefig(path)
+    write_file(path, lambda p: fig.savefig(p, format=Path(path).suffix[1:] or None))
     plt.close(fig)
 
 

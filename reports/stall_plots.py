@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from netsushisen.outputs import write_file
 from netsushisen.reports.annotate import bundle_counts, choose_processors, find_loops
 from netsushisen.reports.tables import present_processors
 
@@ -86,7 +87,7 @@ def plot_stalls(stats: dict, path: str | Path, title: str = "") -> Path:
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1), fontsize=8, frameon=False)
     ax.spines[["top", "right"]].set_visible(False)
     out = Path(path)
-    fig.savefig(out, dpi=120)
+    write_file(out, lambda p: fig.savefig(p, dpi=120, format=Path(out).suffix[1:] or None))
     plt.close(fig)
     return out
 
@@ -180,6 +181,6 @@ def plot_annotate(stats: dict, path: str | Path, proc: str | None = None) -> Pat
     fig.legend([Patch(color=ISSUED_COLOUR if lb == "issued" else colours[lb]) for lb in order], order,
                loc="outside right upper", fontsize=8, frameon=False)
     out = Path(path)
-    fig.savefig(out, dpi=120)
+    write_file(out, lambda p: fig.savefig(p, dpi=120, format=Path(out).suffix[1:] or None))
     plt.close(fig)
     return out

@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
+from netsushisen.outputs import write_file
 from netsushisen.errors import Diagnostic, NetsushisenError
 
 
@@ -88,6 +89,6 @@ def plot_results(path: str | Path, x: str | None = None, y: str = "cycles", hue:
         ax.set_xlabel(x)
     fig.tight_layout()
     out = Path(output) if output else Path(path).with_name(f"plot_{y}_vs_{x}{'_' + kind if kind != 'line' else ''}.png")
-    fig.savefig(out, dpi=110)
+    write_file(out, lambda p: fig.savefig(p, dpi=110, format=Path(out).suffix[1:] or None))
     plt.close(fig)
     return out

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.outputs import write_text
 
 FORMATS = ("table", "json", "csv", "md")
 SCHEMA_NAME = "netsushisen-stats"
@@ -72,7 +73,9 @@ def load_stats(path: str | Path) -> dict:
     (`report flat`, reports/flat.py); one located error otherwise."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        from netsushisen.limits import read_input
+
+        text = read_input(p, "statistics file").decode("utf-8")
     except FileNotFoundError:
         raise StatsError(Diagnostic("no such statistics file", file=str(p))) from None
     except IsADirectoryError:
@@ -86,6 +89,8 @@ def load_stats(path: str | Path) -> dict:
     except json.JSONDecodeError as err:
         raise StatsError(Diagnostic(f"not valid JSON: {err.msg}", file=str(p), line=err.lineno,
                                     col=err.colno)) from None
+    except RecursionError:
+        raise StatsError(Diagnostic("not valid JSON: nested too deeply", file=str(p))) from None
     schema = data.get("schema") if isinstance(data, dict) else None
     if not isinstance(schema, dict) or schema.get("name") != SCHEMA_NAME:
         raise StatsError(Diagnostic(f"not a {SCHEMA_NAME} statistics file (write one with "
@@ -224,7 +229,7 @@ def write_csv_dir(sections: list[Section], report: str, folder: str | Path) -> l
     paths = []
     for s in sections:
         path = d / f"{report}_{s.key}.csv"
-        path.write_text(render_csv(s), encoding="utf-8")
+        write_text(path, render_csv(s))
         paths.append(path)
     return paths
 

@@ -44,6 +44,7 @@ from typing import TextIO
 
 from netsushisen.emulator.trace import CacheMiss, Event, FifoLevel, Issued, Stalled, Start
 from netsushisen.errors import NetsushisenError
+from netsushisen.outputs import replacing
 from netsushisen.isa.processors import STAGES
 
 KANATA_SUFFIXES = (".kanata", ".log")
@@ -67,9 +68,9 @@ def open_timeline(path: str) -> tuple[KanataWriter | TraceEventWriter, TextIO]:
     a one-line error up front)."""
     kind = timeline_format(path)
     try:
-        out = open(path, "w", encoding="utf-8", newline="\n")
-    except OSError as err:
-        raise NetsushisenError(f"--timeline {path}: {err.strerror or err}") from None
+        out = replacing(path, "w", encoding="utf-8", newline="\n")  # in place when closed
+    except NetsushisenError as err:
+        raise NetsushisenError(f"--timeline {path}: {err.diagnostics[0].message}") from None
     return (KanataWriter(out) if kind == "kanata" else TraceEventWriter(out)), out
 
 

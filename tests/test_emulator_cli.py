@@ -206,7 +206,8 @@ def test_config_check_reports_every_error_at_its_line(tmp_path, capsys):
         f"{f}:2: error: unknown configuration field 'precison'; did you mean 'precision'?",
         f"{f}:4: error: unknown configuration section 'rnig'; did you mean 'ring'?",
         f'{f}:8: error: ring.buffer_pool: expected true or false, got "no" (a string)',
-        f"{f}:9: error: ring.fifo_depth must be at least 1, got 0",
+        f"{f}:9: error: ring.fifo_depth must be at least 1, got 0 (allowed 1..1,048,576 words; "
+        "the compiled engine's FIFO buffers)",
         f'{f}:12: error: ic_memory.t_g: expected a whole number, got "8" (a string)',
         f"{f}:13: error: ic_memory.cache_share must lie in 0..1, got 2.0"]
     # the same through --config of a command, before any work; a --set value is not the file's

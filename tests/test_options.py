@@ -174,11 +174,15 @@ def test_sizes_past_the_machine_s_words_are_refused(cli, tmp_path, no_work):
 
 
 def test_deep_fifos_count_against_host_memory(cli, tmp_path, no_work):
-    """The compiled engine allocates every FIFO at the deepest's capacity: 10^8 words is
-    ~45 GB for one PE's 56 FIFOs; the reference engine's FIFOs grow only with their words."""
+    """The compiled engine allocates every FIFO at the deepest's capacity: 2^20 words (the
+    field's limit, limits.MAX_FIFO_WORDS) is ~470 MB for one PE's 56 FIFOs, so 1,000 PEs need
+    ~460 GB; past the limit the field itself is refused."""
+    err = _one_line_error(cli, "render", "tetra", "--res", "2", "--engine", "compiled", "--pes",
+                          "1000", "--set", "ring.fifo_depth=1048576", "-o", tmp_path / "t.png")
+    assert "needs about" in err and "GiB of host memory" in err
     err = _one_line_error(cli, "render", "tetra", "--res", "2", "--engine", "compiled",
                           "--set", "ring.fifo_depth=1000000000", "-o", tmp_path / "t.png")
-    assert "needs about" in err and "GiB of host memory" in err
+    assert "ring.fifo_depth must be at most 1,048,576, got 1,000,000,000" in err
 
 
 def test_large_runs_announce_their_size(monkeypatch):
@@ -231,3 +235,38 @@ def test_set_into_a_value_is_one_line(cli):
     code, _, err = cli("run", "--set", "precision.foo=1")
     assert code == 1 and "precision is a value, not a table" in err
     assert "Traceback" not in err and "internal error" not in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("setting, message", [
+    ("max_cycles=-5", "max_cycles must be at least 0, got -5 (allowed 0.."),
+    ("grid.top_resolution=-1", "grid.top_resolution must be at least 0, got -1"),
+    ("grid.top_resolution=100000", "grid.top_resolution must be at most 256, got 100,000 "
+                                   "(allowed 0..256 voxels a side"),
+    ("render.epsilon=nan", "render.epsilon must be a finite number (allowed 0..1"),
+    ("render.min_weight=-inf", "render.min_weight must be a finite number (allowed 0..1"),
+    ("ic_memory.t_g=2000000000", "ic_memory.t_g must be at most 4,096, got 2,000,000,000"),
+    ("ic.latency.fmul=1000000000", "ic.latency.fmul must be at most 4,096"),
+    ("ic.latency.fmul=0", "ic.latency.fmul must be at least 1, got 0"),
+    ("render.max_depth=100000000", "render.max_depth must be at most 64"),
+    ("ring.deadlock_cycles=0", "ring.deadlock_cycles must be at least 1"),
+    ("os.taken_branch_penalty=-1", "os.taken_branch_penalty must be at least 0"),
+])
+def test_fields_outside_their_range_are_refused_with_the_range(setting, message, capsys):
+    """issue 30 items 1 and 7: negative, zero, NaN, infinite and oversized values of fields that
+    size memory or time are refused (limits.FIELD_LIMITS), the allowed range in the line."""
+    from netsushisen.cli import main
+
+    assert main(["config", "--set", setting]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
+    assert main(["config", "--set", setting.split("=")[0] + "=" + _at_limit(setting)]) == 0
+
+
+def _at_limit(setting: str) -> str:
+    """A legal value of the field: its bound nearest the refused one."""
+    from netsushisen import limits
+
+    path, value = setting.split("=")
+    low, high, _ = limits.FIELD_LIMITS.get(path, limits.FIELD_LIMITS["ring.link_latency"])
+    return str(high if value.lstrip("+").replace(".", "").isdigit() and float(value) > high
+               else low)

@@ -9,7 +9,12 @@ text, loop.py, bits.py, state.py, the ISA modules, numba's and numpy's versions)
 on-disk cache (`cache=True`) never serves code compiled from an older source: a change anywhere
 makes a new folder. Compilation takes about 45 s the first time, then loads from disk.
 
-The cache folder is `$NETSUSHISEN_CACHE`, else `~/.cache/netsushisen`, else a temporary folder.
+The cache folder is `$NETSUSHISEN_CACHE`, else `~/.cache/netsushisen`, else a folder of this
+user's own in the temporary folder (`netsushisen-cache-UID`, mode 0700, refused if another user
+owns it or others may write it: numba's index is a pickle, so a planted one would run code).
+Each entry carries `checksums.json`, the SHA-256 of every file numba wrote, recorded when the
+process that compiled it ends; a load checks it first, and an entry that does not match (flipped
+bytes, a truncated index) is discarded and rebuilt with one line saying so.
 """
 
 from __future__ import annotations
@@ -94,9 +99,27 @@ def dispatchers() -> str:
     return "\n".join(lines) + "\n"
 
 
+def _own_temporary() -> Path | None:
+    """This user's cache in the temporary folder, made 0700; None if the name is taken by a
+    link, another user's folder or one that others may write."""
+    path = Path(tempfile.gettempdir()) / f"netsushisen-cache-{os.getuid()}"
+    try:
+        path.mkdir(mode=0o700, exist_ok=True)
+        st = os.lstat(path)
+    except OSError:
+        return None
+    import stat
+
+    if not stat.S_ISDIR(st.st_mode) or st.st_uid != os.getuid() or st.st_mode & 0o077:
+        return None
+    return path
+
+
 def _cache_root() -> Path:
     for base in (os.environ.get("NETSUSHISEN_CACHE"), Path.home() / ".cache" / "netsushisen",
-                 Path(tempfile.gettempdir()) / "netsushisen-cache"):
+                 "own-temporary"):
+        if base == "own-temporary":
+            base = _own_temporary()
         if not base:
             continue
         path = Path(base) / "compiled"
@@ -108,6 +131,62 @@ def _cache_root() -> Path:
         except OSError:
             continue
     raise OSError("no writable cache folder for the compiled engine (set NETSUSHISEN_CACHE)")
+
+
+CHECKSUMS = "checksums.json"
+
+
+def _cache_sums(folder: Path) -> dict[str, str]:
+    """SHA-256 of every file numba wrote in an entry (its __pycache__)."""
+    cache = folder / "__pycache__"
+    if not cache.is_dir():
+        return {}
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(cache.iterdir()) if p.is_file() and not p.name.startswith(".")}
+
+
+def verify_cache(folder: Path) -> str | None:
+    """Check an entry against its checksums; a mismatch discards numba's files (they are
+    rebuilt) and returns the line that says so; None when the entry is sound or unrecorded."""
+    import json
+    import shutil
+
+    recorded = folder / CHECKSUMS
+    try:
+        sums = json.loads(recorded.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError):
+        sums = None
+    actual = _cache_sums(folder)
+    if isinstance(sums, dict) and all(actual.get(name) == digest for name, digest in sums.items()):
+        return None
+    bad = "checksums.json" if not isinstance(sums, dict) else next(
+        name for name, digest in sums.items() if actual.get(name) != digest)
+    shutil.rmtree(folder / "__pycache__", ignore_errors=True)
+    recorded.unlink(missing_ok=True)
+    return (f"netsushisen: the compiled engine's cache {folder} was corrupt ({bad} does not "
+            "match its checksum): discarded, compiling again")
+
+
+def record_cache(folder: Path) -> None:
+    """Write the entry's checksums (atomically) if they changed: at the end of the process,
+    after numba has written what it compiled."""
+    import json
+
+    from netsushisen.outputs import write_text
+
+    sums = _cache_sums(folder)
+    recorded = folder / CHECKSUMS
+    try:
+        if not sums or json.loads(recorded.read_text(encoding="utf-8")) == sums:
+            return
+    except (OSError, ValueError):
+        pass
+    try:
+        write_text(recorded, json.dumps(sums, indent=1, sort_keys=True) + "\n")
+    except Exception:  # noqa: BLE001 - a cache that cannot be recorded is only unverified
+        pass
 
 
 @functools.lru_cache(maxsize=None)
@@ -167,6 +246,12 @@ def load(precision: str):
         return _loaded[key]
     folder = _cache_root() / key
     folder.mkdir(parents=True, exist_ok=True)
+    note = verify_cache(folder)
+    if note:
+        print(note, file=sys.stderr)
+    import atexit
+
+    atexit.register(record_cache, folder)
     path = folder / f"nss_loop_{key}.py"
     if not path.exists() or path.read_text(encoding="utf-8") != text:
         tmp = path.with_suffix(f".{os.getpid()}.tmp")

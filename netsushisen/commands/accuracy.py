@@ -150,7 +150,10 @@ def run(args: argparse.Namespace) -> int:
         print("warm-up (compile and first run, charged to no row): "
               + ", ".join(f"{k} {v:.1f} s" for k, v in warm.items()))
     if interrupted:
-        print(f"netsushisen accuracy: interrupted; wrote what was finished to {out}/", file=sys.stderr)
+        done = ", ".join(f"{axis} ({len({r.scene for r in r_})} scenes)" for axis, r_ in rows.items())
+        print("netsushisen accuracy: interrupted; " + (
+            f"wrote the finished scene × axis rows to {out}/: {done}" if paths else
+            "no scene × axis had finished: nothing written"), file=sys.stderr)
         return 130
     if not args.quiet:
         print(f"{len(scenes)} scenes, axes {', '.join(axes)} at {args.res}x{args.res} in "

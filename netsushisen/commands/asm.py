@@ -35,7 +35,7 @@ from netsushisen.isa.processors import STAGES
 from netsushisen.commands.report import add_optimum_option
 from netsushisen.reports.tables import FORMATS
 from netsushisen.options import (add_config_options, add_defines, add_include_dirs, add_json,
-                                 add_output, add_resolution, write_text, check_resolution,
+                                 add_output, add_resolution, write_output, write_text, check_resolution,
                                  config_from_args, parse_defines)
 
 
@@ -158,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
         if args.listing == "-":
             print(text, end="")
         else:
-            Path(args.listing).write_text(text)
+            write_output(args.listing, lambda p: p.write_text(text, encoding="utf-8"))
     if args.stats:
         stats = {program.proc: static_ilp(program) for _, program in programs}
         if args.json:

@@ -6,8 +6,8 @@ registers by their `.reg` names (with the `.reg` lines) where the object file re
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
+from netsushisen.outputs import write_text
 from netsushisen.asm.disasm import disassemble
 from netsushisen.asm.objects import Program
 
@@ -24,7 +24,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     text = disassemble(Program.load(args.object), names=args.names)
     if args.out:
-        Path(args.out).write_text(text)
+        write_text(args.out, text)
     else:
         print(text, end="")
     return 0

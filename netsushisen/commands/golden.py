@@ -11,17 +11,15 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from pathlib import Path
 
-import numpy as np
 
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.golden import render
-from netsushisen.host.images import write_png
+from netsushisen.host.images import encode_png
 from netsushisen.host.nff import scene_warnings
 from netsushisen.options import (add_config_options, add_json, add_output, add_resolution,
                                  check_footprint, check_output_folders, check_resolution,
-                                 config_from_args, write_output, write_text)
+                                 config_from_args, npy_writer, write_outputs)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -51,14 +49,11 @@ def run(args: argparse.Namespace) -> int:
              "visible_primitives": result.visible_primitives, "rays": result.rays,
              "references": result.total_references, "seconds": round(result.seconds, 3),
              "grid": result.grid.stats()}
-    for path, write in ((args.out, lambda p: write_png(p, result.image_u8)),
-                        (args.ids, lambda p: np.save(p, result.hit_ids))):
-        if path:
-            write_output(path, write)
-    if args.json:
-        write_text(args.json, json.dumps(stats, indent=2) + "\n")
-        if args.json == "-":
-            return 0
+    write_outputs([(args.out, lambda p: p.write_bytes(encode_png(result.image_u8))),
+                   (args.ids, npy_writer(result.hit_ids)),
+                   (args.json, json.dumps(stats, indent=2) + "\n")])
+    if args.json == "-":
+        return 0
     r = result.rays
     total = r["eye"] + r["reflection"] + r["refraction"] + r["shadow"]
     print(f"{scene.name}: {scene.n_primitives} primitives, {result.visible_primitives} visible; "

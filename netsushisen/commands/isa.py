@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
+from netsushisen.outputs import write_text
 from netsushisen.isa.reference import markdown
 
 from netsushisen.options import add_output
@@ -18,7 +18,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     text = markdown()
     if args.out:
-        Path(args.out).write_text(text)
+        write_text(args.out, text)
     else:
         print(text, end="")
     return 0

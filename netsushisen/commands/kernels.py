@@ -16,6 +16,7 @@ import argparse
 import shutil
 from pathlib import Path
 
+from netsushisen.outputs import write_all
 from netsushisen.errors import NetsushisenError
 from netsushisen.options import add_config_options, add_resolution, check_resolution, config_from_args
 
@@ -79,13 +80,14 @@ def export(args: argparse.Namespace) -> int:
     try:
         out.mkdir(parents=True, exist_ok=True)
         written = []
-        for src in kernel_files():
-            shutil.copyfile(src, out / src.name)
-            written.append(src.name)
+        files = [(out / src.name, lambda p, src=src: shutil.copyfile(src, p))
+                 for src in kernel_files()]
         if defines is not None:
             what = f"{args.scene} at {args.res}x{args.res}" + (" (generic)" if args.generic else "")
-            (out / "defines.inc").write_text(defines_inc(defines, what))
-            written.append("defines.inc")
+            text = defines_inc(defines, what)
+            files.append((out / "defines.inc", lambda p: p.write_text(text, encoding="utf-8")))
+        write_all(files)  # one set, never through a link (netsushisen/outputs.py)
+        written = [path.name for path, _ in files]
     except OSError as err:
         raise NetsushisenError(f"{out}: cannot write: {err.strerror}") from None
     print(f"wrote {len(written)} files to {out}: {', '.join(written)}")

@@ -24,9 +24,10 @@ import sys
 from dataclasses import asdict
 from pathlib import Path
 
+from netsushisen.outputs import write_file
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
-from netsushisen.host.images import write_png
+from netsushisen.host.images import encode_png
 from netsushisen.options import (add_config_options, add_engine, add_output, add_quiet,
                                  add_resolution, check_resolution, config_overrides,
                                  engine_from_args)
@@ -45,9 +46,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def _write(path: Path, write) -> None:
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        write(path)
     except OSError as err:
         raise NetsushisenError(Diagnostic(f"cannot write: {err.strerror}", file=str(path))) from None
+    write_file(path, write)
 
 
 def catalog_table(verdicts) -> list[str]:
@@ -110,7 +111,7 @@ def _scene(args, out: Path) -> int:
             print("interrupted before fp32 and fp64 were compared: nothing written", file=sys.stderr)
             return 130
     pair = rep.pair
-    _write(out / "numerics_map.png", lambda p: write_png(p, numerics.difference_map(pair)))
+    _write(out / "numerics_map.png", lambda p: p.write_bytes(encode_png(numerics.difference_map(pair))))
     largest = rep.largest_stable_translation
     data = {"scene": scene.name, "res": res, "pixels": pair.pixels,
             "hit_differs": int(pair.hit_differs.sum()), "colour_differs": int(pair.colour_differs.sum()),

@@ -29,6 +29,7 @@ import sys
 import time
 from pathlib import Path
 
+from netsushisen.outputs import write_text
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
 from netsushisen.options import (add_config_options, add_engine, add_output, add_quiet,
@@ -213,9 +214,8 @@ def run(args: argparse.Namespace) -> int:
                 "engine": engine, "seconds": seconds}
     report = out / "report.md"
     names = [p.name for p in files]
-    report.write_text(report_markdown(done_scenes, items, settings, [report.name] + names,
-                                      missing if interrupted else None, word_items, machine),
-                      encoding="utf-8")
+    write_text(report, report_markdown(done_scenes, items, settings, [report.name] + names,
+                                       missing if interrupted else None, word_items, machine))
     if interrupted:
         print(f"netsushisen paper: interrupted; finished {', '.join(d.name for d in done_scenes) or 'no scene'}, "
               f"not {', '.join(missing)}; wrote what was finished to {out}/", file=sys.stderr)

@@ -22,19 +22,17 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from pathlib import Path
 
-import numpy as np
 
 from netsushisen import pipeline
 from netsushisen.emulator import stats as run_stats
-from netsushisen.host.images import write_png
+from netsushisen.host.images import encode_png
 from netsushisen.host.nff import scene_warnings
 from netsushisen.options import (add_config_options, add_engine, add_json, add_output, add_quiet,
                                  add_resolution, add_timeline,
                                  check_footprint, check_output_folders, check_resolution,
                                  config_from_args, engine_from_args, fresh_output,
-                                 timeline_from_args, write_output, write_text)
+                                 timeline_from_args, npy_writer, write_outputs)
 from netsushisen.progress import INTERRUPTED, RunMonitor
 from netsushisen.reports.summary import print_render_summary
 
@@ -86,14 +84,10 @@ def run(args: argparse.Namespace) -> int:
     result = pipeline.finish(setup, engine, run_result)
     seconds = time.perf_counter() - start
     output = args.out or fresh_output(setup.scene.name)
-    write_output(output, lambda p: write_png(p, result.image_u8))
-    written = [output]
-    if args.ids:
-        write_output(args.ids, lambda p: np.save(p, result.hit_ids))
-        written.append(args.ids)
-    if args.json:
-        write_text(args.json, run_stats.dumps(result.stats))
-        written.append(args.json)
+    write_outputs([(output, lambda p: p.write_bytes(encode_png(result.image_u8))),
+                   (args.ids, npy_writer(result.hit_ids) if args.ids else None),
+                   (args.json, run_stats.dumps(result.stats) if args.json else None)])
+    written = [p for p in (output, args.ids, args.json) if p]
     if not args.quiet:
         print_render_summary(result.stats, seconds, output)
     if timeline is not None:

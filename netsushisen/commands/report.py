@@ -38,6 +38,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from netsushisen.outputs import write_text
 from netsushisen.errors import Diagnostic
 from netsushisen.options import add_output
 from netsushisen.reports.tables import (FORMATS, StatsError, load_stats, render, report_sections,
@@ -202,10 +203,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _emit(args: argparse.Namespace, text: str) -> int:
     if args.out:
-        try:
-            Path(args.out).write_text(text, encoding="utf-8")
-        except OSError as err:
-            raise StatsError(Diagnostic(f"cannot write the report: {err.strerror}", file=args.out)) from None
+        write_text(args.out, text)
     else:
         sys.stdout.write(text)
     return 0

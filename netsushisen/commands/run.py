@@ -23,16 +23,15 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
-import numpy as np
 
+from netsushisen.outputs import replacing
 from netsushisen.errors import NetsushisenError
 from netsushisen.limits import check_words
 from netsushisen.options import (add_engine, add_json, add_program_options, add_quiet, add_timeline,
                                  check_footprint,
                                  check_output_folders, engine_from_args, machine_inputs,
-                                 timeline_from_args, write_text)
+                                 npy_writer, timeline_from_args, write_outputs)
 from netsushisen.progress import INTERRUPTED, RunMonitor
 
 
@@ -86,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
     if tracing:
         out = sys.stdout
         if args.trace_out:
-            trace_file = out = open(args.trace_out, "w", encoding="utf-8")
+            trace_file = out = replacing(args.trace_out, "w", encoding="utf-8")
         engine.machine.tracer = Tracer(out, args.trace_filter, args.cycles)
     timeline = TimelineRun(request, engine) if request is not None else None
     # no progress bar beside a trace (it would tear the trace's lines on the terminal)
@@ -98,13 +97,9 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if trace_file is not None:
             trace_file.close()
-    written = []
-    if args.json:
-        write_text(args.json, stats.dumps(engine.statistics()))
-        written.append(args.json)
-    if args.frame:
-        np.save(args.frame, engine.frame)
-        written.append(args.frame)
+    write_outputs([(args.json, stats.dumps(engine.statistics()) if args.json else None),
+                   (args.frame, npy_writer(engine.frame) if args.frame else None)])
+    written = [p for p in (args.json, args.frame) if p]
     if not args.quiet:
         head, _, rest = engine.summary().partition("\n")
         print(f"{head}, {engine.name} engine" + (f"\n{rest}" if rest else ""))

@@ -11,21 +11,29 @@ on the cluster whose scheduler listens at ADDRESS (`dask scheduler`, then `dask 
 on each machine). Each finished point is written at once to DIR/points/KEY.json (DIR default
 `sweep/`); a rerun computes only the missing points. A failed point (fault, deadlock, cycle
 limit, bad configuration, a worker lost too often) is recorded with its error and the sweep goes
-on. At the end, and on Ctrl-C (exit 130), DIR/results.csv and DIR/results.parquet hold one row
-per finished point; the last line says `sweep: P points, C computed, K cached, F failed`.
+on; the next run computes it again (`--no-retry` keeps it). Each point file carries a checksum of
+its content and the hash of the spec that wrote it: a point file that is truncated, not JSON,
+edited or written for another key is named in one line and computed again. At the end, and on
+Ctrl-C (exit 130), DIR/results.csv and DIR/results.parquet hold one row per finished point; the
+last line says `sweep: P points, C computed, K cached, F failed` (P distinct points: C + K = P
+unless interrupted, when the rest are counted as not run).
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import hashlib
 import json
 import logging
 import os
+import re
+import signal
 import sys
 import time
 from pathlib import Path
 
+from netsushisen.outputs import write_all, write_text
 from netsushisen.errors import NetsushisenError
 from netsushisen.options import add_output, add_quiet
 from netsushisen.sweep import Point, Spec, load_spec, point_config, points, run_point, tidy_row, with_keys
@@ -45,6 +53,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_output(parser, "output folder (default sweep/); with plot: the image file (default next "
                        "to RESULTS)", metavar="PATH", aliases=("--output",))
     parser.add_argument("--engine", help="engine of every point (default: the spec's, else compiled)")
+    parser.add_argument("--no-retry", dest="retry", action="store_false",
+                        help="keep failed points as they are (default: compute them again)")
     add_quiet(parser, "no progress bar")
     plot = parser.add_argument_group("plot")
     plot.add_argument("--x", help="(plot) field on the x axis (default: the first varied field)")
@@ -66,11 +76,14 @@ def run(args: argparse.Namespace) -> int:
         raise NetsushisenError(f"sweep: unexpected argument {args.results!r} (only `sweep plot` takes RESULTS)")
     if args.workers is not None and args.workers < 1:
         raise NetsushisenError(f"--workers {args.workers}: give at least 1")
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
     spec = load_spec(args.spec)
     engine = _engine(args.engine or spec.engine)
     _check_footprint(spec, engine, args.quiet)
     summary = run_sweep(spec, Path(args.out or "sweep"), engine, scheduler=args.scheduler,
-                        workers=args.workers, show=not args.quiet and sys.stderr.isatty())
+                        workers=args.workers, show=not args.quiet and sys.stderr.isatty(),
+                        retry=args.retry)
     print(summary.line())
     if summary.interrupted:
         return 130
@@ -95,13 +108,17 @@ def _engine(name: str | None) -> str:
 
 
 class Summary:
-    def __init__(self, total: int) -> None:
+    def __init__(self, total: int, duplicates: int = 0) -> None:
         self.total, self.computed, self.cached, self.failed = total, 0, 0, 0
+        self.duplicates = duplicates
         self.interrupted = False
 
     def line(self) -> str:
-        return (f"sweep: {self.total} points, {self.computed} computed, {self.cached} cached, "
-                f"{self.failed} failed" + (" (interrupted)" if self.interrupted else ""))
+        dup = f" ({self.duplicates} more repeat one)" if self.duplicates else ""
+        rest = self.total - self.computed - self.cached
+        return (f"sweep: {self.total} points{dup}, {self.computed} computed, {self.cached} cached, "
+                f"{self.failed} failed" + (f", {rest} not run" if rest else "")
+                + (" (interrupted)" if self.interrupted else ""))
 
 
 def _task(spec: Spec, p: Point, engine: str) -> dict:
@@ -109,12 +126,25 @@ def _task(spec: Spec, p: Point, engine: str) -> dict:
             "config_file": spec.config_file, "res": spec.res, "engine": engine}
 
 
-def _write_point(folder: Path, result: dict) -> None:
-    """Atomically: a killed sweep leaves whole files only."""
-    path = folder / f"{result['key']}.json"
-    tmp = path.with_suffix(f".{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(result, default=str), encoding="utf-8")
-    os.replace(tmp, path)
+def _checksum(result: dict) -> str:
+    body = {k: v for k, v in result.items() if k != "checksum"}
+    return hashlib.sha256(json.dumps(body, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def _write_point(folder: Path, result: dict, spec_hash: str = "") -> None:
+    """Atomically (a killed sweep leaves whole files only), with the spec's hash and a
+    checksum of the content (`_load` verifies it)."""
+    result = json.loads(json.dumps(result, default=str))  # as it will read back
+    result["spec"] = spec_hash
+    result["checksum"] = _checksum(result)
+    write_text(folder / f"{result['key']}.json", json.dumps(result))
+
+
+def _spec_hash(spec: Spec) -> str:
+    try:
+        return hashlib.sha256(spec.path.read_bytes()).hexdigest()[:16]
+    except OSError:
+        return ""
 
 
 def _warm(spec: Spec, pts: list[Point], engine: str) -> None:
@@ -127,33 +157,62 @@ def _warm(spec: Spec, pts: list[Point], engine: str) -> None:
         load(precision)
 
 
+_ADDRESS = re.compile(r"(tcp|tls)://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):(\d{1,5})\Z")
+
+
+def check_scheduler(address: str) -> None:
+    """A Dask scheduler address, `tcp://HOST:PORT` (or tls://), refused in one line before
+    anything starts otherwise."""
+    m = _ADDRESS.match(address)
+    if m is None or not 1 <= int(m.group(3)) <= 65535:
+        raise NetsushisenError(f"--scheduler {address!r}: expected tcp://HOST:PORT (a Dask "
+                               "scheduler's address, port 1..65535)")
+
+
 def _client(scheduler: str | None, workers: int | None):
     from dask.distributed import Client, LocalCluster
     if scheduler:
         try:
             return Client(scheduler, timeout="10s"), None
-        except (OSError, TimeoutError) as err:
-            raise NetsushisenError(f"--scheduler {scheduler}: cannot connect ({err})") from None
+        except (OSError, TimeoutError, ValueError, TypeError, MemoryError) as err:
+            # MemoryError: a server that is not Dask's (its reply read as a frame length)
+            raise NetsushisenError(f"--scheduler {scheduler}: cannot connect "
+                                   f"({type(err).__name__}: {str(err)[:200]})") from None
     n = workers or os.cpu_count() or 1
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=logging.ERROR)
+    # the workers ignore SIGINT (inherited; Python keeps an ignored SIGINT ignored): Ctrl-C at
+    # a terminal reaches the whole process group, and only this process should answer it
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=logging.ERROR)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     return Client(cluster), cluster
 
 
 def run_sweep(spec: Spec, out: Path, engine: str, scheduler: str | None = None,
-              workers: int | None = None, show: bool = False) -> Summary:
-    """Run every point not already in out/points; write the results tables (also on Ctrl-C)."""
+              workers: int | None = None, show: bool = False, retry: bool = True) -> Summary:
+    """Run every point not already in out/points (a corrupt point file again, and a failed
+    point again unless `retry` is False); write the results tables (also on Ctrl-C)."""
     pts = with_keys(spec, points(spec), engine)
     folder = out / "points"
     folder.mkdir(parents=True, exist_ok=True)
-    summary = Summary(len(pts))
-    todo: dict[str, Point] = {}
+    distinct: dict[str, Point] = {}
     for p in pts:
-        if (folder / f"{p.key}.json").exists():
+        distinct.setdefault(p.key, p)  # the first point of each key
+    summary = Summary(len(distinct), len(pts) - len(distinct))
+    spec_hash = _spec_hash(spec)
+    todo: dict[str, Point] = {}
+    for key, p in distinct.items():
+        found = _load(folder, key) if (folder / f"{key}.json").exists() else None
+        if isinstance(found, str):
+            print(f"sweep: point {key} ({p.scene}, {_shown(p)}) {found}: computing it again",
+                  file=sys.stderr)
+        elif found is not None and (found["status"] not in FAILED or not retry):
             summary.cached += 1
-            summary.failed += _load(folder, p.key)["status"] in FAILED
-        else:
-            todo.setdefault(p.key, p)
+            summary.failed += found["status"] in FAILED
+            continue
+        todo[key] = p
     client = cluster = None
     progress = None
     try:
@@ -172,7 +231,7 @@ def run_sweep(spec: Spec, out: Path, engine: str, scheduler: str | None = None,
                     result = {"key": p.key, "scene": p.scene, "values": list(p.values),
                               "status": "lost", "error": f"{type(err).__name__}: {err}",
                               "stats": None, "seconds": 0.0, "engine": engine}
-                _write_point(folder, result)
+                _write_point(folder, result, spec_hash)
                 summary.computed += 1
                 summary.failed += result["status"] in FAILED
                 if progress:
@@ -190,8 +249,24 @@ def run_sweep(spec: Spec, out: Path, engine: str, scheduler: str | None = None,
     return summary
 
 
-def _load(folder: Path, key: str) -> dict:
-    return json.loads((folder / f"{key}.json").read_text(encoding="utf-8"))
+def _shown(p: Point) -> str:
+    return ", ".join(f"{k} = {v!r}" for k, v in p.values) or "base configuration"
+
+
+def _load(folder: Path, key: str) -> dict | str:
+    """A point's result, or what is wrong with its file: not readable JSON (truncated), no
+    checksum or one that does not match (edited), or written for another key."""
+    try:
+        result = json.loads((folder / f"{key}.json").read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError):
+        return "is not whole JSON (truncated?)"
+    if not isinstance(result, dict) or "checksum" not in result:
+        return "has no checksum"
+    if result["checksum"] != _checksum(result):
+        return "does not match its checksum (edited or damaged)"
+    if result.get("key") != key or "status" not in result:
+        return "was written for another point"
+    return result
 
 
 def write_tables(spec: Spec, pts: list[Point], folder: Path, out: Path) -> list[dict]:
@@ -201,17 +276,22 @@ def write_tables(spec: Spec, pts: list[Point], folder: Path, out: Path) -> list[
         if p.key in seen or not (folder / f"{p.key}.json").exists():
             continue
         seen.add(p.key)
-        rows.append(tidy_row(spec.fields, _load(folder, p.key)))
+        result = _load(folder, p.key)
+        if isinstance(result, dict):
+            rows.append(tidy_row(spec.fields, result))
     head = ["scene", *spec.fields, "status", "cycles"]
     tail = ["seconds", "error", "key"]
     middle = sorted({k for r in rows for k in r} - set(head) - set(tail))
     columns = head + middle + tail
-    with open(out / "results.csv", "w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow(columns)
-        for r in rows:
-            w.writerow(["" if r.get(c) is None else r.get(c) for c in columns])
-    _write_parquet(out / "results.parquet", columns, rows)
+    def write_csv(path: Path) -> None:
+        with open(path, "w", newline="", encoding="utf-8") as f:
+            w = csv.writer(f)
+            w.writerow(columns)
+            for r in rows:
+                w.writerow(["" if r.get(c) is None else r.get(c) for c in columns])
+    # one set: a failure leaves the earlier results.csv and results.parquet as they were
+    write_all([(out / "results.csv", write_csv),
+               (out / "results.parquet", lambda p: _write_parquet(p, columns, rows))])
     return rows
 
 

@@ -393,7 +393,7 @@ def test_report_bounds_needs_the_listing(cli, tmp_path):
     (lambda d: d["programs"]["ic"]["listing"]["text"].__setitem__(5, "fadd r6, r6"),
      "listing does not assemble again: 'fadd' takes 3 operands"),
     (lambda d: d["config"]["ic"]["latency"].__setitem__("fadd", 0),
-     "configuration: ic.latency.fadd must be a whole number of cycles"),
+     "configuration: ic.latency.fadd must be at least 1, got 0"),
 ])
 def test_report_bounds_on_spoilt_statistics(cli, tmp_path, spoil, says):
     src = tmp_path / "loop.s"

@@ -350,7 +350,11 @@ def shortcut_case(draw):
     return sets, sources, draw(st.integers(1, 64))
 
 
-def _compare_through_tandem(sets, sources, chunk) -> None:
+def _compare_through_tandem(case) -> None:
+    sets, sources, chunk = case
+    for p, text in sources.items():
+        note(f"--- {p}\n{text}")
+    note(f"sets {sets}, tandem chunk {chunk}")
     from netsushisen.emulator.compiled.tandem import TandemEngine
     config = load_config(None, sets)
     programs = {p: assemble_text(s, proc=p) for p, s in sources.items()}
@@ -367,11 +371,7 @@ def _compare_through_tandem(sets, sources, chunk) -> None:
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 @given(case=shortcut_case())
 def test_random_shortcut_programs_agree(case):
-    sets, sources, chunk = case
-    for p, s in sources.items():
-        note(f"--- {p}\n{s}")
-    note(f"sets {sets}, tandem chunk {chunk}")
-    _compare_through_tandem(sets, sources, chunk)
+    _compare_through_tandem(case)
 
 
 @pytest.mark.slow
@@ -379,11 +379,7 @@ def test_random_shortcut_programs_agree(case):
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 @given(case=shortcut_case())
 def test_random_shortcut_programs_agree_more(case):
-    sets, sources, chunk = case
-    for p, s in sources.items():
-        note(f"--- {p}\n{s}")
-    note(f"sets {sets}, tandem chunk {chunk}")
-    _compare_through_tandem(sets, sources, chunk)
+    _compare_through_tandem(case)
 
 
 # -- 6. Processors asleep across FIFO pushes: every FIFO depth and link latency ---------------

@@ -158,9 +158,9 @@ class TandemEngine(Engine):
         self._advance(m, n)
         ran = m.cycle - start
         self.twin.step(ran)
-        if first_difference(canonical(m), canonical(self.twin.machine)) is None:
-            return
         end = canonical(m), canonical(self.twin.machine)
+        if first_difference(*end) is None:
+            return
         k = self._bisect(snap, ran)
         if k is not None:
             self._rerun(snap, k)

@@ -205,7 +205,7 @@ def test_paper_command_writes_report_figures_and_csvs(tmp_path, cli):
     assert "Figure 5: for 10 % local memory t rises with the resident share" in md
     assert "tetra 4096 polygons" in md and "tetra | 4 (paper 2121)" not in md
     assert "per primitive reference (the paper's counting):" in md and "- per word:" in md
-    assert md.count("*Test:*") == 13 and "Why these defaults are the paper's" in md
+    assert md.count("*Test:*") == 17 and "Why these defaults are the paper's" in md
     assert "--sizing records --lists local" in md
 
 

@@ -48,7 +48,11 @@ def paper_world_t(local: float, split: float) -> float:
     return base + 0.5 * abs(split - 0.7)  # lowest at 70 %
 
 
-def scene(name: str, t=paper_world_t, miss=None, rho=lambda L, s: s) -> SceneData:
+def paper_world_rho(local: float, split: float) -> float:
+    return split * (0.4 if local < 0.3 else 1.0)  # 10 % local: too small to catch many references
+
+
+def scene(name: str, t=paper_world_t, miss=None, rho=paper_world_rho) -> SceneData:
     refs, visible = _refs(name)
     miss = miss or (lambda share: {0.1: 0.05, 0.2: 0.03}.get(share, 0.0215 if share < 1 else 0.02))
     counts = dict(zip(("primitives", "polygons", "spheres", "cones", "cylinders", "lights", "reflective",
@@ -83,7 +87,7 @@ def key(scenes_verdicts: dict[str, str], start: str) -> str:
 
 def test_the_papers_world_agrees_with_every_finding():
     v = verdicts(world())
-    assert len(v) == 13
+    assert len(v) == 17
     assert all(x == "agree" for x in v.values()), {k: x for k, x in v.items() if x != "agree"}
     assert all(f.test and f.counting for f in findings(world(), "ref"))
 
@@ -119,9 +123,15 @@ PERTURBATIONS = {
     "Figure 3: primitives never referenced": lambda: _changed(world(), "rings", references=_uniform("rings")),
     "Figure 4: cache miss rates are low": lambda: world(miss=lambda s: 0.2 if s < 0.2 else 0.02),
     "Figure 4: the hit rate saturates": lambda: world(miss=lambda s: 0.02 if s == 1.0 else 0.04),
-    "Figure 5: for 30 % and 50 %": lambda: world(t=lambda L, s: paper_world_t(L, s) if L < 0.3
-                                                 else 2.0 + 0.5 * abs(s - 0.3)),
-    "Figure 5: for 10 %": lambda: world(t=lambda L, s: 4.0 - s if L < 0.3 else paper_world_t(L, s)),
+    "Figure 3: references concentrate": lambda: _changed(world(), "balls", references=_uniform("balls")),
+    "Figure 5: for 30 % and 50 % local memory t falls": lambda: world(
+        t=lambda L, s: paper_world_t(L, s) if L < 0.3 else 2.0 + 0.3 * s - (0.5 if s == 0.7 else 0)),
+    "Figure 5: for 30 % and 50 % local memory t is lowest": lambda: world(
+        t=lambda L, s: paper_world_t(L, s) if L < 0.3 else 2.0 + 0.5 * abs(s - 0.3)),
+    "Figure 5: a larger local memory": lambda: world(t=lambda L, s: paper_world_t(L, s) + (0.2 if L > 0.4 else 0)),
+    "Figure 5: for 10 % local memory t rises": lambda: world(
+        t=lambda L, s: 4.0 - s if L < 0.3 else paper_world_t(L, s)),
+    "Figure 5: for 10 % local memory a resident": lambda: world(rho=lambda L, s: s),
     "Figure 5: 30 % and 50 %": lambda: world(t=lambda L, s: paper_world_t(L, s) - (1.0 if L > 0.4 else 0)),
     "Figure 5: resident memory beats": lambda: world(t=lambda L, s: 2.0 + s),
     "Figure 5: resident memory helps little": lambda: world(t=lambda L, s: paper_world_t(L, s) - (0.5 if 0 < s < 0.3 else 0)),

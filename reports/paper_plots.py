@@ -159,7 +159,17 @@ def fig5_ylim(values: list[float]) -> tuple[float, float]:
     return 0.9, top + 0.08 * (top - 0.9) + 0.05
 
 
+CLIP_LABEL_X = 104  # Figure 5's clipped values sit right of the last markers (x = 100)
+
+
 def figure5(scenes: list[SceneData], path: Path, what: str = "ref") -> None:
+    fig = figure5_drawn(scenes, what)
+    write_file(path, lambda p: fig.savefig(p, format=Path(path).suffix[1:] or None))
+    _plt().close(fig)
+
+
+def figure5_drawn(scenes: list[SceneData], what: str = "ref"):
+    """Figure 5 as a matplotlib figure (tests measure where its labels landed)."""
     plt = _plt()
     n = len(scenes)
     cols = 2 if n > 1 else 1
@@ -181,14 +191,16 @@ def figure5(scenes: list[SceneData], path: Path, what: str = "ref") -> None:
             line, = ax.plot(x, [min(v, hi) for v in t], linestyle=st["linestyle"], marker=st["marker"],
                             markersize=4, label=f"local {100 * local:.0f} %")
             for xx, v in zip(x, t):
-                if v > hi:  # clipped: an arrow on the top edge with the value
-                    ax.annotate(f"{v:.1f}", (xx, hi), xytext=(xx - 12, hi - (0.07 + 0.07 * i) * (hi - lo)), fontsize=7,
-                                color=line.get_color(), arrowprops={"arrowstyle": "->", "color": line.get_color()})
+                if v > hi:  # clipped: the value in a column right of every marker, an arrow to the edge
+                    ax.annotate(f"{v:.1f}", (xx, hi), xytext=(CLIP_LABEL_X, hi - (0.12 + 0.09 * i) * (hi - lo)),
+                                fontsize=7, color=line.get_color(), ha="left", va="center",
+                                arrowprops={"arrowstyle": "->", "color": line.get_color()})
         ax.axvline(70, **PAPER_STYLE, label="paper: best near 70 % (3 : 1)")
         ax.set_title(d.name)
         ax.set_xlabel("resident share of local memory (%)")
         ax.set_ylabel("t (units of t_r)")
-        ax.set_xlim(-3, 103)
+        ax.set_xlim(-3, 118)  # 100..118: the clipped values' column, clear of the markers
+        ax.set_xticks(range(0, 101, 20))
         ax.set_ylim(lo, hi)
         ax.grid(alpha=0.3)
         ax.legend(title="local memory (% of database)", fontsize=7, title_fontsize=7, loc="upper left")
@@ -199,8 +211,7 @@ def figure5(scenes: list[SceneData], path: Path, what: str = "ref") -> None:
                  "axis clipped above the curves; clipped 100 %-resident points: arrow and value",
                  fontsize=9)
     fig.tight_layout()
-    write_file(path, lambda p: fig.savefig(p, format=Path(path).suffix[1:] or None))
-    plt.close(fig)
+    return fig
 
 
 def _sizing(scenes: list[SceneData]) -> str:

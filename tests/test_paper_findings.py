@@ -189,3 +189,44 @@ def test_f_where_c_reaches_a_level():
 def test_figure5_axis_is_clipped_above_the_curves():
     lo, hi = fig5_ylim([1.2, 1.8, 2.0])
     assert lo < 1.2 and 2.0 < hi < 2.5  # a 100 %-resident point at 4.6 t_r would lie above
+
+
+def test_figure5s_clipped_values_never_cover_a_marker():
+    """The 100 %-resident points of Figure 5 are clipped to the top edge with their value beside;
+    the value's text box must not sit on any curve's markers (it used to cover the 90 % ones)."""
+    from matplotlib.text import Text
+
+    from netsushisen.reports.paper_plots import figure5_drawn
+
+    scenes = world(t=lambda L, s: 9.0 if s == 1.0 else paper_world_t(L, s))
+    fig = figure5_drawn(scenes)
+    renderer = fig.canvas.get_renderer()
+    clipped = 0
+    for ax in fig.axes:
+        if not ax.get_visible():
+            continue
+        boxes = [Text.get_window_extent(t, renderer) for t in ax.texts]  # the text, not its arrow
+        clipped += len(boxes)
+        points = [ax.transData.transform(xy) for line in ax.lines if line.get_marker() not in (None, "None", "")
+                  for xy in line.get_xydata()]
+        assert points
+        for box in boxes:
+            grown = box.expanded(1.0, 1.0).padded(3)  # the marker's radius, in pixels
+            assert not any(grown.contains(*pt) for pt in points), (ax.get_title(), box)
+    assert clipped == 4 * 3  # every scene, every local share: a clipped 100 % point with its value
+    import matplotlib.pyplot as plt
+    plt.close(fig)
+
+
+@pytest.mark.parametrize("corners", [False, True])
+def test_table2s_sampling_sentence_names_the_run_it_is_in(corners):
+    """At the paper's resolution a visible-share difference points at the other eye-ray sampling:
+    a --corners run must not say --corners was "not run here"."""
+    scenes = [copy.copy(d) for d in _changed(world(), "mount", visible=np.arange(3000))]
+    for d in scenes:
+        d.corners = corners
+    (f,) = [f for f in findings(scenes, "ref") if f.paper.startswith("visible primitives")]
+    assert f.verdict == "partly"
+    assert ("this run" in f.why) and ("not run here" not in f.why)
+    assert ("corner rays (this run)" in f.why) == corners
+    assert ("`paper --corners` is the other reading" in f.why) == (not corners)

@@ -171,7 +171,35 @@ def explain(scenes: list[SceneData], metric, target: dict[str, float], tolerance
 
 def findings(scenes: list[SceneData], counting: str = "ref") -> list[Finding]:
     """The paper's §6 findings, each decided by a threshold on our numbers. `counting`: "ref"
-    (per primitive reference, the paper's) or "all" (per word) for Figures 4–5."""
+    (per primitive reference, the paper's) or "all" (per word) for Figures 4–5. Where the
+    scenes carry candidate readings (`SceneData.readings`), every Figure 4–5 finding that is
+    not "agree" says what each candidate makes of it."""
+    return _with_candidates(_findings(scenes, counting), scenes, counting)
+
+
+def _with_candidates(items: list[Finding], scenes: list[SceneData], counting: str) -> list[Finding]:
+    """Rerun each differing Figure 4–5 finding under every candidate reading the scenes carry:
+    a candidate that turns it to "agree" explains it; "unexplained" only after all were run."""
+    if not scenes or not all(d.readings for d in scenes):
+        return items
+    labels = list(scenes[0].readings)
+    alt = {k: {(f.figure, f.paper): f for f in _findings([d.readings[k] for d in scenes], counting)}
+           for k in labels}
+    for f in items:
+        if f.figure not in ("Figure 4", "Figure 5") or f.verdict not in ("partly", "differ"):
+            continue
+        runs = [(k, alt[k].get((f.figure, f.paper))) for k in labels]
+        runs = [(k, g) for k, g in runs if g is not None]
+        fixes = [k for k, g in runs if g.verdict == "agree"]
+        done = "; ".join(f"{k}: {g.verdict} ({g.ours})" for k, g in runs)
+        head = (f"explained by {' / '.join(fixes)}" if fixes else
+                "unexplained after the candidates " + ", ".join(k for k, _ in runs))
+        detail = f.why.removeprefix("unexplained").lstrip(": ") if f.why.startswith("unexplained") else f.why
+        f.why = f"{head} (candidates run — {done})" + (f"; {detail}" if detail else "")
+    return items
+
+
+def _findings(scenes: list[SceneData], counting: str) -> list[Finding]:
     by = _by(scenes)
     out: list[Finding] = []
     if not scenes:

@@ -95,6 +95,7 @@ class SceneData:
     seconds: dict[str, float] = field(default_factory=dict)
     options: PaperOptions = field(default_factory=PaperOptions)
     experiments: dict[str, np.ndarray] = field(default_factory=dict)  # variant -> tests per primitive
+    readings: dict[str, "SceneData"] = field(default_factory=dict)  # candidate reading -> its sweep
 
     # Table 2 ------------------------------------------------------------------------------
     @property
@@ -191,24 +192,32 @@ def trace_experiments(golden) -> dict[str, np.ndarray]:
     }
 
 
-def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
-                  progress: Progress | None = None, rays_per_chunk: int = 16384,
-                  options: PaperOptions = PaperOptions()) -> SceneData:
-    """Everything the paper's tables and figures need for one scene (`spec`: a name for
-    `load_scene`, or a Scene)."""
-    progress = progress or (lambda *a: None)
-    seconds: dict[str, float] = {}
-    t0 = time.perf_counter()
-    scene = load_scene(spec) if isinstance(spec, str) else spec
-    spec = scene.name
-    grid = build_grid(scene, config)
-    progress(f"{spec}: golden render {res}x{res}", 0, 1)
-    golden = render(scene, config, res=res, corners=corners, keep_trace=True, grid=grid)
-    seconds["golden"] = time.perf_counter() - t0
-    progress(f"{spec}: pre-pass", 0, 1)
-    t1 = time.perf_counter()
-    pre = run_prepass(scene, config, res=res, corners=corners, grid=grid)
-    seconds["prepass"] = time.perf_counter() - t1
+CANDIDATES = ("sizing records+lists", "lists in the cache", "32-byte blocks", "128-byte blocks")
+"""The trace-driven readings every "partly" or "differs" of Figures 4–5 is rerun under
+(`candidate_readings`); ray order and PE count need the machine (`--on-machine`)."""
+
+
+def candidate_readings(config: MachineConfig, options: PaperOptions) -> dict[str, tuple[MachineConfig, PaperOptions]]:
+    """Each candidate explanation as a (config, options) that differs from the run's in one
+    choice; a candidate equal to the run's own reading is skipped."""
+    out = {}
+    other_sizing = "records+lists" if options.sizing == "records" else "records"
+    other_lists = "cache" if options.lists == "local" else "local"
+    out[f"sizing {other_sizing}"] = (config, PaperOptions(other_sizing, options.lists))
+    out[f"lists in {'the cache' if other_lists == 'cache' else 'local memory'}"] = (
+        config, PaperOptions(options.sizing, other_lists))
+    for block in (32, 128):
+        if block != config.ic_memory.block_bytes:
+            c = copy.deepcopy(config)
+            c.ic_memory.block_bytes = block
+            out[f"{block}-byte blocks"] = (c, options)
+    return out
+
+
+def _sweep(scene, golden, pre, grid, config: MachineConfig, options: PaperOptions, label: str,
+           progress: Progress, rays_per_chunk: int) -> tuple[dict, list[dict], list[dict], int]:
+    """Replay the trace through every memory configuration of Figures 4–5 under one reading:
+    (database sizes, fig4 rows, fig5 rows, loads replayed)."""
     reference = plan_layout(scene, _sized(config, 1, 0.0, 0.0), pre.priorities, grid)
     base = reference.shape_words if options.sizing == "records" else reference.primitive_database_words
     wb = config.word_bytes
@@ -227,31 +236,68 @@ def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
     sweep = SweepStream(reference, list(points.values()), wb, lists_cached=options.lists == "cache")
     order = machine_order(golden)
     n_chunks = max(1, -(-len(order) // rays_per_chunk))
-    t2 = time.perf_counter()
     loads = 0
+    what = f"{scene.name}: replay {len(points)} memory configurations{label}"
     for i, (space, address) in enumerate(ordered_stream_chunks(reference, golden, order, rays_per_chunk)):
-        progress(f"{spec}: replay {len(points)} memory configurations", i, n_chunks)
+        progress(what, i, n_chunks)
         loads += len(address)
         sweep.replay(space, address)
-    progress(f"{spec}: replay {len(points)} memory configurations", n_chunks, n_chunks)
-    seconds["replay"] = time.perf_counter() - t2
+    progress(what, n_chunks, n_chunks)
     mc = config.ic_memory
-    data = SceneData(name=scene.name, res=res, corners=corners, precision=config.precision,
-                     counts=scene_counts(scene), database_bytes=reference.sizes(),
-                     primitive_database_bytes=base * wb, rays=dict(golden.rays),
-                     references=golden.references.copy(),
-                     visible=np.unique(golden.hit_ids[golden.hit_ids >= 0]).astype(np.int64),
-                     prepass=pre.summary(), loads=loads, t_r=mc.t_r,
-                     block_bytes=mc.block_bytes, seconds=seconds, options=options,
-                     experiments=trace_experiments(golden))
+    fig4, fig5 = [], []
     for fig, share, split, resident_bytes, key in chosen:
-        pt = points[key]
-        f = SweepStream.figures(pt, mc.t_r, mc.t_c, mc.t_g)
+        f = SweepStream.figures(points[key], mc.t_r, mc.t_c, mc.t_g)
         row = {"resident_bytes": resident_bytes, "resident_count": key[0], "cache_bytes": key[1],
                "all": f["all"], "shape": f["shape"], "ref": f["ref"]}
         if fig == "fig4":
-            data.fig4.append({"cache_share": share} | row)
+            fig4.append({"cache_share": share} | row)
         else:
-            data.fig5.append({"local_share": share, "resident_split": split} | row)
+            fig5.append({"local_share": share, "resident_split": split} | row)
+    sizes = {"database": reference.sizes(), "primitive_database_bytes": base * wb}
+    return sizes, fig4, fig5, loads
+
+
+def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
+                  progress: Progress | None = None, rays_per_chunk: int = 16384,
+                  options: PaperOptions = PaperOptions(), candidates: bool = False) -> SceneData:
+    """Everything the paper's tables and figures need for one scene (`spec`: a name for
+    `load_scene`, or a Scene). `candidates`: also replay under every `candidate_readings`
+    (same golden trace and pre-pass; `SceneData.readings`), for the findings' experiments."""
+    progress = progress or (lambda *a: None)
+    seconds: dict[str, float] = {}
+    t0 = time.perf_counter()
+    scene = load_scene(spec) if isinstance(spec, str) else spec
+    spec = scene.name
+    grid = build_grid(scene, config)
+    progress(f"{spec}: golden render {res}x{res}", 0, 1)
+    golden = render(scene, config, res=res, corners=corners, keep_trace=True, grid=grid)
+    seconds["golden"] = time.perf_counter() - t0
+    progress(f"{spec}: pre-pass", 0, 1)
+    t1 = time.perf_counter()
+    pre = run_prepass(scene, config, res=res, corners=corners, grid=grid)
+    seconds["prepass"] = time.perf_counter() - t1
+    t2 = time.perf_counter()
+    sizes, fig4, fig5, loads = _sweep(scene, golden, pre, grid, config, options, "", progress, rays_per_chunk)
+    seconds["replay"] = time.perf_counter() - t2
+    mc = config.ic_memory
+    data = SceneData(name=scene.name, res=res, corners=corners, precision=config.precision,
+                     counts=scene_counts(scene), database_bytes=sizes["database"],
+                     primitive_database_bytes=sizes["primitive_database_bytes"], rays=dict(golden.rays),
+                     references=golden.references.copy(),
+                     visible=np.unique(golden.hit_ids[golden.hit_ids >= 0]).astype(np.int64),
+                     prepass=pre.summary(), fig4=fig4, fig5=fig5, loads=loads, t_r=mc.t_r,
+                     block_bytes=mc.block_bytes, seconds=seconds, options=options,
+                     experiments=trace_experiments(golden))
+    if candidates:
+        t3 = time.perf_counter()
+        for label, (cfg, opts) in candidate_readings(config, options).items():
+            sizes, fig4, fig5, loads = _sweep(scene, golden, pre, grid, cfg, opts, f" ({label})", progress,
+                                              rays_per_chunk)
+            v = copy.copy(data)
+            v.database_bytes, v.primitive_database_bytes = sizes["database"], sizes["primitive_database_bytes"]
+            v.fig4, v.fig5, v.loads, v.options = fig4, fig5, loads, opts
+            v.block_bytes, v.readings = cfg.ic_memory.block_bytes, {}
+            data.readings[label] = v
+        seconds["candidates"] = time.perf_counter() - t3
     seconds["total"] = time.perf_counter() - t0
     return data

@@ -7,7 +7,7 @@ Split from `paper.py` (which decides the findings) so that each stays readable."
 from __future__ import annotations
 
 from netsushisen.reports.paper import (PAPER_RES, PAPER_TABLE1, TABLE1_COLUMNS, VERDICTS, Finding,
-                                       _pct, _yn, fig5_best, fig5_curve, table2)
+                                       _pct, _yn, fig5_best, fig5_curve, findings, table2)
 from netsushisen.reports.paper_data import COUNTINGS, LOCAL_SHARES, SceneData
 
 DEFAULTS_ARGUED = [
@@ -132,6 +132,11 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
     lines += ["## Verdict", "", f"- {COUNTINGS['ref']} (the paper's counting): {_counts_text(items)}."]
     if word_items is not None:
         lines += [f"- {COUNTINGS['all']}: {_counts_text(word_items)}."]
+    if all(d.readings for d in scenes):
+        lines += [f"- {COUNTINGS['ref']}, under the candidate reading *{k}* (Figures 4–5 rerun): "
+                  f"{_counts_text(findings([d.readings[k] for d in scenes], 'ref'))}." for k in scenes[0].readings]
+        lines += ["", "Every Figure 4–5 finding that is not \"agree\" names what each candidate reading "
+                  "makes of it (*Why*); ray order and PE count need the machine (`--on-machine`)."]
     lines += [""]
     if machine:
         lines += _on_machine(machine)
@@ -198,7 +203,9 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
     lines += ["## Files and times", ""]
     lines += [f"- `{f}`" for f in files]
     timing = [[d.name, f"{d.loads:,}", f"{d.seconds.get('golden', 0):.1f}",
-               f"{d.seconds.get('prepass', 0):.1f}", f"{d.seconds.get('replay', 0):.1f}"] for d in scenes]
-    lines += [""] + _md_table(["scene", "loads replayed", "golden (s)", "pre-pass (s)", "replay (s)"], timing)
+               f"{d.seconds.get('prepass', 0):.1f}", f"{d.seconds.get('replay', 0):.1f}",
+               f"{d.seconds.get('candidates', 0):.1f}"] for d in scenes]
+    lines += [""] + _md_table(["scene", "loads replayed", "golden (s)", "pre-pass (s)", "replay (s)",
+                               "candidate readings (s)"], timing)
     lines += ["", f"Total {settings.get('seconds', 0):.0f} s.", ""]
     return "\n".join(lines)

@@ -230,3 +230,23 @@ def test_table2s_sampling_sentence_names_the_run_it_is_in(corners):
     assert ("this run" in f.why) and ("not run here" not in f.why)
     assert ("corner rays (this run)" in f.why) == corners
     assert ("`paper --corners` is the other reading" in f.why) == (not corners)
+
+
+def test_a_differing_finding_reports_every_candidate_and_which_explains_it():
+    """Figure 4–5 findings that are not "agree" are rerun under each candidate reading the
+    scenes carry: one that restores the claim is named as the explanation; none gives
+    "unexplained after the candidates …" with each candidate's verdict."""
+    broken = world(t=lambda L, s: 2.0 + s)  # resident memory never beats cache-only
+    fixed, also_broken = world(), world(t=lambda L, s: 2.5 + s)
+    for d, f, b in zip(broken, fixed, also_broken):
+        d.readings = {"lists in the cache": f, "32-byte blocks": b}
+    (beats,) = [f for f in findings(broken) if f.paper.startswith("resident memory beats")]
+    assert beats.verdict == "differ"
+    assert beats.why.startswith("explained by lists in the cache (candidates run")
+    assert "32-byte blocks: differ" in beats.why and "lists in the cache: agree" in beats.why
+    for d, b in zip(broken, also_broken):
+        d.readings = {"32-byte blocks": b}
+    (beats,) = [f for f in findings(broken) if f.paper.startswith("resident memory beats")]
+    assert beats.why.startswith("unexplained after the candidates 32-byte blocks")
+    # agreeing findings and scenes without readings are left alone
+    assert all(f.why == "" for f in findings(world()))

@@ -94,6 +94,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
                              "in ICGM through the cache (the machine's IC kernel)")
     parser.add_argument("--jobs", type=int, default=None, metavar="N",
                         help="worker processes, one scene each (default: the cores, at most one per scene)")
+    parser.add_argument("--no-candidates", action="store_true",
+                        help="skip rerunning Figures 4–5 under the candidate readings (sizing, list "
+                             "placement, 32- and 128-byte blocks) that explain a differing finding")
     parser.add_argument("--on-machine", action="store_true",
                         help="also render each scene on the emulated machine (serial mode) and check "
                              "IC's counters equal the trace-driven path's")
@@ -109,6 +112,8 @@ def _command(args: argparse.Namespace) -> str:
     if args.precision:
         parts += ["--precision", args.precision]
     parts += ["--sizing", args.sizing, "--lists", args.lists]
+    if args.no_candidates:
+        parts.append("--no-candidates")
     if args.on_machine:
         parts.append("--on-machine")
     if args.config:
@@ -165,12 +170,14 @@ def run(args: argparse.Namespace) -> int:
                         if progress is not None:
                             progress.update(task, description=description, completed=k, total=total)
 
-                    results[i] = analyse_scene(scene, args.res, config, args.corners, show, options=options)
+                    results[i] = analyse_scene(scene, args.res, config, args.corners, show, options=options,
+                                               candidates=not args.no_candidates)
                     log(f"{scene.name}: done in {results[i].seconds['total']:.0f} s")
             except KeyboardInterrupt:
                 complete = False
         else:
-            tasks = [(analyse_scene, (spec, args.res, config, args.corners, None, 16384, options))
+            tasks = [(analyse_scene, (spec, args.res, config, args.corners, None, 16384, options,
+                                       not args.no_candidates))
                      for spec in args.scenes]
             if args.on_machine:
                 tasks += [(machine_check, (spec, args.res, config, engine, args.corners)) for spec in args.scenes]

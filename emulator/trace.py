@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, NamedTuple, Protocol, TextIO
 
 from netsushisen.asm.regnames import named_text, register_names
 from netsushisen.errors import NetsushisenError
+from netsushisen.isa.stalls import HOLD_CAUSES  # a hold after an earlier bundle, T10 rule 1
 
 if TYPE_CHECKING:
     from netsushisen.emulator.engine import Engine
@@ -110,9 +111,6 @@ class Tracer:
 # one per processor and cycle, and they are the cheapest records Python builds)
 
 
-HOLD_CAUSES = frozenset({"local", "resident", "cache_hit", "cache_miss", "branch"})
-"""Stall causes that are a hold after an earlier bundle (core.py, T10 rule 1): charged to that
-bundle's PC, while every other cause is charged to the bundle waiting to issue."""
 
 
 class ProcessorInfo(NamedTuple):

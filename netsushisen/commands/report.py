@@ -175,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
     _check(args)
     if args.kind == "stalls" and args.stats is None:
         from netsushisen.reports.glossary import glossary_markdown, glossary_section
-        sections, source, stats = [glossary_section()], "reports/glossary.py", None
+        sections, source, stats = [glossary_section()], "isa/stalls.py", None
         if args.format == "md":
             return _emit(args, glossary_markdown())
     elif args.kind == "flat":

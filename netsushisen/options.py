@@ -69,7 +69,7 @@ from netsushisen.limits import (MAX_SIDE, Footprint, check_frame, check_host, ma
                                 render_footprint)
 
 if TYPE_CHECKING:
-    from netsushisen.emulator.trace import Window
+    from netsushisen.timeline import Window
 
 MAX_RES = MAX_SIDE - 1
 """The largest --res the machine can number: 46,339, so that even the SPD corners' (N+1)² eye
@@ -491,7 +491,8 @@ def timeline_from_args(args: argparse.Namespace,
     """The checked request (None without --timeline): a one-line error for an unknown
     extension, a malformed or too long --cycles, or --procs (or --cycles, when `owns_cycles`:
     the command's --cycles is only the timeline's) without --timeline."""
-    from netsushisen.emulator.trace import parse_processors, timeline_window
+    from netsushisen.emulator.trace import parse_processors
+    from netsushisen.timeline import timeline_window
     from netsushisen.reports.timeline import timeline_format
 
     if not args.timeline:

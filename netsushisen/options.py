@@ -99,7 +99,19 @@ class Parser(argparse.ArgumentParser):
     class too (argparse makes them of their parent's class)."""
 
     def error(self, message: str):
-        raise UsageError(self.prog, message)
+        raise UsageError(self.prog, _choice_message(message))
+
+
+def _choice_message(message: str) -> str:
+    """argparse's `invalid choice: 'x' (choose from 'a', 'b')` with the nearest choice named:
+    `invalid choice: 'stall' (did you mean 'stalls'?) (choose from ilp, stalls, ...)`; any
+    other message as it is."""
+    m = re.fullmatch(r"(argument [^:]+: )?invalid choice: '(.*)' \(choose from (.*)\)", message)
+    if m is None:
+        return message
+    choices = [c.strip().strip("'") for c in m.group(3).split(",")]
+    return (f"{m.group(1) or ''}invalid choice: {m.group(2)!r}{closest(m.group(2), choices)} "
+            f"(choose from {', '.join(choices)})")
 
 
 def closest(word: str, candidates) -> str:

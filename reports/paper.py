@@ -1,4 +1,5 @@
-"""The paper's Table 1, Table 2 and the findings of Figures 3–5 (its evaluation), ours beside theirs.
+"""The paper's Table 1, Table 2 and the findings of Figures 3–5 (its evaluation), ours beside
+theirs.
 
 `tables(scenes)` gives the two tables as rows (paper value, our value); `findings(scenes)` checks
 each of the paper's findings against our numbers and says whether we agree and, where we do not,
@@ -58,7 +59,8 @@ def table2(scenes: list[SceneData]) -> list[dict]:
         rows.append({"scene": d.name, "primitives": d.n,
                      "visible_paper": p[0], "visible_ours": len(d.visible),
                      "visible_share_paper": p[1], "visible_share_ours": d.visible_share,
-                     "reference_share_paper": p[2], "reference_share_ours": d.visible_reference_share})
+                     "reference_share_paper": p[2],
+                     "reference_share_ours": d.visible_reference_share})
     return rows
 
 
@@ -139,7 +141,9 @@ def explain(scenes: list[SceneData], metric, target: dict[str, float], tolerance
     for k in names:
         vals = {d.name: metric(d.with_references(d.experiments[k])) for d in off}
         ok = all(abs(vals[n] - target[n]) <= tolerance for n in vals)
-        parts.append(f"{k}: " + ", ".join(f"{n} {_pct(metric(_by(off)[n]))} → {_pct(v)}" for n, v in vals.items()))
+        parts.append(f"{k}: "
+                     + ", ".join(f"{n} {_pct(metric(_by(off)[n]))} → {_pct(v)}"
+                                 for n, v in vals.items()))
         if ok:
             fixes.append(k)
     tested = "experiments on the reference trace — " + "; ".join(parts)
@@ -161,31 +165,43 @@ def findings(scenes: list[SceneData], counting: str = "ref") -> list[Finding]:
 
     # Table 1 ----------------------------------------------------------------------------------
     rows1 = [r for r in table1(scenes) if r["equal"] is not None]
-    diffs = [f"{r['scene']} {r['column']} {r['ours']} (paper {r['paper']})" for r in rows1 if not r["equal"]]
+    diffs = [f"{r['scene']} {r['column']} {r['ours']} (paper {r['paper']})" for r in rows1
+             if not r["equal"]]
     out.append(Finding("Table 1", "tetra 4096 polygons; balls 7381 spheres + 1 polygon; mount 8192 "
-                       "polygons + 4 spheres; rings 4200 spheres + 4200 cylinders + 1 polygon; lights "
-                       "1/3/1/3; balls, mount, rings reflective; mount transparent",
-                       "every column equal", "every column equal" if not diffs else "; ".join(diffs),
-                       "agree" if rows1 and not diffs else ("not evaluated" if not rows1 else "differ"),
-                       "scene files",
-                       "" if not diffs else "unexplained: our SPD generators are ports of Haines's current "
+                                  "polygons + 4 spheres; rings 4200 spheres + 4200 cylinders + 1 "
+                                  "polygon; lights 1/3/1/3; balls, mount, rings reflective; mount "
+                                  "transparent",
+                       "every column equal",
+                       "every column equal" if not diffs else "; ".join(diffs),
+                       "agree" if rows1 and not diffs
+                       else ("not evaluated" if not rows1 else "differ"), "scene files",
+                       "" if not diffs
+                       else "unexplained: our SPD generators are ports of Haines's current "
                        "SPD; the paper may have used an older version (not tested)"))
     # Table 2 ----------------------------------------------------------------------------------
     rows = [r for r in table2(scenes) if r["visible_share_paper"] is not None]
-    vis = {r["scene"]: abs(r["visible_share_ours"] - r["visible_share_paper"]) <= TABLE2_TOLERANCE for r in rows}
-    out.append(Finding("Table 2", "visible primitives: " + ", ".join(
-        f"{n} {_pct(PAPER_TABLE2[n][1])}" for n in vis), f"share within {_pct(TABLE2_TOLERANCE)} (absolute) "
-        "of the paper's", "; ".join(f"{r['scene']} {r['visible_ours']} ({_pct(r['visible_share_ours'])})"
-                                    for r in rows), _verdict(vis), "eye rays' hits",
+    vis = {r["scene"]: abs(r["visible_share_ours"] - r["visible_share_paper"]) <= TABLE2_TOLERANCE
+           for r in rows}
+    out.append(Finding(
+        "Table 2",
+        "visible primitives: " + ", ".join(f"{n} {_pct(PAPER_TABLE2[n][1])}" for n in vis),
+        f"share within {_pct(TABLE2_TOLERANCE)} (absolute) of the paper's",
+        "; ".join(f"{r['scene']} {r['visible_ours']} ({_pct(r['visible_share_ours'])})"
+                  for r in rows), _verdict(vis), "eye rays' hits",
         "" if all(vis.values()) else
-        (f"at {scenes[0].res}×{scenes[0].res} fewer eye rays hit fewer primitives (not an experiment)"
-         if scenes[0].res < PAPER_RES else "unexplained: where eye rays sample a pixel decides which "
-         "small primitives some ray hits; --corners tests it (not run here)")))
+        (f"at {scenes[0].res}×{scenes[0].res} fewer eye rays hit fewer primitives (not an "
+         "experiment)" if scenes[0].res < PAPER_RES
+         else "unexplained: where eye rays sample a pixel decides which small primitives some ray "
+         "hits; --corners tests it (not run here)")))
     target = {n: PAPER_TABLE2[n][2] for n in vis}
-    ref = {r["scene"]: abs(r["reference_share_ours"] - r["reference_share_paper"]) <= TABLE2_TOLERANCE for r in rows}
-    out.append(Finding("Table 2", "share of references to visible primitives: " + ", ".join(
-        f"{n} {_pct(target[n])}" for n in ref), f"within {_pct(TABLE2_TOLERANCE)} (absolute) of the paper's",
-        ", ".join(f"{r['scene']} {_pct(r['reference_share_ours'])}" for r in rows), _verdict(ref), per_test,
+    ref = {r["scene"]: abs(r["reference_share_ours"] - r["reference_share_paper"])
+           <= TABLE2_TOLERANCE for r in rows}
+    out.append(Finding(
+        "Table 2", "share of references to visible primitives: "
+        + ", ".join(f"{n} {_pct(target[n])}" for n in ref),
+        f"within {_pct(TABLE2_TOLERANCE)} (absolute) of the paper's",
+        ", ".join(f"{r['scene']} {_pct(r['reference_share_ours'])}" for r in rows), _verdict(ref),
+        per_test,
         explain(scenes, lambda d: d.visible_reference_share, target, TABLE2_TOLERANCE)))
     # Figure 3 ---------------------------------------------------------------------------------
     c20 = {n: d.c_at(0.2) for n, d in by.items()}
@@ -197,18 +213,24 @@ def findings(scenes: list[SceneData], counting: str = "ref") -> list[Finding]:
     mr = [n for n in ("mount", "rings") if n in by]
     lo, hi = FIG3_BAND
     band = {n: lo <= c20[n] <= hi for n in mr}
-    out.append(Finding("Figure 3", "in mount and rings 20 % of the primitives take 70–80 % of the references",
+    out.append(Finding("Figure 3",
+                       "in mount and rings 20 % of the primitives take 70–80 % of the references",
                        f"C(20 %) in {_pct(lo)}..{_pct(hi)} for mount and rings",
-                       ", ".join(f"{n} {_pct(c20[n])}" for n in mr) or "mount and rings not rendered",
-                       _verdict(band), per_test,
-                       explain([by[n] for n in mr], lambda d: d.c_at(0.2), {n: 0.75 for n in mr}, 0.05)))
+                       ", ".join(f"{n} {_pct(c20[n])}" for n in mr)
+                       or "mount and rings not rendered", _verdict(band), per_test,
+                       explain([by[n] for n in mr], lambda d: d.c_at(0.2),
+                               {n: 0.75 for n in mr}, 0.05)))
     unref = {n: by[n].unreferenced_share for n in mr}
     ok = {n: abs(unref[n] - PAPER_UNREFERENCED[n]) <= TABLE2_TOLERANCE for n in mr}
-    out.append(Finding("Figure 3", "primitives never referenced: 20 % in mount, 67 % in rings (C reaches 1 "
-                       "at f = 80 % and 33 %)", f"within {_pct(TABLE2_TOLERANCE)} (absolute) of the paper's",
-                       "; ".join(f"{n} {_pct(unref[n])} never referenced (C reaches 0.99 / 0.999 / 1 at f = "
-                                 f"{_pct(by[n].f_reaching(0.99))} / {_pct(by[n].f_reaching(0.999))} / "
-                                 f"{_pct(by[n].f_reaching(1.0))})" for n in mr) or "mount and rings not rendered",
+    out.append(Finding("Figure 3",
+                       "primitives never referenced: 20 % in mount, 67 % in rings (C reaches 1 "
+                       "at f = 80 % and 33 %)",
+                       f"within {_pct(TABLE2_TOLERANCE)} (absolute) of the paper's",
+                       "; ".join(f"{n} {_pct(unref[n])} never referenced (C reaches 0.99 / 0.999 / "
+                                 f"1 at f = {_pct(by[n].f_reaching(0.99))} / "
+                                 f"{_pct(by[n].f_reaching(0.999))} / "
+                                 f"{_pct(by[n].f_reaching(1.0))})"
+                                 for n in mr) or "mount and rings not rendered",
                        _verdict(ok), per_test,
                        explain([by[n] for n in mr], lambda d: d.unreferenced_share,
                                {n: PAPER_UNREFERENCED[n] for n in mr}, TABLE2_TOLERANCE)))
@@ -217,28 +239,35 @@ def findings(scenes: list[SceneData], counting: str = "ref") -> list[Finding]:
         worst = {d.name: max(r[counting]["miss_rate"] for r in d.fig4) for d in scenes}
         out.append(Finding("Figure 4", "cache miss rates are low in every scene",
                            f"miss rate ≤ {_pct(FIG4_LOW)} at every cache size in every scene",
-                           "highest miss rate: " + ", ".join(f"{n} {_pct(v, 2)}" for n, v in worst.items()),
+                           "highest miss rate: "
+                           + ", ".join(f"{n} {_pct(v, 2)}" for n, v in worst.items()),
                            _verdict({n: v <= FIG4_LOW for n, v in worst.items()}), cnt,
                            "" if all(v <= FIG4_LOW for v in worst.values()) else "unexplained"))
         m30 = {d.name: fig4_miss(d, 0.3, counting) for d in scenes}
         m100 = {d.name: fig4_miss(d, 1.0, counting) for d in scenes}
         sat = {n: m30[n] <= (1 + FIG4_SATURATION) * m100[n] for n in m30}
-        out.append(Finding("Figure 4", "the hit rate saturates once the cache exceeds about 30 % of the database",
-                           f"miss rate at 30 % within {_pct(FIG4_SATURATION)} (relative) of the miss rate at 100 %",
+        out.append(Finding("Figure 4",
+                           "the hit rate saturates once the cache exceeds about 30 % of the "
+                           "database",
+                           f"miss rate at 30 % within {_pct(FIG4_SATURATION)} (relative) of the "
+                           "miss rate at 100 %",
                            "miss rate at 30 % / 100 %: " + ", ".join(
                                f"{n} {_pct(m30[n], 2)} / {_pct(m100[n], 2)}" for n in m30),
-                           _verdict(sat), cnt, "" if all(sat.values()) else _fig4_why(scenes, counting)))
+                           _verdict(sat), cnt,
+                           "" if all(sat.values()) else _fig4_why(scenes, counting)))
     # Figure 5 ---------------------------------------------------------------------------------
     if all(d.fig5 for d in scenes):
         best = {(d.name, L): fig5_best(d, L, counting) for d in scenes for L in LOCAL_SHARES}
         t0 = {(d.name, L): fig5_curve(d, L, counting)[1][0] for d in scenes for L in LOCAL_SHARES}
         lo, hi = FIG5_BEST
         near = {f"{n} {_pct(L)}": lo <= best[(n, L)][0] <= hi for (n, L) in best if L >= 0.3}
-        out.append(Finding("Figure 5", "for 30 % and 50 % local memory t falls as the resident share grows "
+        out.append(Finding("Figure 5",
+                           "for 30 % and 50 % local memory t falls as the resident share grows "
                            "and is lowest near 70 % resident (resident : cache ≈ 3 : 1)",
                            f"the lowest t lies at a resident share in {_pct(lo)}..{_pct(hi)}",
                            "lowest t at resident share " + ", ".join(
-                               f"{n} {_pct(best[(n, 0.3)][0])}/{_pct(best[(n, 0.5)][0])}" for n in by)
+                               f"{n} {_pct(best[(n, 0.3)][0])}/{_pct(best[(n, 0.5)][0])}"
+                               for n in by)
                            + " (30 %/50 % local)", _verdict(near), cnt,
                            "" if all(near.values()) else "unexplained"))
         rise = {}
@@ -246,16 +275,20 @@ def findings(scenes: list[SceneData], counting: str = "ref") -> list[Finding]:
             x, t = fig5_curve(d, 0.1, counting)
             rise[d.name] = bool(best[(d.name, 0.1)][0] < 0.5 and t[-2] > t[0])
         out.append(Finding("Figure 5", "for 10 % local memory t rises with the resident share",
-                           "the best resident share at 10 % local is below 50 % and t at 90 % resident "
-                           "exceeds the cache-only t",
+                           "the best resident share at 10 % local is below 50 % and t at 90 % "
+                           "resident exceeds the cache-only t",
                            "best share, t at 90 % vs cache-only: " + ", ".join(
-                               f"{d.name} {_pct(best[(d.name, 0.1)][0])}, {fig5_curve(d, 0.1, counting)[1][-2]:.2f} vs "
+                               f"{d.name} {_pct(best[(d.name, 0.1)][0])}, "
+                               f"{fig5_curve(d, 0.1, counting)[1][-2]:.2f} vs "
                                f"{t0[(d.name, 0.1)]:.2f} t_r" for d in scenes), _verdict(rise), cnt,
                            "" if all(rise.values()) else "unexplained"))
-        diff = {d.name: (best[(d.name, 0.3)][1] - best[(d.name, 0.5)][1]) / best[(d.name, 0.5)][1] for d in scenes}
-        out.append(Finding("Figure 5", "30 % and 50 % local memory differ little: about 30 % of the "
+        diff = {d.name: (best[(d.name, 0.3)][1] - best[(d.name, 0.5)][1]) / best[(d.name, 0.5)][1]
+                for d in scenes}
+        out.append(Finding("Figure 5",
+                           "30 % and 50 % local memory differ little: about 30 % of the "
                            "database is the cost-effective local memory size",
-                           f"best t at 30 % within {_pct(FIG5_CLOSE)} (relative) of the best t at 50 %",
+                           f"best t at 30 % within {_pct(FIG5_CLOSE)} (relative) of the best t at "
+                           "50 %",
                            "best t at 30 % above the best at 50 % by " + ", ".join(
                                f"{n} {_pct(v, 1)}" for n, v in diff.items()),
                            _verdict({n: v <= FIG5_CLOSE for n, v in diff.items()}), cnt,
@@ -263,9 +296,11 @@ def findings(scenes: list[SceneData], counting: str = "ref") -> list[Finding]:
         gain = {k: 1 - best[k][1] / t0[k] for k in best}
         beat = {f"{n} {_pct(L)}": gain[(n, L)] >= FIG5_GAIN for (n, L) in gain if L >= 0.3}
         out.append(Finding("Figure 5", "resident memory beats a cache-only local memory",
-                           f"at 30 % and 50 % local the best t is at least {_pct(FIG5_GAIN)} below the cache-only t",
+                           f"at 30 % and 50 % local the best t is at least {_pct(FIG5_GAIN)} below "
+                           "the cache-only t",
                            "t saved at the best split: " + "; ".join(
-                               f"{n} " + "/".join(_pct(gain[(n, L)]) for L in LOCAL_SHARES) for n in by)
+                               f"{n} "
+                               + "/".join(_pct(gain[(n, L)]) for L in LOCAL_SHARES) for n in by)
                            + " (10/30/50 % local)", _verdict(beat), cnt,
                            "" if all(beat.values()) else "unexplained"))
         low = []
@@ -277,19 +312,26 @@ def findings(scenes: list[SceneData], counting: str = "ref") -> list[Finding]:
                         low.append((d.name, L, r["resident_split"], r[counting]["rho"],
                                     1 - r[counting]["t_measured"] / d.t_r / t0[(d.name, L)]))
         if not low:
-            out.append(Finding("Figure 5", "resident memory helps little when its reference share is low",
-                               f"wherever 0 < ρ < {LOW_RHO}, t is less than {_pct(LITTLE_GAIN)} below cache-only",
-                               f"no configuration has 0 < ρ < {LOW_RHO} (lowest ρ with a resident memory: "
-                               + ", ".join(f"{d.name} {min(r[counting]['rho'] for r in d.fig5 if r['resident_split'] > 0):.3f}"
+            out.append(Finding("Figure 5",
+                               "resident memory helps little when its reference share is low",
+                               f"wherever 0 < ρ < {LOW_RHO}, t is less than {_pct(LITTLE_GAIN)} "
+                               "below cache-only",
+                               f"no configuration has 0 < ρ < {LOW_RHO} (lowest ρ with a resident "
+                               "memory: "
+                               + ", ".join(f"{d.name} "
+                                           f"{min(r[counting]['rho'] for r in d.fig5 if r['resident_split'] > 0):.3f}"
                                            for d in scenes) + ")", "not testable here", cnt))
         else:
             held = {f"{n} {_pct(L)}/{_pct(s)}": g < LITTLE_GAIN for n, L, s, rho, g in low}
             worst_gain = max(low, key=lambda x: x[4])
-            out.append(Finding("Figure 5", "resident memory helps little when its reference share is low",
-                               f"wherever 0 < ρ < {LOW_RHO}, t is less than {_pct(LITTLE_GAIN)} below cache-only",
-                               f"{len(low)} configurations with 0 < ρ < {LOW_RHO}; the largest gain among them: "
-                               f"{worst_gain[0]} at {_pct(worst_gain[1])} local, {_pct(worst_gain[2])} resident "
-                               f"(ρ {worst_gain[3]:.3f}): {_pct(worst_gain[4], 1)}", _verdict(held), cnt,
+            out.append(Finding("Figure 5",
+                               "resident memory helps little when its reference share is low",
+                               f"wherever 0 < ρ < {LOW_RHO}, t is less than {_pct(LITTLE_GAIN)} "
+                               "below cache-only",
+                               f"{len(low)} configurations with 0 < ρ < {LOW_RHO}; the largest "
+                               f"gain among them: {worst_gain[0]} at {_pct(worst_gain[1])} local, "
+                               f"{_pct(worst_gain[2])} resident (ρ {worst_gain[3]:.3f}): "
+                               f"{_pct(worst_gain[4], 1)}", _verdict(held), cnt,
                                "" if all(held.values()) else "unexplained"))
     return out
 
@@ -301,8 +343,10 @@ def _fig4_why(scenes: list[SceneData], counting: str) -> str:
     for d in scenes:
         m = [fig4_miss(d, s, counting) for s in (0.3, 0.5, 0.7, 1.0)]
         parts.append(f"{d.name} {' → '.join(_pct(v, 2) for v in m)}")
-    return ("unexplained: the misses keep falling from 30 % to 50 %, 70 % and 100 % of the database ("
-            + "; ".join(parts) + "): capacity misses persist past 30 %; neither the paper's curve nor "
+    return ("unexplained: the misses keep falling from 30 % to 50 %, 70 % and 100 % of the "
+            "database ("
+            + "; ".join(parts)
+            + "): capacity misses persist past 30 %; neither the paper's curve nor "
             "an experiment here says why the paper's stopped")
 
 

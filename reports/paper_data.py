@@ -37,7 +37,8 @@ from netsushisen.host.golden import render
 from netsushisen.host.grid import build_grid
 from netsushisen.host.prepass import run_prepass
 from netsushisen.isa.config import MachineConfig
-from netsushisen.reports.tracesim import SweepPoint, SweepStream, machine_order, ordered_stream_chunks
+from netsushisen.reports.tracesim import (SweepPoint, SweepStream, machine_order,
+                                          ordered_stream_chunks)
 
 PAPER_SCENES = ("tetra", "balls", "mount", "rings")
 CACHE_SHARES = tuple(round(0.1 * i, 2) for i in range(1, 11))  # Figure 4
@@ -65,7 +66,8 @@ class PaperOptions:
 
     def describe(self) -> str:
         size = ("shape records only" if self.sizing == "records" else "list cells + shape records")
-        where = ("list cells in local memory, outside the cache and the shares" if self.lists == "local"
+        where = ("list cells in local memory, outside the cache and the shares"
+                 if self.lists == "local"
                  else "list cells in ICGM, read through the cache")
         return f"database = {size}; {where}"
 
@@ -94,7 +96,8 @@ class SceneData:
     block_bytes: int = 64
     seconds: dict[str, float] = field(default_factory=dict)
     options: PaperOptions = field(default_factory=PaperOptions)
-    experiments: dict[str, np.ndarray] = field(default_factory=dict)  # variant -> tests per primitive
+    experiments: dict[str,
+                      np.ndarray] = field(default_factory=dict)  # variant -> tests per primitive
 
     # Table 2 ------------------------------------------------------------------------------
     @property
@@ -187,7 +190,8 @@ def trace_experiments(golden) -> dict[str, np.ndarray]:
         "mailboxing (each primitive tested once per ray)": np.bincount(pairs % n, minlength=n),
         "eye rays only": np.bincount(prims[kind == EYE], minlength=n),
         "no shadow rays": np.bincount(prims[kind != SHADOW], minlength=n),
-        "ray-tree depth 1 (eye rays and their shadow rays)": np.bincount(prims[depth <= 1], minlength=n),
+        "ray-tree depth 1 (eye rays and their shadow rays)":
+            np.bincount(prims[depth <= 1], minlength=n),
     }
 
 
@@ -210,7 +214,8 @@ def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
     pre = run_prepass(scene, config, res=res, corners=corners, grid=grid)
     seconds["prepass"] = time.perf_counter() - t1
     reference = plan_layout(scene, _sized(config, 1, 0.0, 0.0), pre.priorities, grid)
-    base = reference.shape_words if options.sizing == "records" else reference.primitive_database_words
+    base = reference.shape_words if options.sizing == "records" \
+        else reference.primitive_database_words
     wb = config.word_bytes
     points: dict[tuple[int, int], SweepPoint] = {}
     chosen = []
@@ -229,7 +234,8 @@ def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
     n_chunks = max(1, -(-len(order) // rays_per_chunk))
     t2 = time.perf_counter()
     loads = 0
-    for i, (space, address) in enumerate(ordered_stream_chunks(reference, golden, order, rays_per_chunk)):
+    for i, (space,
+            address) in enumerate(ordered_stream_chunks(reference, golden, order, rays_per_chunk)):
         progress(f"{spec}: replay {len(points)} memory configurations", i, n_chunks)
         loads += len(address)
         sweep.replay(space, address)

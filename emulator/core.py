@@ -449,7 +449,8 @@ class Core:
 
     def waiting_on_fifo(self) -> str | None:
         """The FIFO cause this processor stalled on in its last cycle, if any."""
-        if not self.halted and not self.last_issued and self.cause.startswith((_FIFO_EMPTY, _FIFO_FULL)):
+        if not self.halted and not self.last_issued \
+                and self.cause.startswith((_FIFO_EMPTY, _FIFO_FULL)):
             return self.cause
         return None
 

@@ -77,7 +77,8 @@ FIELD_LIMITS: dict[str, tuple[float, float, str]] = {
     "render.epsilon": (0.0, 1.0, "scene units; unused, kept for older files"),
     **{f"{m}.{t}": (1, MAX_LATENCY, "cycles; the compiled engine's write-back ring")
        for m in ("ic_memory", "sc_memory") for t in ("t_r", "t_c", "t_g")},
-    **{f"{c}.taken_branch_penalty": (0, MAX_LATENCY, "cycles; the compiled engine's write-back ring")
+    **{f"{c}.taken_branch_penalty": (0, MAX_LATENCY,
+                                      "cycles; the compiled engine's write-back ring")
        for c in ("os", "ic", "sc")},
 }
 """Every configuration field that sizes memory or time, with its allowed range (both ends
@@ -125,7 +126,8 @@ def _fmt(v: float) -> str:
 def range_problem(path: str, value: float, low: float, high: float, what: str) -> str | None:
     """The one-line problem of a field outside low..high (NaN and infinities included)."""
     if isinstance(value, float) and not math.isfinite(value):
-        return f"{path} must be a finite number (allowed {_fmt(low)}..{_fmt(high)} {what}), got {value}"
+        return (f"{path} must be a finite number (allowed {_fmt(low)}..{_fmt(high)} {what}), "
+                f"got {value}")
     if value < low:
         return f"{path} must be at least {_fmt(low)}, got {_fmt(value)} (allowed {_fmt(low)}.." \
                f"{_fmt(high)} {what})"

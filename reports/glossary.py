@@ -79,4 +79,5 @@ def glossary_markdown() -> str:
     return "\n".join(lines)
 
 
-__all__ = ["CAUSES", "Cause", "ISSUED", "explain", "glossary_markdown", "glossary_section", "lookup"]
+__all__ = ["CAUSES", "Cause", "ISSUED", "explain", "glossary_markdown", "glossary_section",
+           "lookup"]

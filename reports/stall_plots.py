@@ -109,7 +109,8 @@ def legend_colours(fig) -> dict[str, str]:
 
     legends = list(fig.legends) + [ax.get_legend() for ax in fig.axes if ax.get_legend()]
     return {text.get_text(): to_hex(handle.get_facecolor())
-            for legend in legends for text, handle in zip(legend.get_texts(), legend.legend_handles)}
+            for legend in legends
+            for text, handle in zip(legend.get_texts(), legend.legend_handles)}
 
 
 def _tick_labels(cs, spacing: float) -> list[tuple[int, str]]:

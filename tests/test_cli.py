@@ -167,7 +167,8 @@ def test_a_command_that_does_not_import_is_reported_not_hidden(cli, monkeypatch,
     (tmp_path / "broken_cmd.py").write_text("import no_such_dependency_of_netsushisen\n")
     monkeypatch.syspath_prepend(str(tmp_path))
     monkeypatch.setitem(COMMANDS, "broken", ("broken_cmd", "a command whose dependency is gone"))
-    monkeypatch.setitem(COMMANDS, "ghost", ("netsushisen.commands.ghost", "a command not installed"))
+    monkeypatch.setitem(COMMANDS, "ghost", ("netsushisen.commands.ghost",
+                                            "a command not installed"))
     code, out, err = cli()  # the usage and the list of commands
     assert "broken" in out and "ghost" in out and err == ""  # listed, not hidden
     code, out, err = cli("broken", "x")

@@ -78,7 +78,8 @@ def test_commands_that_run_no_machine_do_not_import_numba(tmp_path, cli, numba):
                 ["scene", "info", "tetra"], ["scene", "list"], ["config", "--dump"],
                 ["report", "ilp", str(stats)], ["report", "flat", str(stats)],
                 ["report", "stalls", "--explain"], ["disasm", "x.o"], ["kernels", "list"],
-                ["report", "stalls", str(stats), "--plot", "s.png"], ["report", "memory", str(stats)],
+                ["report", "stalls", str(stats), "--plot", "s.png"],
+                ["report", "memory", str(stats)],
                 ["report", "annotate", str(stats)], ["report", "diff", str(stats), str(stats)],
                 ["golden", "tetra:1", "--res", "2", "-o", "g.png"], ["scene", "nff", "tetra:1"],
                 ["--help"], ["asm", "--help"]]

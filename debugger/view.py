@@ -26,6 +26,7 @@ from rich.text import Text
 from netsushisen.asm.listing import slot_assignment, target_names
 from netsushisen.asm.regnames import named_text, register_names
 from netsushisen.debugger.expressions import bundle_lines, hex_word, looks_float, reg_label
+from netsushisen.isa.stalls import BRANCH
 from netsushisen.isa.words import wrap32
 
 ISSUED = "bold black on green"
@@ -377,7 +378,7 @@ def scoreboard_lines(session, core) -> list[RenderableType]:
     if tab is not None:
         out.append(tab)
     if core.hold_until > now and not core.halted:
-        cause = core.hold_cause if now < core.hold_mem_until else "branch"
+        cause = core.hold_cause if now < core.hold_mem_until else BRANCH
         out.append(Text(f"issue held until cycle {core.hold_until} ({cause or 'branch'}, "
                         f"pc {core.hold_pc})"))
     for unit, until in core.busy.items():

@@ -62,10 +62,17 @@ from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.opcodes import OPCODES
 from netsushisen.isa.processors import LINK_REGISTER, PROCESSORS, Processor
+from netsushisen.isa.stalls import (BRANCH, FIFO_ANY, FIFO_EMPTY, FIFO_FULL, OPERAND, UNIT_BUSY,
+                                    WAW, WRITE_PORT, stall)
 from netsushisen.isa.words import word_format, wrap32
 
 from netsushisen.emulator.cmu import Fifo
 from netsushisen.emulator.memories import MemoryFault, MemorySystem
+
+_OPERAND, _WAW, _UNIT_BUSY, _FIFO_EMPTY, _FIFO_FULL = (stall(f, "") for f in (
+    OPERAND, WAW, UNIT_BUSY, FIFO_EMPTY, FIFO_FULL))
+"""The causes' prefixes, the parameter appended as each stall is charged (isa/stalls.py)."""
+
 
 class RunFault(NetsushisenError):
     """A run-time fault: processor, PC (label+offset) and cycle. Exit code 2."""
@@ -282,7 +289,7 @@ class Core:
             return
         self.cycles += 1
         if c < self.hold_until:
-            self._stall(self.hold_cause if c < self.hold_mem_until else "branch", self.hold_pc)
+            self._stall(self.hold_cause if c < self.hold_mem_until else BRANCH, self.hold_pc)
             return
         pc = self.pc
         if not 0 <= pc < len(self.bundles):
@@ -297,11 +304,11 @@ class Core:
             if ready_at[r] > worst_t:
                 worst, worst_t = r, ready_at[r]
         if worst >= 0:
-            return self._stall("operand:" + self.producer[worst], pc)
+            return self._stall(_OPERAND + self.producer[worst], pc)
         # 3. destinations (WAW)
         for r in b.writes:
             if ready_at[r] > c:
-                return self._stall("waw:" + self.producer[r], pc)
+                return self._stall(_WAW + self.producer[r], pc)
         # 4. units
         for unit, n in b.units:
             busy = self.busy[unit]
@@ -311,7 +318,7 @@ class Core:
                     free += 1
             if free < n:
                 first = next(i for i, t in enumerate(busy) if t > c)
-                return self._stall("unit_busy:" + self.occupant[unit][first], pc)
+                return self._stall(_UNIT_BUSY + self.occupant[unit][first], pc)
         # load timing (the base register is ready: checked above)
         load_t = None
         if b.loads:
@@ -327,17 +334,17 @@ class Core:
                 due[t] = due.get(t, 0) + d.nwrites
             for t, n in due.items():
                 if len(self.pending.get(t, ())) + n > self.write_ports:
-                    return self._stall("write_port", pc)
+                    return self._stall(WRITE_PORT, pc)
         # 6. FIFOs
         for port, n in b.recvs:
             f = self.recv_ports[port]
             if (f.visible(c) if n > 1 else int(f.ready(c))) < n:
-                return self._stall("fifo_empty:" + port, pc)
+                return self._stall(_FIFO_EMPTY + port, pc)
         if b.waits and not any(f.ready(c) for f in self.recv_ports.values()):
-            return self._stall("fifo_empty:any", pc)
+            return self._stall(FIFO_ANY, pc)
         for port, n in b.sends:
             if self.send_ports[port].free(c) < n:
-                return self._stall("fifo_full:" + port, pc)
+                return self._stall(_FIFO_FULL + port, pc)
         self._issue(c, pc, b, load_t)
 
     def _schedule(self, rd: int | None, word: int, t: int, m: str) -> None:
@@ -442,13 +449,14 @@ class Core:
 
     def waiting_on_fifo(self) -> str | None:
         """The FIFO cause this processor stalled on in its last cycle, if any."""
-        if not self.halted and not self.last_issued and self.cause.startswith("fifo_"):
+        if not self.halted and not self.last_issued \
+                and self.cause.startswith((_FIFO_EMPTY, _FIFO_FULL)):
             return self.cause
         return None
 
     def idle(self) -> bool:
         """Halted (or absent), or waiting on an empty receive FIFO."""
-        return self.halted or (not self.last_issued and self.cause.startswith("fifo_empty"))
+        return self.halted or (not self.last_issued and self.cause.startswith(FIFO_EMPTY))
 
     def stats(self) -> dict:
         by_pc = {}

@@ -50,6 +50,7 @@ import numpy as np
 from netsushisen.isa.config import MachineConfig, MemoryConfig
 from netsushisen.isa.opcodes import OPCODES
 from netsushisen.isa.regions import REGION_NAMES, Region, RegionMap, cache_bytes, resident_words
+from netsushisen.isa.stalls import CACHE_HIT, CACHE_MISS, LOCAL, RESIDENT
 
 __all__ = ["Cache", "Memory", "MemoryFault", "MemorySystem", "RegionCounters",
            # defined in isa/regions.py (the host reads them there), used here and by pe.py
@@ -193,12 +194,12 @@ class MemorySystem:
     def access_time(self, space: str, address: int) -> tuple[int, str]:
         """(cycles, stall cause) of a load from `space` at `address`."""
         if space == "local":
-            return self.t_local, "local"
+            return self.t_local, LOCAL
         if space == "resident":
-            return self.t_r, "resident"
+            return self.t_r, RESIDENT
         if self.cache is not None and self.cache.probe(address):
-            return self.t_c, "cache_hit"
-        return self.t_g, "cache_miss"
+            return self.t_c, CACHE_HIT
+        return self.t_g, CACHE_MISS
 
     # -- the accesses themselves --------------------------------------------------------------
 

@@ -20,24 +20,19 @@ whether it is a hold after an earlier bundle); per PE, FIFO occupancy when it ch
 The events are plain records handed to a sink as they happen (reports/timeline.py writes them
 to Kanata or trace-event files), so the writers never see the machine and memory stays bounded
 however long the window.
-`run_with_timeline` runs an engine to the window's first cycle (the compiled engine there, as
-the debugger's fast-forward does), steps the reference engine through the window with the tap,
-then lets the engine finish the run.
+The records are isa/events.py's. Running a command's timeline (the window, the hand-over from
+the compiled engine, the note printed afterwards) is command glue: netsushisen/timeline.py.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, NamedTuple, Protocol, TextIO
+from typing import TextIO
 
 from netsushisen.asm.regnames import named_text, register_names
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.events import (CacheMiss, Event, FifoLevel, Issued, OpRecord, ProcessorInfo,
+                                    Stalled, Start, TimelineSink)
+from netsushisen.isa.stalls import HOLD_CAUSES  # a hold after an earlier bundle, T10 rule 1
 
-if TYPE_CHECKING:
-    from netsushisen.emulator.engine import Engine
-    from netsushisen.emulator.machine import RunResult
-    from netsushisen.options import TimelineRequest
-    from netsushisen.progress import RunMonitor
 
 
 def parse_cycles(text: str | None) -> tuple[int, int | None]:
@@ -106,94 +101,7 @@ class Tracer:
 
 
 # ---------------------------------------------------------------------------------------------
-# Timeline events: what a pipeline viewer needs, as plain records (named tuples: a window makes
-# one per processor and cycle, and they are the cheapest records Python builds)
-
-
-HOLD_CAUSES = frozenset({"local", "resident", "cache_hit", "cache_miss", "branch"})
-"""Stall causes that are a hold after an earlier bundle (core.py, T10 rule 1): charged to that
-bundle's PC, while every other cause is charged to the bundle waiting to issue."""
-
-
-class ProcessorInfo(NamedTuple):
-    """A processor the timeline shows: `thread` is its index among the machine's processors
-    (pe0.os 0, pe0.ic 1, ...), `units` its unit instances in a fixed order (int0, int1, fp0,
-    ...)."""
-
-    name: str
-    pe: int
-    stage: str
-    thread: int
-    units: tuple[str, ...]
-
-
-class Start(NamedTuple):
-    """The window opens at `cycle` (the machine's state is that after cycle - 1)."""
-
-    cycle: int
-    processors: tuple[ProcessorInfo, ...]
-    fifos: tuple[tuple[int, str, int], ...]  # (PE, FIFO name, capacity) whose occupancy follows
-
-
-class OpRecord(NamedTuple):
-    """One operation of an issued bundle: `unit` the unit instance it runs on (an index into the
-    processor's `units`), `done` the cycle its result is written (the start of that cycle) or,
-    without a result, the cycle it leaves its unit; `writes` the registers it writes."""
-
-    text: str
-    mnemonic: str
-    unit: int
-    done: int
-    writes: tuple[int, ...]
-
-
-class Issued(NamedTuple):
-    cycle: int
-    processor: str
-    pc: int
-    label: str  # label+offset
-    text: str  # the bundle as the assembler prints it
-    ops: tuple[OpRecord, ...]
-    serial: int  # the processor's bundles issued before this one, since the run began
-    reads: tuple[int, ...]  # the registers it reads
-
-
-class Stalled(NamedTuple):
-    cycle: int
-    processor: str
-    pc: int  # the PC the stall is charged to (the statistics' stalls_by_pc)
-    label: str
-    text: str  # the bundle at pc
-    cause: str
-    hold: bool  # a hold after the bundle at pc issued (HOLD_CAUSES), not a wait to issue
-
-
-class FifoLevel(NamedTuple):
-    cycle: int  # occupancy at the end of this cycle
-    pe: int
-    fifo: str
-    words: int
-
-
-class CacheMiss(NamedTuple):
-    cycle: int
-    processor: str
-    address: int
-    cache_set: int
-    region: str | None  # the database region of the address (image regions), if known
-
-
-Event = Issued | Stalled | FifoLevel | CacheMiss
-
-
-class TimelineSink(Protocol):
-    """Where a TimelineTap's events go (reports/timeline.py's writers)."""
-
-    def begin(self, start: Start) -> None: ...
-
-    def event(self, event: Event) -> None: ...
-
-    def close(self, end: int) -> None: ...
+# Timeline events: what a pipeline viewer needs, as plain records (isa/events.py)
 
 
 class TimelineTap:
@@ -327,135 +235,3 @@ class TimelineTap:
 
 # ---------------------------------------------------------------------------------------------
 # Running a window
-
-
-DEFAULT_WINDOW = 100_000
-"""Cycles a timeline covers when --cycles does not say (from its first cycle): a whole small
-run (render tetra --res 8 is 53,274 cycles), a few seconds on the reference engine."""
-
-MAX_WINDOW = 1_000_000
-"""The longest window: the reference engine steps it with the tap and a writer at 16,000
-(Kanata) to 23,000 (JSON) cycles per CPU-second, about a minute, and one PE's three processors
-fill about 350 MB of Kanata log (220 MB of JSON) per million cycles (render tetra)."""
-
-STEP_CHECK = 2_000
-"""Cycles between progress calls (Ctrl-C) while the window is stepped."""
-
-
-@dataclass(frozen=True)
-class Window:
-    """The cycles a timeline covers: first included, end excluded; `default` when --cycles did
-    not give the end (a note says so if the run goes past it)."""
-
-    first: int
-    end: int
-    default: bool
-
-
-def timeline_window(cycles: str | None) -> Window:
-    """`--cycles` for a timeline: 'A:B', 'A:', ':B', 'A' or None; a one-line error when
-    malformed or longer than MAX_WINDOW."""
-    try:
-        first, end = parse_cycles(cycles)
-    except ValueError:
-        raise NetsushisenError(f"--cycles {cycles!r}: expected A:B, A: or :B (cycles, A "
-                               "included, B excluded)") from None
-    if end is None:
-        return Window(first, first + DEFAULT_WINDOW, True)
-    if end == first:
-        raise NetsushisenError(f"--cycles {cycles}: the window is empty")
-    if end - first > MAX_WINDOW:
-        raise NetsushisenError(f"--cycles {cycles}: a timeline covers at most {MAX_WINDOW:,} "
-                               f"cycles (this is {end - first:,}); choose a shorter window")
-    return Window(first, end, False)
-
-
-def check_processors(machine, prefixes: list[str] | None) -> None:
-    """A one-line error if a --procs prefix names no processor of the machine."""
-    names = [core.name for core in machine.cores if core.present]
-    for p in prefixes or ():
-        if not any(wanted(n, [p]) for n in names):
-            raise NetsushisenError(f"--procs {p}: no such processor (the machine has "
-                                   f"{', '.join(names)})")
-
-
-def timeline_note(path: str, tap: TimelineTap, window: Window, run_end: int) -> str:
-    """The line a command prints after writing a timeline: the cycles covered, the bundles per
-    processor, and the default window's end when the run went past it."""
-    bundles = ", ".join(f"{name} {n:,}" for name, n in tap.issued.items())
-    note = (f"timeline: wrote {path}: cycles {tap.first:,} to {tap.last:,}"
-            + (f", bundles issued: {bundles}" if bundles else ""))
-    if tap.last == tap.first and run_end <= window.first:
-        note += f" (empty: the run stopped at cycle {run_end:,}, before the window)"
-    elif window.default and run_end > window.end:
-        note += (f" (the default window of {DEFAULT_WINDOW:,} cycles; the run went on to cycle "
-                 f"{run_end:,}: choose the window with --cycles A:B)")
-    return note
-
-
-def run_with_timeline(engine: Engine, monitor: RunMonitor, tap: TimelineTap,
-                      window: Window) -> RunResult:
-    """Run `engine` to the end with `tap` watching cycles window.first..window.end.
-
-    The engine (the compiled one, by default) runs to the window's first cycle; the reference
-    engine steps the window with the tap (the machine state is the engine's, written back, as
-    the debugger's fast-forward does); then the engine runs on to the end. `monitor` is the
-    command's RunMonitor (progress, Ctrl-C): a Ctrl-C ends the run "interrupted" and the
-    timeline is closed at the cycle reached. Returns the RunResult."""
-    m = engine.machine
-    limit = m.config.max_cycles
-    if window.first > 0:
-        goal = min(window.first, limit) if limit else window.first
-        result = monitor.run(max_cycles=goal)
-        if m.status == "max_cycles" and not (limit and m.cycle >= limit):
-            m.status, m.error = None, None  # reaching the window is not the run's end
-        if monitor.interrupted or m.status is not None:  # ended first: an empty timeline
-            tap.start(m)
-            tap.close()
-            return result if monitor.interrupted else engine.result()
-    if m.status is None:
-        m.tracer = tap
-        m.record_events(True)
-        tap.start(m)
-        try:
-            while m.status is None and m.cycle < window.end and not (limit and m.cycle >= limit):
-                m.step()
-                if m.cycle % STEP_CHECK == 0:
-                    monitor.progress(m.cycle)
-        except KeyboardInterrupt:
-            monitor.interrupted = True
-            return engine.interrupt()
-        finally:
-            m.tracer = None
-            m.record_events(False)
-            tap.close()
-    if m.status is not None:
-        return engine.result()
-    return monitor.run()
-
-
-class TimelineRun:
-    """A command's --timeline: built after the engine (checks the request against the machine
-    and opens the file: one-line errors before the run starts), `run(monitor)` runs the engine
-    to its end with the window written, `note()` is the line to print afterwards."""
-
-    def __init__(self, request: TimelineRequest, engine: Engine):
-        from netsushisen.reports.timeline import open_timeline
-
-        check_processors(engine.machine, request.processors)
-        if engine.name not in ("reference", "compiled"):
-            raise NetsushisenError(f"--timeline steps its window on the reference engine, handed "
-                                   f"over from the compiled one; --engine {engine.name} cannot "
-                                   "hand over (use compiled or reference)")
-        self.request, self.engine = request, engine
-        writer, self.out = open_timeline(request.path)
-        self.tap = TimelineTap(writer, request.processors)
-
-    def run(self, monitor: RunMonitor) -> RunResult:
-        try:
-            return run_with_timeline(self.engine, monitor, self.tap, self.request.window)
-        finally:
-            self.out.close()
-
-    def note(self) -> str:
-        return timeline_note(self.request.path, self.tap, self.request.window, self.engine.cycle)

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from netsushisen.errors import ConfigError, Diagnostic
+from netsushisen.isa.limits import field_problems, machine_problems, read_input
 
 
 @dataclass
@@ -175,7 +176,6 @@ class MachineConfig:
                     problems.append(problem)
         if not 0.0 < self.prepass.share <= 1.0:
             problems.append(f"prepass.share must lie in (0, 1], got {self.prepass.share}")
-        from netsushisen.limits import field_problems, machine_problems  # late: limits types against this module
 
         problems += field_problems(self) + machine_problems(self)
         if problems:
@@ -389,8 +389,6 @@ def load_config(path: str | Path | None = None, overrides: list[str] | None = No
     if path is not None:
         p = Path(path)
         try:
-            from netsushisen.limits import read_input  # late: limits types against this module
-
             text = read_input(p, "configuration file").decode("utf-8")
             data = tomllib.loads(text)
         except (FileNotFoundError, IsADirectoryError):

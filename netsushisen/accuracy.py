@@ -39,9 +39,9 @@ from netsushisen.host.prepass import coarse_resolution
 from netsushisen.host.scenes import Scene
 from netsushisen.isa.config import MachineConfig, apply_override
 from netsushisen.pipeline import RenderResult, RenderSetup, finish, prepare
-from netsushisen.reports.accuracy import (Row, Timing, fidelity_errors, hit_id_share, ic_regions, image_errors,
-                                          memory_point, ray_errors, regression_estimate, relative,
-                                          traced_rays)
+from netsushisen.reports.accuracy import (Row, Timing, fidelity_errors, hit_id_share,
+                                          ic_regions, image_errors, memory_point, ray_errors,
+                                          regression_estimate, relative, traced_rays)
 from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
 
 DEPTHS = tuple(range(1, 9))
@@ -56,7 +56,8 @@ consecutive samples in the order DIS hands them out (so a tile's predecessor is 
 did just before it: its warm-up)."""
 SAMPLE_SHARES = (0.10, 0.25, 0.50)
 """Shares of the tiles the sampled rows simulate. Each share's n tiles are a stratified random
-sample (`stratified_tiles`): the tiles cut into n // 4 strata of consecutive tiles, 4 drawn in each."""
+sample (`stratified_tiles`): the tiles cut into n // 4 strata of consecutive tiles, 4 drawn in
+each."""
 REFERENCE_BUDGET = 2_000_000
 """Cycles the reference engine (≈60 k cycles/s) is given; a longer run is compared over this
 prefix with the compiled engine's, and its full time extrapolated (0: no reference row)."""
@@ -114,7 +115,8 @@ def timed(fn: Callable[[], object], repeats: int = REPEATS) -> tuple[object, Tim
     return result, Timing.of(runs)
 
 
-def machine_timed(scene: Scene, config: MachineConfig, res: int, engine: str, repeats: int = REPEATS,
+def machine_timed(scene: Scene, config: MachineConfig, res: int, engine: str,
+                  repeats: int = REPEATS,
                   max_cycles: int | None = None) -> tuple[RenderSetup, RenderResult, Timing]:
     """(setup, result, timing) of a machine row: `repeats` times host preparation (`prepare`)
     then the engine's build, run and read-out; components "host" and "machine"."""
@@ -131,7 +133,8 @@ def machine_timed(scene: Scene, config: MachineConfig, res: int, engine: str, re
 
 
 def warm_up(scene: Scene, config: MachineConfig, engine: str,
-            precisions: tuple[str, ...] = ("fp32", "fp64"), progress: Progress = _quiet) -> dict[str, float]:
+            precisions: tuple[str, ...] = ("fp32", "fp64"),
+            progress: Progress = _quiet) -> dict[str, float]:
     """Compile and warm the engine once per precision before any timed row: a WARM_RES render
     (the compiled engine's numba compile, ~45 s per precision on a cold cache, or its cache
     load). Seconds per precision, reported once and charged to no row. The golden model is numpy
@@ -148,7 +151,8 @@ def warm_up(scene: Scene, config: MachineConfig, engine: str,
 def machine_point(stats: dict) -> dict[str, float]:
     """Cycles, ρ, μ, t of a machine run's statistics (IC shape data, every PE)."""
     m = stats["config"]["ic_memory"]
-    return {"cycles": stats["run"]["cycles"]} | memory_point(ic_regions(stats), m["t_r"], m["t_c"], m["t_g"])
+    return {"cycles": stats["run"]["cycles"]} | memory_point(ic_regions(stats), m["t_r"],
+                                                             m["t_c"], m["t_g"])
 
 
 # ------------------------------------------------------------------------------------------------
@@ -179,13 +183,15 @@ def round_scene(scene: Scene, rounder: Callable[[np.ndarray], np.ndarray]) -> Sc
                                       t=r(m.t), ior=r(m.ior)),
         polygons=dataclasses.replace(pg, vertices=r(pg.vertices), normals=r(pg.normals)),
         spheres=dataclasses.replace(sp, center=r(sp.center), radius=r(sp.radius)),
-        cones=dataclasses.replace(cn, base=r(cn.base), base_radius=r(cn.base_radius), apex=r(cn.apex),
-                                  apex_radius=r(cn.apex_radius)))
+        cones=dataclasses.replace(cn, base=r(cn.base), base_radius=r(cn.base_radius),
+                                  apex=r(cn.apex), apex_radius=r(cn.apex_radius)))
 
 
-def _image_row(axis, scene, setting, truth_img, u8, ids, rays, timing: Timing, cost, how, values=None) -> Row:
+def _image_row(axis, scene, setting, truth_img, u8, ids, rays, timing: Timing, cost, how,
+               values=None) -> Row:
     errors, psnr = image_errors(u8, truth_img.image_u8)
-    errors = {"hit_ids": hit_id_share(ids, truth_img.hit_ids)} | errors | ray_errors(rays, truth_img.rays)
+    errors = ({"hit_ids": hit_id_share(ids, truth_img.hit_ids)} | errors
+              | ray_errors(rays, truth_img.rays))
     return Row(axis, scene, setting, False, errors, timing.median, cost, how,
                {"psnr_db": psnr} | (values or {}), timing=timing, emulated=setting in EMULATED)
 
@@ -203,21 +209,24 @@ def precision_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
     name = scene.name
     progress(f"{name} precision: golden fp64")
     truth, tt = _golden(scene, config, res, "fp64", repeats)
-    rows = [_image_row("precision", name, "golden fp64", truth, truth.image_u8, truth.hit_ids, truth.rays,
-                       tt, {"rays": traced_rays(truth.rays)},
+    rows = [_image_row("precision", name, "golden fp64", truth, truth.image_u8,
+                       truth.hit_ids, truth.rays, tt, {"rays": traced_rays(truth.rays)},
                        "the golden numpy model in float64: the truth")]
     rows[0].truth = True
     variants = (
-        ("golden fp32", scene, "fp32", "the golden numpy model in float32 (the machine's precision)"),
-        ("golden fp16", scene, "fp16", "the golden model run with numpy float16 as its precision: every "
-         "stored value and every operation rounded to float16 (shine 100000 overflows to inf; Phong's "
-         "pow goes through libm in float64 and is rounded into the float16 pixel sums); its seconds "
-         "are numpy's software emulation of float16, not what fp16 hardware would take: its cost is "
-         "the rays traced"),
-        ("golden bf16 scene", round_scene(scene, round_bf16), "fp32", "every number of the scene "
-         "(vertices, normals, centres, radii, cone ends, materials, lights, camera) rounded to "
-         "bfloat16 (8 significant bits, nearest even); the golden model then computes in float32 "
-         "(an emulation of bf16 storage: its seconds are not bf16's cost; its cost is the rays traced)"),
+        ("golden fp32", scene, "fp32",
+         "the golden numpy model in float32 (the machine's precision)"),
+        ("golden fp16", scene, "fp16",
+         "the golden model run with numpy float16 as its precision: every stored value and every "
+         "operation rounded to float16 (shine 100000 overflows to inf; Phong's pow goes through "
+         "libm in float64 and is rounded into the float16 pixel sums); its seconds are numpy's "
+         "software emulation of float16, not what fp16 hardware would take: its cost is the rays "
+         "traced"),
+        ("golden bf16 scene", round_scene(scene, round_bf16), "fp32",
+         "every number of the scene (vertices, normals, centres, radii, cone ends, materials, "
+         "lights, camera) rounded to bfloat16 (8 significant bits, nearest even); the golden model "
+         "then computes in float32 (an emulation of bf16 storage: its seconds are not bf16's cost; "
+         "its cost is the rays traced)"),
     )
     for setting, sc, precision, how in variants:
         progress(f"{name} precision: {setting}")
@@ -227,11 +236,13 @@ def precision_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
                                {"rays": traced_rays(g.rays)}, how))
     for precision in ("fp32", "fp64"):
         progress(f"{name} precision: machine {precision}")
-        _, r, mt = machine_timed(scene, with_sets(config, precision=precision), res, engine, repeats)
-        rows.append(_image_row("precision", name, f"machine {precision}", truth, r.image_u8, r.hit_ids, r.rays,
+        _, r, mt = machine_timed(scene, with_sets(config, precision=precision), res,
+                                 engine, repeats)
+        rows.append(_image_row("precision", name, f"machine {precision}", truth, r.image_u8,
+                               r.hit_ids, r.rays,
                                mt, {"rays": traced_rays(r.rays), "cycles": r.run.cycles},
-                               f"the kernels on the {engine} engine in {precision}; cost in machine cycles; "
-                               "seconds: host preparation + the engine's run"))
+                               f"the kernels on the {engine} engine in {precision}; cost in "
+                               "machine cycles; seconds: host preparation + the engine's run"))
     return rows
 
 
@@ -240,7 +251,8 @@ def precision_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
 
 
 def converged_truth(scene: Scene, config: MachineConfig, res: int, start: int = TRUTH_DEPTH,
-                    cap: int = TRUTH_CAP, progress: Progress = _quiet) -> tuple[int, bool, list[int]]:
+                    cap: int = TRUTH_CAP,
+                    progress: Progress = _quiet) -> tuple[int, bool, list[int]]:
     """(truth depth, whether it converged, depths tried): golden renders at start, 2·start, …
     (the last at most `cap`) until two consecutive ones give the same 8-bit image; the deeper of
     the equal pair is the truth (depth `cap` and False when none did)."""
@@ -279,12 +291,13 @@ def depth_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
         rows.append(Row("depth", name, f"depth {d}", t, {k: 0.0 for k in errors} if t else errors,
                         mt.median, {"rays": traced_rays(g.rays), "cycles": r.run.cycles},
                         f"golden {g.precision} image and rays at max_depth {d} against depth "
-                        f"{truth_depth}; machine cycles and seconds (host preparation + run) on the "
-                        f"{engine} engine (its rays "
+                        f"{truth_depth}; machine cycles and seconds (host preparation + run) on "
+                        f"the {engine} engine (its rays "
                         + ("equal" if r.rays == g.rays else "DIFFER from") + " the golden model's)",
                         {"depth": d, "psnr_db": psnr, "machine_rays": traced_rays(r.rays),
                          "golden_seconds": g.seconds, "truth_depth": truth_depth,
-                         "truth_converged": converged, "truth_depths_tried": len(tried)}, timing=mt))
+                         "truth_converged": converged,
+                         "truth_depths_tried": len(tried)}, timing=mt))
     return sorted(rows, key=lambda r: r.values["depth"])
 
 
@@ -331,15 +344,16 @@ def prepass_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
         default = side == coarse_resolution(res, config.prepass.share)
         errors = {"rho": abs(point["rho"] - truth["rho"]), "t": relative(point["t"], truth["t"]),
                   "cycles": relative(point["cycles"], truth["cycles"])}
-        rows.append(Row("prepass", name, f"pre-pass {side}x{side}" + (" (config share)" if default else ""),
+        rows.append(Row("prepass", name,
+                        f"pre-pass {side}x{side}" + (" (config share)" if default else ""),
                         t, errors, timing.median,
                         {"rays": pre.eye_rays, "ray_share": pre.eye_rays / (res * res),
                          "time_share": timing.median / timing.components["machine"],
                          "cycles": point["cycles"]},
-                        f"golden pre-pass at {side}x{side} ranks primitives, the top {pre.resident_count} "
-                        f"of {len(pre.priorities)} resident; the main {res}x{res} run on the {engine} "
-                        "engine gives ρ, t (IC shape data) and cycles; error against the "
-                        f"{res}x{res} ranking (ρ: absolute)",
+                        f"golden pre-pass at {side}x{side} ranks primitives, the top "
+                        f"{pre.resident_count} of {len(pre.priorities)} resident; the main "
+                        f"{res}x{res} run on the {engine} engine gives ρ, t (IC shape data) and "
+                        f"cycles; error against the {res}x{res} ranking (ρ: absolute)",
                         {"rho": point["rho"], "mu": point["mu"], "t": point["t"],
                          "resident_count": pre.resident_count,
                          "main_seconds": timing.components["machine"]}, timing=timing))
@@ -395,7 +409,8 @@ def sample_tiles(setup: RenderSetup, engine: str, tiles: list[int], n_tiles: int
         sub = dataclasses.replace(setup, host_words=words[bounds[first]:bounds[last + 1]].ravel())
         r, seconds = run_machine(sub, engine)
         reg = ic_regions(r.stats)
-        return {"cycles": r.run.cycles, "res": reg.get("resident.shape_data", {}).get("accesses", 0),
+        return {"cycles": r.run.cycles,
+                "res": reg.get("resident.shape_data", {}).get("accesses", 0),
                 "acc": reg.get("global.shape_data", {}).get("accesses", 0),
                 "hits": reg.get("global.shape_data", {}).get("hits", 0)}, seconds
 
@@ -407,8 +422,9 @@ def sample_tiles(setup: RenderSetup, engine: str, tiles: list[int], n_tiles: int
             both, s1 = run(tile - warm_tiles, tile)
             warm, s2 = run(tile - warm_tiles, tile - 1)
             runs.append(s1 + s2)
-        out[tile] = {k: both[k] - warm[k] for k in both} | {"seconds": float(np.median(runs)), "runs": runs,
-                                                            "simulated": both["cycles"] + warm["cycles"]}
+        out[tile] = {k: both[k] - warm[k] for k in both} | {
+            "seconds": float(np.median(runs)), "runs": runs,
+            "simulated": both["cycles"] + warm["cycles"]}
     return out
 
 
@@ -429,8 +445,8 @@ def warm_up_tiles(samples: int, n_tiles: int = TILES) -> int:
 def tile_auxiliary(setup: RenderSetup, n_tiles: int = TILES) -> dict[str, list[int]]:
     """Per tile (as `sample_tiles` cuts them): the golden model's rays and intersection tests,
     known for every tile from one golden render, no machine run."""
-    g = golden.render(setup.scene, setup.config, res=setup.res, corners=setup.corners, keep_trace=True,
-                      grid=setup.images.layout.grid)
+    g = golden.render(setup.scene, setup.config, res=setup.res, corners=setup.corners,
+                      keep_trace=True, grid=setup.images.layout.grid)
     n = setup.side * setup.side
     bounds = np.linspace(0, n, n_tiles + 1).round().astype(int)
     tests = np.bincount(g.trace_pixel, weights=np.diff(g.trace_ray_offsets), minlength=n)
@@ -481,7 +497,8 @@ def sampled_row(scene: str, share: float, tiles: dict[int, dict], chosen: list[i
     bounds = strata or [0, n_tiles]
     samples = [tiles[t] for t in chosen]
     x = np.ones(n_tiles) if aux is None else np.asarray(aux, np.float64)
-    groups = [([tiles[t]["cycles"] for t in chosen if lo <= t < hi], [x[t] for t in chosen if lo <= t < hi],
+    groups = [([tiles[t]["cycles"] for t in chosen if lo <= t < hi],
+               [x[t] for t in chosen if lo <= t < hi],
                x[lo:hi]) for lo, hi in zip(bounds, bounds[1:])]
     est, low, high = regression_estimate([g for g in groups if g[0]])
     res = sum(s["res"] for s in samples)
@@ -491,21 +508,24 @@ def sampled_row(scene: str, share: float, tiles: dict[int, dict], chosen: list[i
                           "global.shape_data": {"accesses": acc, "hits": hits}},
                          mem["t_r"], mem["t_c"], mem["t_g"])
     values = {"cycles": est, "rho": point["rho"], "mu": point["mu"], "t": point["t"],
-              "tiles": len(chosen), "strata": len(groups), "covers": bool(low <= truth["cycles"] <= high)}
+              "tiles": len(chosen), "strata": len(groups),
+              "covers": bool(low <= truth["cycles"] <= high)}
     reps = min([len(s.get("runs", [s["seconds"]])) for s in samples] + [len(host or [0.0]) or 1])
     tile_runs = [sum(s.get("runs", [s["seconds"]])[i] for s in samples) for i in range(reps)]
     host_runs = (host or [0.0] * reps)[:reps]
-    timing = Timing.of([h + t for h, t in zip(host_runs, tile_runs)], {"host": host_runs, "machine": tile_runs})
-    return Row("fidelity", scene, f"(c) sampled {100 * share:g} %", False, fidelity_errors(values, truth),
+    timing = Timing.of([h + t for h, t in zip(host_runs, tile_runs)],
+                       {"host": host_runs, "machine": tile_runs})
+    return Row("fidelity", scene, f"(c) sampled {100 * share:g} %", False,
+               fidelity_errors(values, truth),
                timing.median, {"cycles": sum(s["simulated"] for s in samples)},
                f"{len(chosen)} of {n_tiles} tiles (runs of consecutive eye samples in DIS order, "
                f"chosen at random, stratified: {len(groups)} strata of consecutive tiles) each "
                f"simulated on the {engine} engine after a warm-up of at least {WARM_SAMPLES} eye "
                "samples (warm-up + tile minus warm-up alone); total cycles by the stratified "
                "regression estimator on the golden model's intersection tests per tile, a 95 % "
-               "interval from the stratified jackknife widened by the warm-up allowance; ρ, μ, t from the "
-               "tiles' IC counters; cost: cycles simulated, warm-ups included; seconds: host "
-               "preparation + the tiles' runs",
+               "interval from the stratified jackknife widened by the warm-up allowance; ρ, μ, t "
+               "from the tiles' IC counters; cost: cycles simulated, warm-ups included; seconds: "
+               "host preparation + the tiles' runs",
                values, low, high, timing=timing)
 
 
@@ -522,36 +542,40 @@ def fidelity_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
     truth = machine_point(full.stats)
     mem = dataclasses.asdict(config.ic_memory)
     rows = [Row("fidelity", name, f"(d) full ({engine})", True,
-                {k: 0.0 for k in ("cycles", "rho", "mu", "t")}, ft.median, {"cycles": truth["cycles"]},
-                f"the whole render on the {engine} engine: the truth (seconds: host preparation + run)",
+                {k: 0.0 for k in ("cycles", "rho", "mu", "t")}, ft.median,
+                {"cycles": truth["cycles"]},
+                f"the whole render on the {engine} engine: the truth (seconds: host preparation + "
+                "run)",
                 dict(truth), timing=ft)]
     # the analytic and trace-driven rows take their cycles from one small machine run
     progress(f"{name} fidelity: analytic and trace-driven")
     cal_res = min(CALIBRATION_RES, res)
     cal_setup, cal, ct = machine_timed(scene, config, cal_res, engine, repeats)
-    cal_refs = golden.render(scene, config, res=cal_res, grid=cal_setup.images.layout.grid).total_references
+    cal_refs = golden.render(scene, config, res=cal_res,
+                             grid=cal_setup.images.layout.grid).total_references
     coarse = setup.prepass.resolution
     (a_point, _, _), a_t = timed(lambda: trace_point(setup, coarse), repeats)
     pre = ft.components["host"]  # the pre-pass and grid the analytic model needs: the setup's
     a_timing = Timing.of([pre + x + c for x, c in zip(a_t.runs, ct.runs)],
                          {"host": [pre] * len(a_t.runs), "model": a_t.runs, "calibration": ct.runs})
-    a = {"cycles": cal.run.cycles * (res / cal_res) ** 2, "rho": a_point["rho"], "mu": a_point["mu"],
-         "t": a_point["t_model"]}
+    a = {"cycles": cal.run.cycles * (res / cal_res) ** 2, "rho": a_point["rho"],
+         "mu": a_point["mu"], "t": a_point["t_model"]}
     rows.append(Row("fidelity", name, "(a) analytic", False, fidelity_errors(a, truth),
                     a_timing.median, {"cycles": cal.run.cycles},
-                    f"ρ and μ from the {coarse}x{coarse} pre-pass render's trace through the resident + "
-                    "cache model, t from the paper's t_r·{ρ + (1 − ρ)(8 − 6μ)}; cycles = a "
-                    f"{cal_res}x{cal_res} machine run × (pixels ratio)", a, timing=a_timing))
+                    f"ρ and μ from the {coarse}x{coarse} pre-pass render's trace through the "
+                    "resident + cache model, t from the paper's t_r·{ρ + (1 − ρ)(8 − 6μ)}; cycles "
+                    f"= a {cal_res}x{cal_res} machine run × (pixels ratio)", a, timing=a_timing))
     (b_point, refs, _), b_t = timed(lambda: trace_point(setup, res), repeats)
     b_timing = Timing.of([pre + x + c for x, c in zip(b_t.runs, ct.runs)],
                          {"host": [pre] * len(b_t.runs), "model": b_t.runs, "calibration": ct.runs})
-    b = {"cycles": cal.run.cycles * refs / max(cal_refs, 1), "rho": b_point["rho"], "mu": b_point["mu"],
-         "t": b_point["t"]}
+    b = {"cycles": cal.run.cycles * refs / max(cal_refs, 1), "rho": b_point["rho"],
+         "mu": b_point["mu"], "t": b_point["t"]}
     rows.append(Row("fidelity", name, "(b) trace-driven", False, fidelity_errors(b, truth),
                     b_timing.median, {"cycles": cal.run.cycles, "references": refs},
-                    f"the golden {res}x{res} IC reference trace, in the machine's serial ray order, "
-                    "through the resident + direct-mapped cache model (reports/tracesim.py); cycles = "
-                    f"a {cal_res}x{cal_res} machine run × (intersection tests ratio)", b, timing=b_timing))
+                    f"the golden {res}x{res} IC reference trace, in the machine's serial ray "
+                    "order, through the resident + direct-mapped cache model "
+                    f"(reports/tracesim.py); cycles = a {cal_res}x{cal_res} machine run × "
+                    "(intersection tests ratio)", b, timing=b_timing))
     # sampled: a stratified random sample of tiles per share (`stratified_tiles`), each scene
     # its own draw (the seed and the scene's name), the tiles shared by shares simulated once
     n_tiles = min(n_tiles, setup.side * setup.side)
@@ -565,18 +589,21 @@ def fidelity_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
         rows.append(sampled_row(name, share, samples, tiles, truth, mem, n_tiles, engine,
                                 strata_bounds(n_tiles, n), host, aux))
     if engine != "reference" and reference_budget > 0:
-        rows.append(reference_row(setup, full, full_seconds, truth, engine, reference_budget, progress,
-                                  ft.components["host"]))
+        rows.append(reference_row(setup, full, full_seconds, truth, engine,
+                                  reference_budget, progress, ft.components["host"]))
     return rows
 
 
-def reference_row(setup: RenderSetup, full: RenderResult, full_seconds: float, truth: dict, engine: str,
+def reference_row(setup: RenderSetup, full: RenderResult, full_seconds: float,
+                  truth: dict, engine: str,
                   budget: int, progress: Progress = _quiet, host_seconds: float = 0.0) -> Row:
     """(e): the reference engine, whole when the run fits `budget` cycles, else over the first
-    `budget` cycles against the compiled engine stopped at the same cycle (its time extrapolated)."""
+    `budget` cycles against the compiled engine stopped at the same cycle (its time
+    extrapolated)."""
     name = setup.scene.name
     whole = truth["cycles"] <= budget
-    progress(f"{name} fidelity: reference engine" + ("" if whole else f" (first {budget:,} cycles)"))
+    progress(f"{name} fidelity: reference engine"
+             + ("" if whole else f" (first {budget:,} cycles)"))
     ref, seconds = run_machine(setup, "reference", None if whole else budget)
     if whole:
         other = full
@@ -590,13 +617,16 @@ def reference_row(setup: RenderSetup, full: RenderResult, full_seconds: float, t
     return Row("fidelity", name, "(e) reference engine", False, errors, host_seconds + seconds,
                {"cycles": ref.run.cycles},
                ("the whole render" if whole else f"the first {budget:,} cycles (its full time "
-                "extrapolated)") + " on the reference engine (plain Python), its statistics compared "
-               f"byte for byte with the {engine} engine's" + ("" if whole else " over the same cycles")
+                "extrapolated)") + " on the reference engine (plain Python), its statistics "
+                                   f"compared byte for byte with the {engine} "
+                                   "engine's" + ("" if whole else " over the same cycles")
                + (": identical" if same else ": THEY DIFFER") + "; seconds: host preparation (the "
                "full row's median) + one run of the engine (not repeated: it is ~100× slower)",
                point | {"identical": same, "seconds_full": estimate,
-                        "speedup": (estimate - host_seconds) / full_seconds if full_seconds else None},
-               timing=Timing.of([host_seconds + seconds], {"host": [host_seconds], "machine": [seconds]}))
+                        "speedup": (estimate - host_seconds) / full_seconds
+                        if full_seconds else None},
+               timing=Timing.of([host_seconds + seconds],
+                                {"host": [host_seconds], "machine": [seconds]}))
 
 
 AXIS_RUNNERS = {"precision": precision_rows, "depth": depth_rows, "prepass": prepass_rows,

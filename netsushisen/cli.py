@@ -9,14 +9,14 @@ internal error is reported in one line too (set NETSUSHISEN_DEBUG=1 for the trac
 One convention for every command (netsushisen/options.py, checked by tests/test_cli.py): a usage
 error is one line `netsushisen CMD: error: ...` on standard error with exit 1 (an unknown
 option names the closest one); `--help` prints the usage. Only the named command's module is
-imported, so a command that runs no machine does not pay for numba.
+imported, so a command that runs no machine does not pay for numba; a command whose module does
+not import (a dependency missing) says so in one line when it is named, and is still listed.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
-import importlib.util
 import os
 import sys
 
@@ -44,13 +44,21 @@ COMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
-def _available_commands() -> dict[str, tuple[str, str]]:
-    """Only the commands whose module exists in this build (capabilities land one by one)."""
-    found = {}
-    for name, (module, help_text) in COMMANDS.items():
-        if importlib.util.find_spec(module) is not None:
-            found[name] = (module, help_text)
-    return found
+class CommandUnavailable(NetsushisenError):
+    """A command whose module does not import here (a dependency missing or broken, or a
+    damaged install): said in one line, never hidden from the list of commands."""
+
+
+def _load(name: str):
+    """The module of command `name`; a CommandUnavailable naming it and why if it does not
+    import (an ImportError: its module, or one it needs, is missing)."""
+    module_name = COMMANDS[name][0]
+    try:
+        return importlib.import_module(module_name)
+    except ImportError as err:
+        raise CommandUnavailable(f"the {name} command is unavailable here: {module_name} does not "
+                                 f"import ({type(err).__name__}: {err}); reinstall netsushisen "
+                                 "with its dependencies (pip install netsushisen)") from None
 
 
 def build_parser(only: str | None = None) -> tuple[argparse.ArgumentParser, dict[str, object]]:
@@ -62,11 +70,11 @@ def build_parser(only: str | None = None) -> tuple[argparse.ArgumentParser, dict
     parser.add_argument("--version", action="version", version=f"netsushisen {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     modules: dict[str, object] = {}
-    for name, (module_name, help_text) in _available_commands().items():
+    for name, (_, help_text) in COMMANDS.items():
         if only is not None and name != only:
             sub.add_parser(name, help=help_text, description=help_text, add_help=False)
             continue
-        module = importlib.import_module(module_name)
+        module = _load(name)
         p = sub.add_parser(name, help=help_text, description=(module.__doc__ or help_text).strip())
         module.configure(p)
         modules[name] = module
@@ -80,10 +88,9 @@ def _command_named(argv: list[str]) -> str | None:
         if word == "--":
             return None
         if not word.startswith("-"):
-            commands = _available_commands()
-            if word not in commands:
-                raise UsageError("netsushisen", f"unknown command {word!r}{closest(word, commands)}"
-                                 f" (commands: {', '.join(commands)})")
+            if word not in COMMANDS:
+                raise UsageError("netsushisen", f"unknown command {word!r}{closest(word, COMMANDS)}"
+                                 f" (commands: {', '.join(COMMANDS)})")
             return word
     return None
 

@@ -69,7 +69,7 @@ from netsushisen.limits import (MAX_SIDE, Footprint, check_frame, check_host, ma
                                 render_footprint)
 
 if TYPE_CHECKING:
-    from netsushisen.emulator.trace import Window
+    from netsushisen.timeline import Window
 
 MAX_RES = MAX_SIDE - 1
 """The largest --res the machine can number: 46,339, so that even the SPD corners' (N+1)² eye
@@ -99,7 +99,19 @@ class Parser(argparse.ArgumentParser):
     class too (argparse makes them of their parent's class)."""
 
     def error(self, message: str):
-        raise UsageError(self.prog, message)
+        raise UsageError(self.prog, _choice_message(message))
+
+
+def _choice_message(message: str) -> str:
+    """argparse's `invalid choice: 'x' (choose from 'a', 'b')` with the nearest choice named:
+    `invalid choice: 'stall' (did you mean 'stalls'?) (choose from ilp, stalls, ...)`; any
+    other message as it is."""
+    m = re.fullmatch(r"(argument [^:]+: )?invalid choice: '(.*)' \(choose from (.*)\)", message)
+    if m is None:
+        return message
+    choices = [c.strip().strip("'") for c in m.group(3).split(",")]
+    return (f"{m.group(1) or ''}invalid choice: {m.group(2)!r}{closest(m.group(2), choices)} "
+            f"(choose from {', '.join(choices)})")
 
 
 def closest(word: str, candidates) -> str:
@@ -491,7 +503,8 @@ def timeline_from_args(args: argparse.Namespace,
     """The checked request (None without --timeline): a one-line error for an unknown
     extension, a malformed or too long --cycles, or --procs (or --cycles, when `owns_cycles`:
     the command's --cycles is only the timeline's) without --timeline."""
-    from netsushisen.emulator.trace import parse_processors, timeline_window
+    from netsushisen.emulator.trace import parse_processors
+    from netsushisen.timeline import timeline_window
     from netsushisen.reports.timeline import timeline_format
 
     if not args.timeline:

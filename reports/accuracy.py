@@ -54,7 +54,8 @@ class Row:
 
     def to_json(self) -> dict:
         out = {"scene": self.scene, "setting": self.setting, "truth": self.truth,
-               "error": {k: float(v) for k, v in self.error.items()}, "seconds": float(self.seconds),
+               "error": {k: float(v) for k, v in self.error.items()},
+               "seconds": float(self.seconds),
                "cost": {k: _num(v) for k, v in self.cost.items()}, "how": self.how,
                "values": {k: _num(v) for k, v in self.values.items()}}
         if self.ci_low is not None:
@@ -106,7 +107,8 @@ def indistinguishable(a: Row, b: Row) -> bool:
 
 def time_ties(rows: list[Row]) -> list[tuple[str, str]]:
     """Settings next to each other in median time whose spreads overlap (one scene's rows)."""
-    timed = sorted((r for r in rows if r.timing is not None and not r.emulated), key=lambda r: r.seconds)
+    timed = sorted((r for r in rows if r.timing is not None and not r.emulated),
+                   key=lambda r: r.seconds)
     return [(a.setting, b.setting) for a, b in zip(timed, timed[1:]) if indistinguishable(a, b)]
 
 
@@ -274,15 +276,16 @@ def _regression_total(strata) -> float:
             num += float((dx * (y - y.mean())).sum())
             den += float((dx * dx).sum())
     b = num / den if den > 0 else 0.0
-    return sum(len(xs) * (float(y.mean()) + b * (float(xs.mean()) - float(x.mean()))) for y, x, xs in strata)
+    return sum(len(xs) * (float(y.mean()) + b * (float(xs.mean()) - float(x.mean())))
+               for y, x, xs in strata)
 
 
 def regression_estimate(strata, allowance: float = WARM_UP_ALLOWANCE) -> tuple[float, float, float]:
     """(estimate, low, high) of a total from a stratified sample with an auxiliary known for every
     unit: `strata` is a list of (sampled y, their x, every unit's x). The combined regression
     estimator Σ N_h·(ȳ_h + b·(X̄_h − x̄_h)) (b pooled within strata); its variance by the stratified
-    delete-one jackknife Σ_h (1 − f_h)·(n_h − 1)/n_h·Σ_j (θ_(hj) − θ̄_h)² (it follows the slope's own
-    uncertainty, which a residual variance misses); ± t(n − H)·√V, widened by `allowance` of the
+    delete-one jackknife Σ_h (1 − f_h)·(n_h − 1)/n_h·Σ_j (θ_(hj) − θ̄_h)² (it follows the slope's
+    own uncertainty, which a residual variance misses); ± t(n − H)·√V, widened by `allowance` of the
     estimate on each side (the warm-up residue). Every unit sampled: the exact total."""
     strata = [(np.asarray(y, np.float64), np.asarray(x, np.float64), np.asarray(xs, np.float64))
               for y, x, xs in strata]
@@ -354,7 +357,8 @@ def axis_sentences(axis: str, rows: list[Row]) -> list[str]:
             continue
         ties = time_ties(mine)
         if ties:
-            out.append(f"{scene}: indistinguishable in time (spreads of the repeated runs overlap): "
+            out.append(f"{scene}: indistinguishable in time (spreads of the repeated runs "
+                       "overlap): "
                        + "; ".join(f"{a} ≈ {b}" for a, b in ties) + ".")
         if axis == "precision":
             worst = max(others, key=lambda r: r.error["rmse_u8"])
@@ -378,9 +382,9 @@ def axis_sentences(axis: str, rows: list[Row]) -> list[str]:
                            "and cycles.")
             elif d is not None:
                 r = next(r for r in others if int(r.values["depth"]) == d)
-                out.append(f"{scene}: the image stops changing at depth {d} (8-bit identical to depth "
-                           f"{int(truth.values['depth'])}), at {r.cost['cycles'] / truth.cost['cycles']:.0%} "
-                           "of the truth's cycles.")
+                out.append(f"{scene}: the image stops changing at depth {d} (8-bit identical to "
+                           f"depth {int(truth.values['depth'])}), at "
+                           f"{r.cost['cycles'] / truth.cost['cycles']:.0%} of the truth's cycles.")
             else:
                 out.append(f"{scene}: every depth up to 8 still differs from depth "
                            f"{int(truth.values['depth'])}.")
@@ -394,9 +398,11 @@ def axis_sentences(axis: str, rows: list[Row]) -> list[str]:
             for r in others:
                 s = f"{r.setting} {100 * r.error['cycles']:.1f} % off in {r.seconds:.2f} s"
                 if r.ci_low is not None:
-                    s += " (interval " + ("covers" if r.values.get("covers") else "misses") + " the truth)"
+                    s += " (interval " + ("covers" if r.values.get("covers")
+                                          else "misses") + " the truth)"
                 parts.append(s)
-            out.append(f"{scene}: truth {int(truth.values['cycles']):,} cycles in {truth.seconds:.2f} s; "
+            out.append(f"{scene}: truth {int(truth.values['cycles']):,} cycles in "
+                       f"{truth.seconds:.2f} s; "
                        + "; ".join(parts) + ".")
     return out
 
@@ -404,7 +410,8 @@ def axis_sentences(axis: str, rows: list[Row]) -> list[str]:
 def _cheapest(rows: list[Row], metric: str, within: float) -> str:
     ok = [r for r in rows if r.error[metric] <= within]
     if not ok:
-        return f"no smaller pre-pass comes within {within:.0%} of the full-resolution ranking's cycles"
+        return (f"no smaller pre-pass comes within {within:.0%} of the full-resolution ranking's "
+                "cycles")
     r = min(ok, key=lambda r: r.cost["rays"])
     return (f"the smallest pre-pass within {within:.0%} of the full-resolution ranking's cycles is "
             f"{r.setting} ({int(r.cost['rays']):,} eye rays)")

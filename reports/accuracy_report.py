@@ -33,32 +33,33 @@ TITLES = {"precision": "Precision: error against the golden model in fp64",
 
 HOW = {
     "precision": "Truth: the golden model in float64. `golden fp16` runs the golden model with "
-                 "numpy float16 as its precision (every stored value and every operation rounded to "
-                 "float16; Phong's pow goes through libm in float64; SPD's shine 100000 overflows to "
-                 "inf). `golden bf16 scene` rounds every number stored in the scene (vertices, normals, "
-                 "centres, radii, cone ends, materials, lights, camera) to bfloat16 and then computes "
-                 "in float32: only the stored values are bf16, not the arithmetic. The machine rows run "
-                 "the kernels; their cost is machine cycles.",
+                 "numpy float16 as its precision (every stored value and every operation rounded "
+                 "to float16; Phong's pow goes through libm in float64; SPD's shine 100000 "
+                 "overflows to inf). `golden bf16 scene` rounds every number stored in the scene "
+                 "(vertices, normals, centres, radii, cone ends, materials, lights, camera) to "
+                 "bfloat16 and then computes in float32: only the stored values are bf16, not the "
+                 "arithmetic. The machine rows run the kernels; their cost is machine cycles.",
     "depth": "Truth: the golden image at depth 10, 20, 40 until two consecutive ones are 8-bit "
-             "identical (the row says which depth and whether it converged; 40 is the cap); the table "
-             "says from which depth the 8-bit image stops changing. Seconds: the machine's (host "
-             "preparation + run) at that depth. "
-             "Rays are the golden model's (the machine's equal them; the `how` column says so per "
-             "row), cycles the machine's at the same depth.",
+             "identical (the row says which depth and whether it converged; 40 is the cap); the "
+             "table says from which depth the 8-bit image stops changing. Seconds: the machine's "
+             "(host preparation + run) at that depth. Rays are the golden model's (the machine's "
+             "equal them; the `how` column says so per row), cycles the machine's at the same "
+             "depth.",
     "prepass": "The pre-pass (paper §4.3) ranks primitives by references in a coarse golden render "
                "and makes the top ones resident. Each row is the main run on the machine with the "
-               "ranking of one pre-pass size; truth is the ranking from the full resolution. Errors: "
-               "ρ absolute, t and cycles relative. Cost: pre-pass eye rays and the pre-pass time as a "
-               "share of the main machine run's.",
-    "fidelity": "Truth: the whole render on the chosen engine. (a) analytic: ρ, μ from the pre-pass "
-                "render's trace, t from the paper's formula, cycles scaled from an 8×8 machine run by "
-                "pixels; (b) trace-driven: the full golden trace through the resident + cache model, "
-                "cycles scaled from the 8×8 run by intersection tests; (c) sampled: tiles of "
-                "consecutive eye samples drawn at random, 2 in each stratum of consecutive tiles, "
-                "each simulated after the tile before it as warm-up, total cycles extrapolated with "
-                "a 95 % interval from the tiles' spread within the strata (SMARTS; with every tile "
-                "the sum is the full run's cycles within 0.1–0.3 % at 32×32); (e) the reference engine, compared "
-                "byte for byte (over a cycle budget on long runs, its time extrapolated and plotted so).",
+               "ranking of one pre-pass size; truth is the ranking from the full resolution. "
+               "Errors: ρ absolute, t and cycles relative. Cost: pre-pass eye rays and the "
+               "pre-pass time as a share of the main machine run's.",
+    "fidelity": "Truth: the whole render on the chosen engine. (a) analytic: ρ, μ from the "
+                "pre-pass render's trace, t from the paper's formula, cycles scaled from an 8×8 "
+                "machine run by pixels; (b) trace-driven: the full golden trace through the "
+                "resident + cache model, cycles scaled from the 8×8 run by intersection tests; (c) "
+                "sampled: tiles of consecutive eye samples drawn at random, 2 in each stratum of "
+                "consecutive tiles, each simulated after the tile before it as warm-up, total "
+                "cycles extrapolated with a 95 % interval from the tiles' spread within the strata "
+                "(SMARTS; with every tile the sum is the full run's cycles within 0.1–0.3 % at "
+                "32×32); (e) the reference engine, compared byte for byte (over a cycle budget on "
+                "long runs, its time extrapolated and plotted so).",
 }
 
 
@@ -94,27 +95,31 @@ def axis_section(axis: str, rows: list[Row]) -> Section:
                 "seconds", "rays", "cycles"]
         fmt = {"hit ids": "pct", "RMS": "f2", "max": "int", ">1 off": "pct", "rays err": "pct",
                "rays": "int", "cycles": "int"}
-        body = [[r.scene, r.setting + (" (truth)" if r.truth else ""), r.error["hit_ids"], r.error["rmse_u8"],
-                 r.error["max_u8"], r.error["channels_off"], _psnr(r),
+        body = [[r.scene, r.setting + (" (truth)" if r.truth else ""), r.error["hit_ids"],
+                 r.error["rmse_u8"], r.error["max_u8"], r.error["channels_off"], _psnr(r),
                  max(r.error[f"rays_{k}"] for k in RAY_KINDS), _secs(r), r.cost.get("rays"),
                  r.cost.get("cycles")] for r in rows]
     elif axis == "depth":
         cols = ["scene", "setting", "RMS", "max", ">1 off", "PSNR dB", "rays", "cycles", "seconds"]
         fmt = {"RMS": "f2", "max": "int", ">1 off": "pct", "rays": "int", "cycles": "int"}
-        body = [[r.scene, r.setting + (" (truth)" if r.truth else ""), r.error["rmse_u8"], r.error["max_u8"],
-                 r.error["channels_off"], _psnr(r), r.cost["rays"], r.cost["cycles"], _secs(r)] for r in rows]
+        body = [[r.scene, r.setting + (" (truth)" if r.truth else ""), r.error["rmse_u8"],
+                 r.error["max_u8"],
+                 r.error["channels_off"], _psnr(r), r.cost["rays"], r.cost["cycles"],
+                 _secs(r)] for r in rows]
     elif axis == "prepass":
         cols = ["scene", "setting", "ρ", "t", "cycles", "ρ err", "t err", "cycles err", "eye rays",
                 "time share", "seconds"]
-        fmt = {"ρ": "f3", "t": "f3", "cycles": "int", "ρ err": "f3", "t err": "pct", "cycles err": "pct",
-               "eye rays": "int", "time share": "pct"}
-        body = [[r.scene, r.setting + (" (truth)" if r.truth else ""), r.values["rho"], r.values["t"],
+        fmt = {"ρ": "f3", "t": "f3", "cycles": "int", "ρ err": "f3", "t err": "pct",
+               "cycles err": "pct", "eye rays": "int", "time share": "pct"}
+        body = [[r.scene, r.setting + (" (truth)" if r.truth else ""),
+                 r.values["rho"], r.values["t"],
                  r.cost["cycles"], r.error["rho"], r.error["t"], r.error["cycles"], r.cost["rays"],
                  r.cost["time_share"], _secs(r)] for r in rows]
     else:
         cols = ["scene", "setting", "cycles", "95 % interval", "ρ", "μ", "t", "cycles err", "ρ err",
                 "μ err", "t err", "seconds", "simulated"]
-        fmt = {"cycles": "int", "ρ": "f3", "μ": "f3", "t": "f3", "cycles err": "pct", "ρ err": "pct",
+        fmt = {"cycles": "int", "ρ": "f3", "μ": "f3", "t": "f3",
+               "cycles err": "pct", "ρ err": "pct",
                "μ err": "pct", "t err": "pct", "simulated": "int"}
         body = [[r.scene, r.setting + (" (truth)" if r.truth else ""), r.values["cycles"], _ci(r),
                  r.values["rho"], r.values["mu"], r.values["t"], r.error["cycles"], r.error["rho"],
@@ -139,8 +144,10 @@ def write_json(path: Path, axes: dict[str, list[Row]], meta: dict) -> None:
 
 def write_csv(path: Path, rows: list[Row]) -> None:
     """Tidy: one line per scene × setting; every error, cost and value its own column."""
-    keys = {w: list(dict.fromkeys(k for r in rows for k in getattr(r, w))) for w in ("error", "cost", "values")}
-    header = ["scene", "setting", "truth", "seconds", "seconds_low", "seconds_high", "repeats", "emulated"] + [
+    keys = {w: list(dict.fromkeys(k for r in rows for k in getattr(r, w)))
+            for w in ("error", "cost", "values")}
+    header = ["scene", "setting", "truth", "seconds", "seconds_low", "seconds_high",
+              "repeats", "emulated"] + [
         f"{w}_{k}" for w in keys for k in keys[w]] + ["ci_low", "ci_high", "how"]
     with replacing(path, "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
@@ -152,7 +159,8 @@ def write_csv(path: Path, rows: list[Row]) -> None:
                         "" if t is None else len(t.runs), r.emulated]
                        + ["" if getattr(r, wh).get(k) is None else getattr(r, wh)[k]
                           for wh in keys for k in keys[wh]]
-                       + ["" if r.ci_low is None else r.ci_low, "" if r.ci_high is None else r.ci_high, r.how])
+                       + ["" if r.ci_low is None else r.ci_low,
+                          "" if r.ci_high is None else r.ci_high, r.how])
 
 
 def _plt():
@@ -203,26 +211,29 @@ def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
         for r, x, y in zip(mine, xs, ys):
             m = MARKERS[settings.index(r.setting) % len(MARKERS)]
             if r.emulated:
-                ax.scatter([x], [y], marker=m, s=55, facecolors="none", edgecolors=c, linewidths=1.2, zorder=3)
-                ax.annotate("emulation", (x, y), textcoords="offset points", xytext=(4, 4), fontsize=6,
-                            color=c)
+                ax.scatter([x], [y], marker=m, s=55, facecolors="none", edgecolors=c,
+                           linewidths=1.2, zorder=3)
+                ax.annotate("emulation", (x, y), textcoords="offset points",
+                            xytext=(4, 4), fontsize=6, color=c)
             else:
                 ax.scatter([x], [y], marker=m, s=130 if r.truth else 55, color=c,
                            edgecolors="black" if r.truth else "none", linewidths=1.6, zorder=3)
             if r.timing is not None and len(r.timing.runs) > 1:  # the spread of the repeated runs
-                ax.plot([max(r.timing.low, 1e-4), max(r.timing.high, 1e-4)], [y, y], color=c, lw=0.8,
-                        alpha=0.6)
+                ax.plot([max(r.timing.low, 1e-4), max(r.timing.high, 1e-4)], [y, y],
+                        color=c, lw=0.8, alpha=0.6)
             if r.ci_low is not None and axis == "fidelity":
                 truth = next(t for t in rows if t.scene == scene and t.truth).values["cycles"]
                 # the interval as the errors it allows: from its nearest to its farthest end, and
                 # down to the exact floor when it contains the truth (an error of 0 is allowed)
                 lo, hi = (r.ci_low - truth) / truth, (r.ci_high - truth) / truth
                 near = 0.0 if lo <= 0 <= hi else min(abs(lo), abs(hi))
-                ax.plot([x, x], [max(near, floor), max(abs(lo), abs(hi), floor)], color=c, lw=1, alpha=0.6)
+                ax.plot([x, x], [max(near, floor), max(abs(lo), abs(hi), floor)], color=c,
+                        lw=1, alpha=0.6)
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.axhline(floor, color="grey", ls="--", lw=0.8)
-    ax.text(ax.get_xlim()[0], floor, " exact (error 0)", va="bottom", ha="left", fontsize=8, color="grey")
+    ax.text(ax.get_xlim()[0], floor, " exact (error 0)", va="bottom", ha="left",
+            fontsize=8, color="grey")
     ax.set_xlabel("wall seconds, median of repeated runs (log; bars: min–max)")
     ax.set_ylabel(f"{label} (log)")
     ax.set_title(f"{TITLES[axis]} — {res}×{res}")
@@ -237,7 +248,8 @@ def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
     first = ax.legend(handles=scene_h, loc="lower left", bbox_to_anchor=(1.01, 0), fontsize=8,
                       title="scene")
     ax.add_artist(first)
-    ax.legend(handles=set_h, loc="upper left", bbox_to_anchor=(1.01, 1), fontsize=8, title="setting")
+    ax.legend(handles=set_h, loc="upper left", bbox_to_anchor=(1.01, 1), fontsize=8,
+              title="setting")
     ax.grid(True, which="major", alpha=0.3)
     fig.tight_layout()
     write_file(path, lambda p: fig.savefig(p, format=Path(path).suffix[1:] or None))
@@ -247,23 +259,26 @@ def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
 def report_markdown(axes: dict[str, list[Row]], meta: dict, files: list[str]) -> str:
     warm = meta.get("warm_up_seconds") or {}
     lines = ["# What accuracy costs", "",
-             f"`{meta['command']}` — {meta['res']}×{meta['res']}, machine rows on the `{meta['engine']}` "
-             f"engine, {meta['machine']}; {meta['seconds']:.0f} s in all.", "",
-             f"Times: every row's seconds are the median of {meta.get('repeats', 1)} runs, shown with "
-             "their (min–max) spread; every row includes host preparation (golden rows build their "
-             "grid; machine rows run `prepare` — grid, pre-pass, memory images, kernels — and then the "
-             "engine; the components are in accuracy.json). Settings whose spreads overlap cannot be "
-             "told apart by time. Before any timed row each path was compiled and warmed once"
+             f"`{meta['command']}` — {meta['res']}×{meta['res']}, machine rows on the "
+             f"`{meta['engine']}` engine, {meta['machine']}; {meta['seconds']:.0f} s in all.", "",
+             f"Times: every row's seconds are the median of {meta.get('repeats', 1)} runs, shown "
+             "with their (min–max) spread; every row includes host preparation (golden rows build "
+             "their grid; machine rows run `prepare` — grid, pre-pass, memory images, kernels — "
+             "and then the engine; the components are in accuracy.json). Settings whose spreads "
+             "overlap cannot be told apart by time. Before any timed row each path was compiled "
+             "and warmed once"
              + (" (" + ", ".join(f"{k} {v:.1f} s" for k, v in warm.items()) + ")" if warm else "")
-             + ": no row carries numba's compile. Rows marked `emulation` (golden fp16, golden bf16 "
-             "scene) are computed in software: their time is not the precision's cost (their cost is "
-             "rays traced) and they are left off the plots' Pareto fronts.", "",
-             "Each setting of each knob is one row: its error against that axis's truth and its cost "
-             "(wall seconds on this machine, and rays traced or machine cycles, which do not depend "
-             "on it). Every row's `how` (in accuracy.json and the CSV files) says how it was obtained.",
+             + ": no row carries numba's compile. Rows marked `emulation` (golden fp16, golden "
+               "bf16 scene) are computed in software: their time is not the precision's cost "
+               "(their cost is rays traced) and they are left off the plots' Pareto fronts.", "",
+             "Each setting of each knob is one row: its error against that axis's truth and its "
+             "cost (wall seconds on this machine, and rays traced or machine cycles, which do not "
+             "depend on it). Every row's `how` (in accuracy.json and the CSV files) says how it "
+             "was obtained.",
              ""]
     for axis, rows in axes.items():
-        lines += [f"## {axis}", "", HOW[axis], "", render_md([axis_section(axis, rows)]).rstrip(), ""]
+        lines += [f"## {axis}", "", HOW[axis], "",
+                  render_md([axis_section(axis, rows)]).rstrip(), ""]
         lines += [f"- {s}" for s in axis_sentences(axis, rows)] + [""]
         lines += [f"![{axis}](accuracy_{axis}.png)", ""]
     lines += ["Files: " + ", ".join(f"`{f}`" for f in files), ""]

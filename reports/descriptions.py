@@ -4,8 +4,8 @@
 `# description (unit; default ...)` above each configuration field, and both read it here:
 
 - the statistics' rows are `STATISTICS` below (a name pattern, a description, a unit), and the
-  stall causes' rows come from the stall glossary's table (reports/glossary.py `CAUSES`, the
-  home of what each cause means: `report stalls --explain` and docs/stalls.md read it too);
+  stall causes' rows come from the one stall-cause table (isa/stalls.py `CAUSES`, the home of
+  what each cause means: the engines, `report stalls --explain` and docs/stalls.md read it too);
 - the configuration's rows come from the configuration itself: each field's description is its
   docstring in isa/config.py (read from the source, so it has one home) and its unit is
   `CONFIG_UNITS` below; an opcode's latency comes from the opcode table (isa/opcodes.py).

@@ -58,7 +58,8 @@ def table2(scenes: list[SceneData]) -> list[dict]:
         rows.append({"scene": d.name, "primitives": d.n,
                      "visible_paper": p[0], "visible_ours": len(d.visible),
                      "visible_share_paper": p[1], "visible_share_ours": d.visible_share,
-                     "reference_share_paper": p[2], "reference_share_ours": d.visible_reference_share})
+                     "reference_share_paper": p[2],
+                     "reference_share_ours": d.visible_reference_share})
     return rows
 
 
@@ -120,7 +121,8 @@ def fig5_best(d: SceneData, local: float, what: str = "ref") -> tuple[float, flo
 
 
 def fig5_row(d: SceneData, local: float, split: float) -> dict:
-    return next(r for r in d.fig5 if abs(r["local_share"] - local) < 1e-9 and abs(r["resident_split"] - split) < 1e-9)
+    return next(r for r in d.fig5 if abs(r["local_share"] - local) < 1e-9
+                and abs(r["resident_split"] - split) < 1e-9)
 
 
 def fig4_miss(d: SceneData, share: float, what: str = "ref") -> float:
@@ -139,10 +141,11 @@ def _sampling_why(corners: bool) -> str:
     """Table 2's visible share depends on where eye rays sample a pixel; the other sampling is
     the experiment (`paper --corners` against the default pixel centres)."""
     if corners:
-        return ("unexplained with SPD corner rays (this run); where eye rays sample a pixel decides which "
-                "small primitives some ray hits: the pixel-centre run (without --corners) is the other reading")
-    return ("unexplained with pixel-centre rays (this run); where eye rays sample a pixel decides which "
-            "small primitives some ray hits: `paper --corners` is the other reading")
+        return ("unexplained with SPD corner rays (this run); where eye rays sample a pixel "
+                "decides which small primitives some ray hits: the pixel-centre run (without "
+                "--corners) is the other reading")
+    return ("unexplained with pixel-centre rays (this run); where eye rays sample a pixel decides "
+            "which small primitives some ray hits: `paper --corners` is the other reading")
 
 
 def explain(scenes: list[SceneData], metric, target: dict[str, float], tolerance: float,
@@ -160,10 +163,13 @@ def explain(scenes: list[SceneData], metric, target: dict[str, float], tolerance
     for k in names:
         vals = {d.name: metric(d.with_references(d.experiments[k])) for d in off}
         ok = all(abs(vals[n] - target[n]) <= tolerance for n in vals)
-        parts.append(f"{k}: " + ", ".join(f"{n} {_pct(metric(_by(off)[n]))} → {_pct(v)}" for n, v in vals.items()))
+        parts.append(f"{k}: "
+                     + ", ".join(f"{n} {_pct(metric(_by(off)[n]))} → {_pct(v)}"
+                                 for n, v in vals.items()))
         if ok:
             fixes.append(k)
-    tested = "experiments on the reference trace" + (f" ({measure})" if measure else "") + " — " + "; ".join(parts)
+    tested = "experiments on the reference trace" + (f" ({measure})" if measure
+                                                     else "") + " — " + "; ".join(parts)
     if fixes:
         return f"explained by {' / '.join(fixes)} (within {_pct(tolerance)} of the paper); {tested}"
     return f"unexplained: no experiment brings it within {_pct(tolerance)} of the paper ({tested})"
@@ -210,30 +216,39 @@ def _findings(scenes: list[SceneData], counting: str) -> list[Finding]:
 
     # Table 1 ----------------------------------------------------------------------------------
     rows1 = [r for r in table1(scenes) if r["equal"] is not None]
-    diffs = [f"{r['scene']} {r['column']} {r['ours']} (paper {r['paper']})" for r in rows1 if not r["equal"]]
+    diffs = [f"{r['scene']} {r['column']} {r['ours']} (paper {r['paper']})" for r in rows1
+             if not r["equal"]]
     out.append(Finding("Table 1", "tetra 4096 polygons; balls 7381 spheres + 1 polygon; mount 8192 "
-                       "polygons + 4 spheres; rings 4200 spheres + 4200 cylinders + 1 polygon; lights "
-                       "1/3/1/3; balls, mount, rings reflective; mount transparent",
-                       "every column equal", "every column equal" if not diffs else "; ".join(diffs),
-                       "agree" if rows1 and not diffs else ("not evaluated" if not rows1 else "differ"),
-                       "scene files",
-                       "" if not diffs else "unexplained: our SPD generators are ports of Haines's current "
+                                  "polygons + 4 spheres; rings 4200 spheres + 4200 cylinders + 1 "
+                                  "polygon; lights 1/3/1/3; balls, mount, rings reflective; mount "
+                                  "transparent",
+                       "every column equal",
+                       "every column equal" if not diffs else "; ".join(diffs),
+                       "agree" if rows1 and not diffs
+                       else ("not evaluated" if not rows1 else "differ"), "scene files",
+                       "" if not diffs
+                       else "unexplained: our SPD generators are ports of Haines's current "
                        "SPD; the paper may have used an older version (not tested)"))
     # Table 2 ----------------------------------------------------------------------------------
     rows = [r for r in table2(scenes) if r["visible_share_paper"] is not None]
     vis = {r["scene"]: abs(r["visible_share_ours"] - r["visible_share_paper"]) <= TABLE2_TOLERANCE for r in rows}
     out.append(Finding("Table 2", "visible primitives: " + ", ".join(
-        f"{n} {_pct(PAPER_TABLE2[n][1])}" for n in vis), f"share within {_pct(TABLE2_TOLERANCE)} (absolute) "
-        "of the paper's", "; ".join(f"{r['scene']} {r['visible_ours']} ({_pct(r['visible_share_ours'])})"
+        f"{n} {_pct(PAPER_TABLE2[n][1])}"
+        for n in vis), f"share within {_pct(TABLE2_TOLERANCE)} (absolute) "
+        "of the paper's",
+        "; ".join(f"{r['scene']} {r['visible_ours']} ({_pct(r['visible_share_ours'])})"
                                     for r in rows), _verdict(vis), "eye rays' hits",
         "" if all(vis.values()) else
-        (f"at {scenes[0].res}×{scenes[0].res} fewer eye rays hit fewer primitives (not an experiment)"
+        (f"at {scenes[0].res}×{scenes[0].res} fewer eye rays hit fewer primitives (not an "
+         "experiment)"
          if scenes[0].res < PAPER_RES else _sampling_why(scenes[0].corners))))
     target = {n: PAPER_TABLE2[n][2] for n in vis}
     ref = {r["scene"]: abs(r["reference_share_ours"] - r["reference_share_paper"]) <= TABLE2_TOLERANCE for r in rows}
     out.append(Finding("Table 2", "share of references to visible primitives: " + ", ".join(
-        f"{n} {_pct(target[n])}" for n in ref), f"within {_pct(TABLE2_TOLERANCE)} (absolute) of the paper's",
-        ", ".join(f"{r['scene']} {_pct(r['reference_share_ours'])}" for r in rows), _verdict(ref), per_test,
+        f"{n} {_pct(target[n])}"
+        for n in ref), f"within {_pct(TABLE2_TOLERANCE)} (absolute) of the paper's",
+        ", ".join(f"{r['scene']} {_pct(r['reference_share_ours'])}" for r in rows),
+        _verdict(ref), per_test,
         explain(scenes, lambda d: d.visible_reference_share, target, TABLE2_TOLERANCE)))
     # Figure 3 ---------------------------------------------------------------------------------
     c20 = {n: d.c_at(0.2) for n, d in by.items()}
@@ -245,50 +260,66 @@ def _findings(scenes: list[SceneData], counting: str) -> list[Finding]:
     mr = [n for n in ("mount", "rings") if n in by]
     lo, hi = FIG3_BAND
     band = {n: lo <= c20[n] <= hi for n in mr}
-    out.append(Finding("Figure 3", "in mount and rings 20 % of the primitives take 70–80 % of the references",
+    out.append(Finding("Figure 3",
+                       "in mount and rings 20 % of the primitives take 70–80 % of the references",
                        f"C(20 %) in {_pct(lo)}..{_pct(hi)} for mount and rings",
-                       ", ".join(f"{n} {_pct(c20[n])}" for n in mr) or "mount and rings not rendered",
-                       _verdict(band), per_test,
-                       explain([by[n] for n in mr], lambda d: d.c_at(0.2), {n: 0.75 for n in mr}, 0.05)))
+                       ", ".join(f"{n} {_pct(c20[n])}" for n in mr)
+                       or "mount and rings not rendered", _verdict(band), per_test,
+                       explain([by[n] for n in mr], lambda d: d.c_at(0.2),
+                               {n: 0.75 for n in mr}, 0.05)))
     unref = {n: by[n].unreferenced_share for n in mr}
     ok = {n: abs(unref[n] - PAPER_UNREFERENCED[n]) <= TABLE2_TOLERANCE for n in mr}
-    out.append(Finding("Figure 3", "primitives never referenced: 20 % in mount, 67 % in rings (C reaches 1 "
-                       "at f = 80 % and 33 %)", f"within {_pct(TABLE2_TOLERANCE)} (absolute) of the paper's",
-                       "; ".join(f"{n} {_pct(unref[n])} never referenced (C reaches 0.99 / 0.999 / 1 at f = "
-                                 f"{_pct(by[n].f_reaching(0.99))} / {_pct(by[n].f_reaching(0.999))} / "
-                                 f"{_pct(by[n].f_reaching(1.0))})" for n in mr) or "mount and rings not rendered",
+    out.append(Finding("Figure 3",
+                       "primitives never referenced: 20 % in mount, 67 % in rings (C reaches 1 "
+                       "at f = 80 % and 33 %)",
+                       f"within {_pct(TABLE2_TOLERANCE)} (absolute) of the paper's",
+                       "; ".join(f"{n} {_pct(unref[n])} never referenced (C reaches 0.99 / 0.999 / "
+                                 f"1 at f = {_pct(by[n].f_reaching(0.99))} / "
+                                 f"{_pct(by[n].f_reaching(0.999))} / "
+                                 f"{_pct(by[n].f_reaching(1.0))})"
+                                 for n in mr) or "mount and rings not rendered",
                        _verdict(ok), per_test,
                        explain([by[n] for n in mr], lambda d: d.unreferenced_share,
                                {n: PAPER_UNREFERENCED[n] for n in mr}, TABLE2_TOLERANCE)))
     c50 = {n: d.c_at(0.5) for n, d in by.items()}
     lo, hi = FIG3_SPAN
     most = {n: c20[n] <= FIG3_MOST <= c50[n] for n in by}
-    out.append(Finding("Figure 3", f"references concentrate on {_pct(lo)}–{_pct(hi)} of the primitives",
-                       f"{_pct(FIG3_MOST)} of the references fall on between {_pct(lo)} and {_pct(hi)} of the "
-                       f"primitives: C({_pct(lo)}) ≤ {_pct(FIG3_MOST)} ≤ C({_pct(hi)}) in every scene",
-                       "C(20 %) / C(50 %): " + ", ".join(f"{n} {_pct(c20[n])} / {_pct(c50[n])}" for n in by),
+    out.append(Finding("Figure 3",
+                       f"references concentrate on {_pct(lo)}–{_pct(hi)} of the primitives",
+                       f"{_pct(FIG3_MOST)} of the references fall on between {_pct(lo)} and "
+                       f"{_pct(hi)} of the primitives: C({_pct(lo)}) ≤ {_pct(FIG3_MOST)} ≤ "
+                       f"C({_pct(hi)}) in every scene",
+                       "C(20 %) / C(50 %): "
+                       + ", ".join(f"{n} {_pct(c20[n])} / {_pct(c50[n])}" for n in by),
                        _verdict(most), per_test,
-                       explain(scenes, lambda d: max(d.c_at(lo) - FIG3_MOST, FIG3_MOST - d.c_at(hi), 0.0),
+                       explain(scenes,
+                               lambda d: max(d.c_at(lo) - FIG3_MOST, FIG3_MOST - d.c_at(hi), 0.0),
                                {n: 0.0 for n in by}, 0.0, "how far C misses 80 %")))
     # Figure 4 ---------------------------------------------------------------------------------
     if all(d.fig4 for d in scenes):
         worst = {d.name: max(r[counting]["miss_rate"] for r in d.fig4) for d in scenes}
         out.append(Finding("Figure 4", "cache miss rates are low in every scene",
                            f"miss rate ≤ {_pct(FIG4_LOW)} at every cache size in every scene",
-                           "highest miss rate: " + ", ".join(f"{n} {_pct(v, 2)}" for n, v in worst.items()),
+                           "highest miss rate: "
+                           + ", ".join(f"{n} {_pct(v, 2)}" for n, v in worst.items()),
                            _verdict({n: v <= FIG4_LOW for n, v in worst.items()}), cnt,
                            "" if all(v <= FIG4_LOW for v in worst.values()) else "unexplained"))
         m10 = {d.name: fig4_miss(d, 0.1, counting) for d in scenes}
         m30 = {d.name: fig4_miss(d, 0.3, counting) for d in scenes}
         m100 = {d.name: fig4_miss(d, 1.0, counting) for d in scenes}
         sat = {n: m30[n] - m100[n] <= FIG4_SATURATION * max(m10[n] - m30[n], 0.0) for n in m30}
-        out.append(Finding("Figure 4", "the hit rate saturates once the cache exceeds about 30 % of the database",
-                           f"the hit-rate gain from 30 % to 100 % is at most {_pct(FIG4_SATURATION)} of the "
-                           "gain from 10 % to 30 % (docs/databases.md argues it)",
+        out.append(Finding("Figure 4",
+                           "the hit rate saturates once the cache exceeds about 30 % of the "
+                           "database",
+                           "the hit-rate gain from 30 % to 100 % is at most "
+                           f"{_pct(FIG4_SATURATION)} of the gain from 10 % to 30 % "
+                           "(docs/databases.md argues it)",
                            "hit-rate gain 10→30 % / 30→100 %: " + ", ".join(
-                               f"{n} {100 * (m10[n] - m30[n]):.2f} / {100 * (m30[n] - m100[n]):.2f} points"
+                               f"{n} {100 * (m10[n] - m30[n]):.2f} / "
+                               f"{100 * (m30[n] - m100[n]):.2f} points"
                                for n in m30),
-                           _verdict(sat), cnt, "" if all(sat.values()) else _fig4_why(scenes, counting)))
+                           _verdict(sat), cnt,
+                           "" if all(sat.values()) else _fig4_why(scenes, counting)))
     # Figure 5 ---------------------------------------------------------------------------------
     if all(d.fig5 for d in scenes):
         best = {(d.name, L): fig5_best(d, L, counting) for d in scenes for L in LOCAL_SHARES}
@@ -300,13 +331,17 @@ def _findings(scenes: list[SceneData], counting: str) -> list[Finding]:
             if L >= 0.3:
                 x, t = fig5_curve(by[n], L, counting)
                 k = int(np.searchsorted(x, best[(n, L)][0] - 1e-9))
-                falls[f"{n} {_pct(L)}"] = k > 0 and bool(np.all(t[1:k + 1] <= t[:k] * (1 + FIG5_FALL)))
-        out.append(Finding("Figure 5", "for 30 % and 50 % local memory t falls as the resident share grows",
-                           f"the best split has resident memory, and no step from cache-only to it raises t "
-                           f"by more than {_pct(FIG5_FALL)} (relative)",
-                           "falls to the best split: " + ", ".join(f"{k} {_yn(v)}" for k, v in falls.items()),
+                falls[f"{n} {_pct(L)}"] = k > 0 and bool(np.all(t[1:k
+                                                                  + 1] <= t[:k] * (1 + FIG5_FALL)))
+        out.append(Finding("Figure 5",
+                           "for 30 % and 50 % local memory t falls as the resident share grows",
+                           "the best split has resident memory, and no step from cache-only to it "
+                           f"raises t by more than {_pct(FIG5_FALL)} (relative)",
+                           "falls to the best split: "
+                           + ", ".join(f"{k} {_yn(v)}" for k, v in falls.items()),
                            _verdict(falls), cnt, "" if all(falls.values()) else "unexplained"))
-        out.append(Finding("Figure 5", "for 30 % and 50 % local memory t is lowest near 70 % resident "
+        out.append(Finding("Figure 5",
+                           "for 30 % and 50 % local memory t is lowest near 70 % resident "
                            "(resident : cache ≈ 3 : 1)",
                            f"the lowest t lies at a resident share in {_pct(lo)}..{_pct(hi)}",
                            "lowest t at resident share " + ", ".join(
@@ -318,30 +353,40 @@ def _findings(scenes: list[SceneData], counting: str) -> list[Finding]:
         out.append(Finding("Figure 5", "a larger local memory lowers t",
                            "the best t falls from 10 % to 30 % to 50 % local memory in every scene",
                            "best t at 10/30/50 % local: " + ", ".join(
-                               f"{n} " + "/".join(f"{best[(n, L)][1]:.2f}" for L in LOCAL_SHARES) for n in by)
-                           + " t_r", _verdict(bigger), cnt, "" if all(bigger.values()) else "unexplained"))
+                               f"{n} "
+                               + "/".join(f"{best[(n, L)][1]:.2f}"
+                                          for L in LOCAL_SHARES) for n in by)
+                           + " t_r", _verdict(bigger), cnt,
+                           "" if all(bigger.values()) else "unexplained"))
         rise = {}
         for d in scenes:
             x, t = fig5_curve(d, 0.1, counting)
             rise[d.name] = bool(best[(d.name, 0.1)][0] < 0.5 and t[-2] > t[0])
         out.append(Finding("Figure 5", "for 10 % local memory t rises with the resident share",
-                           "the best resident share at 10 % local is below 50 % and t at 90 % resident "
-                           "exceeds the cache-only t",
+                           "the best resident share at 10 % local is below 50 % and t at 90 % "
+                           "resident exceeds the cache-only t",
                            "best share, t at 90 % vs cache-only: " + ", ".join(
-                               f"{d.name} {_pct(best[(d.name, 0.1)][0])}, {fig5_curve(d, 0.1, counting)[1][-2]:.2f} vs "
+                               f"{d.name} {_pct(best[(d.name, 0.1)][0])}, "
+                               f"{fig5_curve(d, 0.1, counting)[1][-2]:.2f} vs "
                                f"{t0[(d.name, 0.1)]:.2f} t_r" for d in scenes), _verdict(rise), cnt,
                            "" if all(rise.values()) else "unexplained"))
         few = {d.name: fig5_row(d, 0.1, 1.0)[counting]["rho"] for d in scenes}
-        out.append(Finding("Figure 5", "for 10 % local memory a resident memory catches too few references "
+        out.append(Finding("Figure 5",
+                           "for 10 % local memory a resident memory catches too few references "
                            "(the paper's reason t rises)",
-                           f"ρ below {_pct(FIG5_FEW)} with all of the 10 % local memory resident, in every scene",
-                           "ρ at 10 % local, all resident: " + ", ".join(f"{n} {v:.3f}" for n, v in few.items()),
+                           f"ρ below {_pct(FIG5_FEW)} with all of the 10 % local memory resident, "
+                           "in every scene",
+                           "ρ at 10 % local, all resident: "
+                           + ", ".join(f"{n} {v:.3f}" for n, v in few.items()),
                            _verdict({n: v < FIG5_FEW for n, v in few.items()}), cnt,
                            "" if all(v < FIG5_FEW for v in few.values()) else "unexplained"))
-        diff = {d.name: (best[(d.name, 0.3)][1] - best[(d.name, 0.5)][1]) / best[(d.name, 0.5)][1] for d in scenes}
-        out.append(Finding("Figure 5", "30 % and 50 % local memory differ little: about 30 % of the "
+        diff = {d.name: (best[(d.name, 0.3)][1] - best[(d.name, 0.5)][1]) / best[(d.name, 0.5)][1]
+                for d in scenes}
+        out.append(Finding("Figure 5",
+                           "30 % and 50 % local memory differ little: about 30 % of the "
                            "database is the cost-effective local memory size",
-                           f"best t at 30 % within {_pct(FIG5_CLOSE)} (relative) of the best t at 50 %",
+                           f"best t at 30 % within {_pct(FIG5_CLOSE)} (relative) of the best t at "
+                           "50 %",
                            "best t at 30 % above the best at 50 % by " + ", ".join(
                                f"{n} {_pct(v, 1)}" for n, v in diff.items()),
                            _verdict({n: v <= FIG5_CLOSE for n, v in diff.items()}), cnt,
@@ -351,10 +396,11 @@ def _findings(scenes: list[SceneData], counting: str) -> list[Finding]:
         gain = {k: 1 - with_res[k] / t0[k] for k in best}
         beat = {f"{n} {_pct(L)}": gain[(n, L)] >= FIG5_GAIN for (n, L) in gain if L >= 0.3}
         out.append(Finding("Figure 5", "resident memory beats a cache-only local memory",
-                           f"at 30 % and 50 % local the best split with resident memory has a t at least "
-                           f"{_pct(FIG5_GAIN)} below the cache-only split's",
+                           "at 30 % and 50 % local the best split with resident memory has a t at "
+                           f"least {_pct(FIG5_GAIN)} below the cache-only split's",
                            "t saved by the best split with resident memory: " + "; ".join(
-                               f"{n} " + "/".join(_pct(gain[(n, L)]) for L in LOCAL_SHARES) for n in by)
+                               f"{n} "
+                               + "/".join(_pct(gain[(n, L)]) for L in LOCAL_SHARES) for n in by)
                            + " (10/30/50 % local)", _verdict(beat), cnt,
                            "" if all(beat.values()) else "unexplained"))
         low = []
@@ -366,19 +412,26 @@ def _findings(scenes: list[SceneData], counting: str) -> list[Finding]:
                         low.append((d.name, L, r["resident_split"], r[counting]["rho"],
                                     1 - r[counting]["t_measured"] / d.t_r / t0[(d.name, L)]))
         if not low:
-            out.append(Finding("Figure 5", "resident memory helps little when its reference share is low",
-                               f"wherever 0 < ρ < {LOW_RHO}, t is less than {_pct(LITTLE_GAIN)} below cache-only",
-                               f"no configuration has 0 < ρ < {LOW_RHO} (lowest ρ with a resident memory: "
-                               + ", ".join(f"{d.name} {min(r[counting]['rho'] for r in d.fig5 if r['resident_split'] > 0):.3f}"
+            out.append(Finding("Figure 5",
+                               "resident memory helps little when its reference share is low",
+                               f"wherever 0 < ρ < {LOW_RHO}, t is less than {_pct(LITTLE_GAIN)} "
+                               "below cache-only",
+                               f"no configuration has 0 < ρ < {LOW_RHO} (lowest ρ with a resident "
+                               "memory: "
+                               + ", ".join(f"{d.name} "
+                                           f"{min(r[counting]['rho'] for r in d.fig5 if r['resident_split'] > 0):.3f}"
                                            for d in scenes) + ")", "not testable here", cnt))
         else:
             held = {f"{n} {_pct(L)}/{_pct(s)}": g < LITTLE_GAIN for n, L, s, rho, g in low}
             worst_gain = max(low, key=lambda x: x[4])
-            out.append(Finding("Figure 5", "resident memory helps little when its reference share is low",
-                               f"wherever 0 < ρ < {LOW_RHO}, t is less than {_pct(LITTLE_GAIN)} below cache-only",
-                               f"{len(low)} configurations with 0 < ρ < {LOW_RHO}; the largest gain among them: "
-                               f"{worst_gain[0]} at {_pct(worst_gain[1])} local, {_pct(worst_gain[2])} resident "
-                               f"(ρ {worst_gain[3]:.3f}): {_pct(worst_gain[4], 1)}", _verdict(held), cnt,
+            out.append(Finding("Figure 5",
+                               "resident memory helps little when its reference share is low",
+                               f"wherever 0 < ρ < {LOW_RHO}, t is less than {_pct(LITTLE_GAIN)} "
+                               "below cache-only",
+                               f"{len(low)} configurations with 0 < ρ < {LOW_RHO}; the largest "
+                               f"gain among them: {worst_gain[0]} at {_pct(worst_gain[1])} local, "
+                               f"{_pct(worst_gain[2])} resident (ρ {worst_gain[3]:.3f}): "
+                               f"{_pct(worst_gain[4], 1)}", _verdict(held), cnt,
                                "" if all(held.values()) else "unexplained"))
     return out
 
@@ -390,8 +443,10 @@ def _fig4_why(scenes: list[SceneData], counting: str) -> str:
     for d in scenes:
         m = [fig4_miss(d, s, counting) for s in (0.3, 0.5, 0.7, 1.0)]
         parts.append(f"{d.name} {' → '.join(_pct(v, 2) for v in m)}")
-    return ("unexplained: the misses keep falling from 30 % to 50 %, 70 % and 100 % of the database ("
-            + "; ".join(parts) + "): capacity misses persist past 30 %; neither the paper's curve nor "
+    return ("unexplained: the misses keep falling from 30 % to 50 %, 70 % and 100 % of the "
+            "database ("
+            + "; ".join(parts)
+            + "): capacity misses persist past 30 %; neither the paper's curve nor "
             "an experiment here says why the paper's stopped")
 
 

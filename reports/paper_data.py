@@ -65,7 +65,8 @@ class PaperOptions:
 
     def describe(self) -> str:
         size = ("shape records only" if self.sizing == "records" else "list cells + shape records")
-        where = ("list cells in local memory, outside the cache and the shares" if self.lists == "local"
+        where = ("list cells in local memory, outside the cache and the shares"
+                 if self.lists == "local"
                  else "list cells in ICGM, read through the cache")
         return f"database = {size}; {where}"
 
@@ -94,7 +95,8 @@ class SceneData:
     block_bytes: int = 64
     seconds: dict[str, float] = field(default_factory=dict)
     options: PaperOptions = field(default_factory=PaperOptions)
-    experiments: dict[str, np.ndarray] = field(default_factory=dict)  # variant -> tests per primitive
+    experiments: dict[str,
+                      np.ndarray] = field(default_factory=dict)  # variant -> tests per primitive
     readings: dict[str, "SceneData"] = field(default_factory=dict)  # candidate reading -> its sweep
 
     # Table 2 ------------------------------------------------------------------------------
@@ -197,7 +199,8 @@ CANDIDATES = ("sizing records+lists", "lists in the cache", "32-byte blocks", "1
 (`candidate_readings`); ray order and PE count need the machine (`--on-machine`)."""
 
 
-def candidate_readings(config: MachineConfig, options: PaperOptions) -> dict[str, tuple[MachineConfig, PaperOptions]]:
+def candidate_readings(config: MachineConfig, options: PaperOptions) -> dict[str,
+                                                                             tuple[MachineConfig, PaperOptions]]:
     """Each candidate explanation as a (config, options) that differs from the run's in one
     choice; a candidate equal to the run's own reading is skipped."""
     out = {}
@@ -238,7 +241,8 @@ def _sweep(scene, golden, pre, grid, config: MachineConfig, options: PaperOption
     n_chunks = max(1, -(-len(order) // rays_per_chunk))
     loads = 0
     what = f"{scene.name}: replay {len(points)} memory configurations{label}"
-    for i, (space, address) in enumerate(ordered_stream_chunks(reference, golden, order, rays_per_chunk)):
+    for i, (space,
+            address) in enumerate(ordered_stream_chunks(reference, golden, order, rays_per_chunk)):
         progress(what, i, n_chunks)
         loads += len(address)
         sweep.replay(space, address)
@@ -277,13 +281,14 @@ def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
     pre = run_prepass(scene, config, res=res, corners=corners, grid=grid)
     seconds["prepass"] = time.perf_counter() - t1
     t2 = time.perf_counter()
-    sizes, fig4, fig5, loads = _sweep(scene, golden, pre, grid, config, options, "", progress, rays_per_chunk)
+    sizes, fig4, fig5, loads = _sweep(scene, golden, pre, grid, config, options, "",
+                                      progress, rays_per_chunk)
     seconds["replay"] = time.perf_counter() - t2
     mc = config.ic_memory
     data = SceneData(name=scene.name, res=res, corners=corners, precision=config.precision,
                      counts=scene_counts(scene), database_bytes=sizes["database"],
-                     primitive_database_bytes=sizes["primitive_database_bytes"], rays=dict(golden.rays),
-                     references=golden.references.copy(),
+                     primitive_database_bytes=sizes["primitive_database_bytes"],
+                     rays=dict(golden.rays), references=golden.references.copy(),
                      visible=np.unique(golden.hit_ids[golden.hit_ids >= 0]).astype(np.int64),
                      prepass=pre.summary(), fig4=fig4, fig5=fig5, loads=loads, t_r=mc.t_r,
                      block_bytes=mc.block_bytes, seconds=seconds, options=options,
@@ -291,8 +296,8 @@ def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
     if candidates:
         t3 = time.perf_counter()
         for label, (cfg, opts) in candidate_readings(config, options).items():
-            sizes, fig4, fig5, loads = _sweep(scene, golden, pre, grid, cfg, opts, f" ({label})", progress,
-                                              rays_per_chunk)
+            sizes, fig4, fig5, loads = _sweep(scene, golden, pre, grid, cfg, opts,
+                                              f" ({label})", progress, rays_per_chunk)
             v = copy.copy(data)
             v.database_bytes, v.primitive_database_bytes = sizes["database"], sizes["primitive_database_bytes"]
             v.fig4, v.fig5, v.loads, v.options = fig4, fig5, loads, opts

@@ -23,7 +23,8 @@ from netsushisen.outputs import replacing, write_file
 from netsushisen.reports.paper import table1, table2
 from netsushisen.reports.paper_data import COUNTINGS, LOCAL_SHARES, SceneData
 
-FIGURES = ("fig3_locality.png", "fig4_miss_rate.png", "fig5_access_time.png", "fig5_access_time_per_word.png")
+FIGURES = ("fig3_locality.png", "fig4_miss_rate.png", "fig5_access_time.png",
+           "fig5_access_time_per_word.png")
 
 
 def _plt():
@@ -68,10 +69,13 @@ def write_csvs(scenes: list[SceneData], out: Path) -> list[Path]:
         for r in d.fig4:
             a, s = r["all"], r["shape"]
             f = r["ref"]
-            rows.append([d.name, r["cache_share"], r["cache_bytes"], f["cache_accesses"], f["cache_hits"],
-                         f"{f['miss_rate']:.6f}", a["cache_accesses"], a["cache_hits"], f"{a['miss_rate']:.6f}",
+            rows.append([d.name, r["cache_share"], r["cache_bytes"], f["cache_accesses"],
+                         f["cache_hits"],
+                         f"{f['miss_rate']:.6f}", a["cache_accesses"], a["cache_hits"],
+                         f"{a['miss_rate']:.6f}",
                          s["cache_accesses"], s["cache_hits"], f"{s['miss_rate']:.6f}"])
-    write("fig4_miss_rate.csv", ["scene", "cache_share", "cache_bytes", "references", "reference_hits",
+    write("fig4_miss_rate.csv",
+          ["scene", "cache_share", "cache_bytes", "references", "reference_hits",
                                  "miss_rate", "word_accesses", "word_hits", "word_miss_rate",
                                  "shape_accesses", "shape_hits", "shape_miss_rate"], rows)
     rows = []
@@ -79,12 +83,16 @@ def write_csvs(scenes: list[SceneData], out: Path) -> list[Path]:
         for r in d.fig5:
             a, s = r["all"], r["shape"]
             f = r["ref"]
-            rows.append([d.name, r["local_share"], r["resident_split"], r["resident_bytes"], r["cache_bytes"],
+            rows.append([d.name, r["local_share"], r["resident_split"], r["resident_bytes"],
+                         r["cache_bytes"],
                          r["resident_count"], f["loads"], f"{f['rho']:.6f}", f"{f['mu']:.6f}",
                          f"{f['t_measured']:.6f}", a["loads"], f"{a['rho']:.6f}", f"{a['mu']:.6f}",
-                         f"{a['t_measured']:.6f}", f"{s['rho']:.6f}", f"{s['mu']:.6f}", f"{s['t_measured']:.6f}"])
-    write("fig5_access_time.csv", ["scene", "local_share", "resident_split", "resident_bytes", "cache_bytes",
-                                   "resident_count", "references", "rho", "mu", "t", "word_loads", "word_rho",
+                         f"{a['t_measured']:.6f}", f"{s['rho']:.6f}", f"{s['mu']:.6f}",
+                         f"{s['t_measured']:.6f}"])
+    write("fig5_access_time.csv",
+          ["scene", "local_share", "resident_split", "resident_bytes", "cache_bytes",
+                                   "resident_count", "references", "rho", "mu", "t",
+                                   "word_loads", "word_rho",
                                    "word_mu", "word_t", "shape_rho", "shape_mu", "shape_t"], rows)
     return paths
 
@@ -118,7 +126,8 @@ def figure3(scenes: list[SceneData], path: Path) -> None:
                     markerfacecolor="white", label=f"paper: {name} reaches C = 1 at f = {f1} %")
     ax.set_xlabel("f(k) = k/N: share of primitives, most referenced first (%)")
     ax.set_ylabel("C(k): cumulative share of references (%)")
-    ax.set_title(f"Figure 3: locality of primitive references (tests per primitive)\n({_suffix(scenes)})")
+    ax.set_title("Figure 3: locality of primitive references (tests per "
+                 f"primitive)\n({_suffix(scenes)})")
     ax.set_xlim(0, 100)
     ax.set_ylim(0, 103)
     ax.grid(alpha=0.3)
@@ -140,13 +149,15 @@ def figure4(scenes: list[SceneData], path: Path) -> None:
         ax.axvline(30, **PAPER_STYLE, label="paper: saturates above 30 %")
         ax.set_xlabel(f"cache size (% of the database: {_sizing(scenes)})")
         ax.set_ylabel("cache miss rate (%)")
-        ax.set_title(COUNTINGS[what] + (" (the paper's counting)" if what == "ref" else ""), fontsize=10)
+        ax.set_title(COUNTINGS[what]
+                     + (" (the paper's counting)" if what == "ref" else ""), fontsize=10)
         ax.set_xlim(0, 105)
         ax.set_ylim(bottom=0)
         ax.grid(alpha=0.3)
         ax.legend(title="scene (database)", fontsize=7, title_fontsize=7)
-    fig.suptitle(f"Figure 4: cache miss rate, cache-only local memory ({_suffix(scenes)}, direct-mapped, "
-                 f"{scenes[0].block_bytes}-byte blocks)\n{scenes[0].options.describe()}", fontsize=10)
+    fig.suptitle(f"Figure 4: cache miss rate, cache-only local memory ({_suffix(scenes)}, "
+                 f"direct-mapped, {scenes[0].block_bytes}-byte "
+                 f"blocks)\n{scenes[0].options.describe()}", fontsize=10)
     fig.tight_layout()
     write_file(path, lambda p: fig.savefig(p, format=Path(path).suffix[1:] or None))
     plt.close(fig)
@@ -188,11 +199,12 @@ def figure5_drawn(scenes: list[SceneData], what: str = "ref"):
         lo, hi = fig5_ylim(body)
         for i, local, x, t in curves:
             st = _style(i)
-            line, = ax.plot(x, [min(v, hi) for v in t], linestyle=st["linestyle"], marker=st["marker"],
-                            markersize=4, label=f"local {100 * local:.0f} %")
+            line, = ax.plot(x, [min(v, hi) for v in t], linestyle=st["linestyle"],
+                            marker=st["marker"], markersize=4, label=f"local {100 * local:.0f} %")
             for xx, v in zip(x, t):
                 if v > hi:  # clipped: the value in a column right of every marker, an arrow to the edge
-                    ax.annotate(f"{v:.1f}", (xx, hi), xytext=(CLIP_LABEL_X, hi - (0.12 + 0.09 * i) * (hi - lo)),
+                    ax.annotate(f"{v:.1f}", (xx, hi),
+                                xytext=(CLIP_LABEL_X, hi - (0.12 + 0.09 * i) * (hi - lo)),
                                 fontsize=7, color=line.get_color(), ha="left", va="center",
                                 arrowprops={"arrowstyle": "->", "color": line.get_color()})
         ax.axvline(70, **PAPER_STYLE, label="paper: best near 70 % (3 : 1)")
@@ -203,7 +215,8 @@ def figure5_drawn(scenes: list[SceneData], what: str = "ref"):
         ax.set_xticks(range(0, 101, 20))
         ax.set_ylim(lo, hi)
         ax.grid(alpha=0.3)
-        ax.legend(title="local memory (% of database)", fontsize=7, title_fontsize=7, loc="upper left")
+        ax.legend(title="local memory (% of database)", fontsize=7, title_fontsize=7,
+                  loc="upper left")
     for ax in axes.ravel()[n:]:
         ax.set_visible(False)
     fig.suptitle("Figure 5: effective access time t = t_r·{ρ + (1 − ρ)(8 − 6μ)}, "

@@ -14,19 +14,20 @@ DEFAULTS_ARGUED = [
     "- **Per primitive reference is the paper's counting.** Figure 3 counts references per "
     "primitive (REF(i)), and §6 reads ρ — \"the share of references served by resident memory\" — "
     "off that curve: resident memory holds whole primitives chosen by their reference counts, so "
-    "its ρ is a share of primitive references. The formula t = ρ·t_r + (1 − ρ)·{μ·t_c + (1 − μ)·t_g} "
-    "charges one access time per reference. Per word, one test reads 2 list words and 5–13 record "
-    "words that share 64-byte blocks, so most words hit because their neighbour missed; that "
-    "counting is shown beside, never as the paper's.",
-    "- **Sizing against the shape records.** The paper lists the primitive list and the primitive shape "
-    "data as separate databases; resident memory receives \"primitive data\" in priority order "
-    "(§4.4, the pre-pass). Figures 4–5 size local memory as a share of the scene's primitive "
+    "its ρ is a share of primitive references. The formula t = ρ·t_r + (1 − ρ)·{μ·t_c + (1 − "
+    "μ)·t_g} charges one access time per reference. Per word, one test reads 2 list words and 5–13 "
+    "record words that share 64-byte blocks, so most words hit because their neighbour missed; "
+    "that counting is shown beside, never as the paper's.",
+    "- **Sizing against the shape records.** The paper lists the primitive list and the primitive "
+    "shape data as separate databases; resident memory receives \"primitive data\" in priority "
+    "order (§4.4, the pre-pass). Figures 4–5 size local memory as a share of the scene's primitive "
     "database; we read that as the data the pre-pass ranks — one record per primitive — not our "
     "list cells, whose count is an artefact of our grid (39–63 % of lists + records).",
     "- **List cells in local memory.** §4.4 has IC read primitive i's priority P_i *from resident "
     "memory* and compare it with M before it chooses resident memory or the cache; the priority "
     "lives in the list cell, so the paper's list cells are read locally, not through the cache. "
-    "The machine's IC kernel keeps them in ICGM (docs/databases.md): `--lists cache` evaluates that.",
+    "The machine's IC kernel keeps them in ICGM (docs/databases.md): `--lists cache` evaluates "
+    "that.",
     "- **Whole primitives resident by priority.** The resident fill copies records in priority "
     "order until the next one does not fit (M records), as §4.4 describes; IC tests P_i ≤ M.",
 ]
@@ -52,7 +53,8 @@ def verdict_counts(items: list[Finding]) -> dict[str, int]:
 
 
 def _counts_text(items: list[Finding]) -> str:
-    return ", ".join(f"{v} {k}" for k, v in verdict_counts(items).items()) + f" (of {len(items)} findings)"
+    return ", ".join(f"{v} {k}"
+                     for k, v in verdict_counts(items).items()) + f" (of {len(items)} findings)"
 
 
 def _experiments(scenes: list[SceneData]) -> list[str]:
@@ -72,22 +74,26 @@ def _fig5_rows(scenes: list[SceneData], what: str) -> list[str]:
         for L in LOCAL_SHARES:
             split, t, row = fig5_best(d, L, what)
             t0 = fig5_curve(d, L, what)[1][0]
-            rows.append([d.name, f"{100 * L:.0f} %", f"{t0:.3f}", f"{100 * split:.0f} %", f"{t:.3f}",
-                         f"{row[what]['rho']:.3f}", f"{row[what]['mu']:.4f}", row["resident_count"]])
+            rows.append([d.name, f"{100 * L:.0f} %", f"{t0:.3f}",
+                         f"{100 * split:.0f} %", f"{t:.3f}",
+                         f"{row[what]['rho']:.3f}", f"{row[what]['mu']:.4f}",
+                         row["resident_count"]])
     return _md_table(["scene", "local memory", "t cache-only", "best resident share", "t there",
                       "ρ there", "μ there", "M there"], rows)
 
 
 def _on_machine(check: dict) -> list[str]:
     lines = ["## On the machine", "",
-             f"`--on-machine`: each scene rendered by the emulated machine ({check['engine']} engine, serial "
-             f"ray-tree mode SERIAL_TREES=1, one slot) at {check['res']}×{check['res']} with the default "
-             f"memory configuration ({check['memory']}), {check['workers']} scenes at a time; IC's per-word "
-             "counters (loads by memory and by region, loads per primitive, and the per-word ρ and μ) "
+             f"`--on-machine`: each scene rendered by the emulated machine ({check['engine']} "
+             "engine, serial ray-tree mode SERIAL_TREES=1, one slot) at "
+             f"{check['res']}×{check['res']} with the default memory configuration "
+             f"({check['memory']}), {check['workers']} scenes at a time; IC's per-word counters "
+             "(loads by memory and by region, loads per primitive, and the per-word ρ and μ) "
              "compared with the trace-driven path's for the same images.", ""]
     rows = [[r["scene"], f"{r['cycles']:,}", f"{r['seconds']:.0f}", r["rho"], r["mu"],
              "equal" if r["equal"] else "DIFFERENT: " + r["difference"]] for r in check["scenes"]]
-    lines += _md_table(["scene", "machine cycles", "wall s", "ρ (per word)", "μ (per word)", "counters"], rows)
+    lines += _md_table(["scene", "machine cycles", "wall s", "ρ (per word)", "μ (per word)",
+                        "counters"], rows)
     same = all(r["equal"] for r in check["scenes"])
     lines += ["", f"**{'All counters equal' if same else 'Counters differ'}** "
               f"({len(check['scenes'])} scenes; wall time {check['seconds']:.0f} s).", ""]
@@ -101,16 +107,18 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
     `word_items`: the same findings per word; `machine`: the `--on-machine` check."""
     res = settings["res"]
     lines = ["# Netsushisen paper reproduction: Table 1, Table 2, Figures 3–5", "",
-             f"Generated by `{settings['command']}`. Murata, Gwun, Murakami, Tomita, \"Netsushisen: a "
-             "parallel rendering machine for high-speed ray tracing — memory structure and its "
-             "evaluation\" (Kyushu University, about 1992); their numbers are its Tables 1–2 and Figures 3–5.", ""]
+             f"Generated by `{settings['command']}`. Murata, Gwun, Murakami, Tomita, "
+             "\"Netsushisen: a parallel rendering machine for high-speed ray tracing — memory "
+             "structure and its evaluation\" (Kyushu University, about 1992); their numbers are "
+             "its Tables 1–2 and Figures 3–5.", ""]
     if missing:
         lines += [f"**Incomplete run:** interrupted before {', '.join(missing)} finished; only the "
                   "scenes below are evaluated.", ""]
     if not scenes:
         return "\n".join(lines + ["No scene finished.", ""])
     d0 = scenes[0]
-    lists = ", ".join(f"{d.name} {_pct(d.database_bytes['primitive_list'] / (d.database_bytes['primitive_list'] + d.database_bytes['shape_data']))}"
+    lists = ", ".join(f"{d.name} "
+                      f"{_pct(d.database_bytes['primitive_list'] / (d.database_bytes['primitive_list'] + d.database_bytes['shape_data']))}"
                       for d in scenes)
     lines += [
         "## How these numbers were made", "",
@@ -121,22 +129,26 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
         f"- Pre-pass (resident priorities): the golden model at {d0.prepass['resolution']}×"
         f"{d0.prepass['resolution']} (1 % of the main pass's eye rays, as the paper).",
         "- IC's loads: the IC access protocol (docs/databases.md) replayed from the golden model's "
-        "reference trace, rays in the machine's serial order (pixel by pixel, each ray tree in level "
-        "order), through a trace-driven resident memory + direct-mapped cache with the emulator's "
-        f"rules ({d0.block_bytes}-byte blocks, t_c = 2·t_r, t_g = 8·t_r).",
+        "reference trace, rays in the machine's serial order (pixel by pixel, each ray tree in "
+        "level order), through a trace-driven resident memory + direct-mapped cache with the "
+        f"emulator's rules ({d0.block_bytes}-byte blocks, t_c = 2·t_r, t_g = 8·t_r).",
         f"- **Counting, sizing, lists** (every figure and Figure 4–5 finding says which): "
         f"{d0.options.describe()} (`--sizing {d0.options.sizing} --lists {d0.options.lists}`). "
         f"Figures 4–5 and their findings count {COUNTINGS['ref']} (primary); the tables below and "
         f"the CSV files give {COUNTINGS['all']} beside. List cells are {lists} of lists + records.",
         "", "### Why these defaults are the paper's", "", *DEFAULTS_ARGUED, ""]
-    lines += ["## Verdict", "", f"- {COUNTINGS['ref']} (the paper's counting): {_counts_text(items)}."]
+    lines += ["## Verdict", "",
+              f"- {COUNTINGS['ref']} (the paper's counting): {_counts_text(items)}."]
     if word_items is not None:
         lines += [f"- {COUNTINGS['all']}: {_counts_text(word_items)}."]
     if all(d.readings for d in scenes):
         lines += [f"- {COUNTINGS['ref']}, under the candidate reading *{k}* (Figures 4–5 rerun): "
-                  f"{_counts_text(findings([d.readings[k] for d in scenes], 'ref'))}." for k in scenes[0].readings]
-        lines += ["", "Every Figure 4–5 finding that is not \"agree\" names what each candidate reading "
-                  "makes of it (*Why*); ray order and PE count need the machine (`--on-machine`)."]
+                  f"{_counts_text(findings([d.readings[k] for d in scenes], 'ref'))}."
+                  for k in scenes[0].readings]
+        lines += ["",
+                  "Every Figure 4–5 finding that is not \"agree\" names what each candidate "
+                  "reading makes of it (*Why*); ray order and PE count need the machine "
+                  "(`--on-machine`)."]
     lines += [""]
     if machine:
         lines += _on_machine(machine)
@@ -155,25 +167,30 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
         rows.append(cells)
     lines += _md_table(["scene", *TABLE1_COLUMNS], rows) + [""]
     # Table 2
-    lines += [f"## Table 2: primitives visible from the eye (ours at {res}×{res}, paper at {PAPER_RES}×{PAPER_RES})", ""]
+    lines += [f"## Table 2: primitives visible from the eye (ours at {res}×{res}, paper at "
+              f"{PAPER_RES}×{PAPER_RES})", ""]
     rows = [[r["scene"], _pair(r["visible_paper"], r["visible_ours"]),
              _pair(r["visible_share_paper"], r["visible_share_ours"], _pct),
-             _pair(r["reference_share_paper"], r["reference_share_ours"], _pct)] for r in table2(scenes)]
+             _pair(r["reference_share_paper"], r["reference_share_ours"],
+                   _pct)] for r in table2(scenes)]
     lines += _md_table(["scene", "visible primitives", "share of all primitives",
                         "share of references to visible primitives"], rows) + [""]
     # Figure 3
-    lines += ["## Figure 3: locality (tests per primitive, every ray kind)", "", "![Figure 3](fig3_locality.png)", ""]
-    lines += _md_table(["scene", "C at f = 10 %", "C at f = 20 %", "C at f = 50 %", "never referenced",
+    lines += ["## Figure 3: locality (tests per primitive, every ray kind)", "",
+              "![Figure 3](fig3_locality.png)", ""]
+    lines += _md_table(["scene", "C at f = 10 %", "C at f = 20 %", "C at f = 50 %",
+                        "never referenced",
                         "f where C ≥ 0.99", "f where C ≥ 0.999", "f where C = 1"],
                        [[d.name, _pct(d.c_at(0.1)), _pct(d.c_at(0.2)), _pct(d.c_at(0.5)),
-                         _pct(d.unreferenced_share), _pct(d.f_reaching(0.99), 1), _pct(d.f_reaching(0.999), 1),
+                         _pct(d.unreferenced_share), _pct(d.f_reaching(0.99), 1),
+                         _pct(d.f_reaching(0.999), 1),
                          _pct(d.f_reaching(1.0), 1)] for d in scenes]) + [""]
-    lines += ["The paper reads \"C = 1\" off its plot at f = 80 % (mount) and 33 % (rings); C reaches 1 "
-              "exactly at 1 − (never-referenced share), and 0.99 / 0.999 say how much of that tail "
-              "carries almost no references.", ""]
+    lines += ["The paper reads \"C = 1\" off its plot at f = 80 % (mount) and 33 % (rings); C "
+              "reaches 1 exactly at 1 − (never-referenced share), and 0.99 / 0.999 say how much of "
+              "that tail carries almost no references.", ""]
     lines += ["### Experiments on the reference trace", "",
-              "Variants of the main pass that the trace alone answers (no new render); the findings' "
-              "explanations cite them.", ""]
+              "Variants of the main pass that the trace alone answers (no new render); the "
+              "findings' explanations cite them.", ""]
     lines += _experiments(scenes) + [""]
     # Figure 4
     lines += [f"## Figure 4: cache miss rate, cache-only local memory ({d0.options.describe()})", "",
@@ -182,30 +199,36 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
     for what in ("ref", "all"):
         lines += [f"{COUNTINGS[what].capitalize()}:", ""]
         lines += _md_table(["scene", *[f"{100 * s:.0f} %" for s in shares]],
-                           [[d.name, *[_pct(r[what]["miss_rate"], 2) for r in d.fig4]] for d in scenes]) + [""]
+                           [[d.name, *[_pct(r[what]["miss_rate"], 2) for r in d.fig4]]
+                            for d in scenes]) + [""]
     # Figure 5
-    lines += [f"## Figure 5: effective access time against the resident share ({d0.options.describe()})", "",
+    lines += ["## Figure 5: effective access time against the resident share "
+              f"({d0.options.describe()})", "",
               "![Figure 5](fig5_access_time.png)", ""]
     for what in ("ref", "all"):
-        lines += [f"{COUNTINGS[what].capitalize()} (t in units of t_r):", ""] + _fig5_rows(scenes, what) + [""]
+        lines += [f"{COUNTINGS[what].capitalize()} (t in units of t_r):",
+                  ""] + _fig5_rows(scenes, what) + [""]
     # Findings
     lines += ["## The paper's findings and ours", "",
               "Each finding is decided by the threshold in *Test*; \"not testable here\" means the "
               "premise never occurs in our data. Figures 4–5 count per primitive reference.", ""]
     for i, f in enumerate(items, 1):
-        lines += [f"{i}. **{f.figure}: {f.paper}.** *Test:* {f.test}. *Ours* ({f.counting}): {f.ours}. "
+        lines += [f"{i}. **{f.figure}: {f.paper}.** *Test:* {f.test}. *Ours* ({f.counting}): "
+                  f"{f.ours}. "
                   f"**{f.verdict.capitalize()}.**" + (f" *Why:* {f.why}." if f.why else ""), ""]
     if word_items is not None:
         lines += ["### The same findings counted per word", ""]
         rows = [[i, f"{f.figure}: {f.paper}", f.verdict, w.verdict, w.ours]
-                for i, (f, w) in enumerate(zip(items, word_items), 1) if f.figure in ("Figure 4", "Figure 5")]
-        lines += _md_table(["#", "finding", "per reference", "per word", "per word, ours"], rows) + [""]
+                for i, (f, w) in enumerate(zip(items, word_items), 1)
+                if f.figure in ("Figure 4", "Figure 5")]
+        lines += _md_table(["#", "finding", "per reference", "per word",
+                            "per word, ours"], rows) + [""]
     lines += ["## Files and times", ""]
     lines += [f"- `{f}`" for f in files]
     timing = [[d.name, f"{d.loads:,}", f"{d.seconds.get('golden', 0):.1f}",
                f"{d.seconds.get('prepass', 0):.1f}", f"{d.seconds.get('replay', 0):.1f}",
                f"{d.seconds.get('candidates', 0):.1f}"] for d in scenes]
-    lines += [""] + _md_table(["scene", "loads replayed", "golden (s)", "pre-pass (s)", "replay (s)",
-                               "candidate readings (s)"], timing)
+    lines += [""] + _md_table(["scene", "loads replayed", "golden (s)",
+                               "pre-pass (s)", "replay (s)", "candidate readings (s)"], timing)
     lines += ["", f"Total {settings.get('seconds', 0):.0f} s.", ""]
     return "\n".join(lines)

@@ -2,22 +2,23 @@
 
 Stalls: one horizontal bar per processor, as long as its cycles, cut into the cycles that issued
 a bundle and the stall cycles by cause (the nine causes with the largest share of some
-processor's stall cycles each have a colour, the rest are `other`), with percentages on the
-wide pieces. Annotate: per
-processor, the cycles charged to each bundle address along the listing, stacked by cause over
-the issued cycles, loops shaded and labels marked on the axis. matplotlib's Agg backend (no
-display needed); the same statistics give the same picture.
+processor's stall cycles are drawn one by one, the rest as `other`), with percentages on the
+wide pieces. Annotate: per processor, the cycles charged to each bundle address along the
+listing, stacked by cause over the issued cycles, loops shaded and labels marked on the axis.
+A cause's colour is the stall table's (isa/stalls.py `colour`), so it is the same in both plots
+and in every run. matplotlib's Agg backend (no display needed); the same statistics give the
+same picture.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
+from netsushisen.isa.stalls import ISSUED_COLOUR, OTHER_COLOUR, colour
 from netsushisen.outputs import write_file
 from netsushisen.reports.annotate import bundle_counts, choose_processors, find_loops
 from netsushisen.reports.tables import present_processors
 
-ISSUED_COLOUR = "#b0b0b0"
 OTHER = "other"
 
 
@@ -30,12 +31,10 @@ def _pyplot():
     return plt
 
 
-def _palette(causes: list[str]) -> dict[str, object]:
-    plt = _pyplot()
-    cmap = plt.get_cmap("tab10")
-    tab = [cmap(i) for i in range(10) if i != 7]  # tab10 less its grey: grey is `issued`
-    colours = {c: tab[i % len(tab)] for i, c in enumerate(causes)}
-    colours[OTHER] = "#404040"
+def _palette(causes: list[str]) -> dict[str, str]:
+    """The colours of the causes drawn one by one and of `other` (isa/stalls.py)."""
+    colours = {c: colour(c) for c in causes}
+    colours[OTHER] = OTHER_COLOUR
     return colours
 
 
@@ -53,7 +52,12 @@ def _main_causes(per_proc: list[dict[str, int]], cycles: list[int], most: int = 
 
 
 def plot_stalls(stats: dict, path: str | Path, title: str = "") -> Path:
-    """Stacked bars of cycles by cause per processor."""
+    """Stacked bars of cycles by cause per processor, written to `path`."""
+    return _save(stalls_figure(stats, title), path)
+
+
+def stalls_figure(stats: dict, title: str = ""):
+    """The figure of `plot_stalls` (a matplotlib Figure; the caller closes it)."""
     plt = _pyplot()
     procs = present_processors(stats)
     names = [n for n, _ in procs]
@@ -86,10 +90,27 @@ def plot_stalls(stats: dict, path: str | Path, title: str = "") -> Path:
                  loc="left", fontsize=10)
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1), fontsize=8, frameon=False)
     ax.spines[["top", "right"]].set_visible(False)
+    return fig
+
+
+def _save(fig, path: str | Path) -> Path:
+    """Write `fig` to `path` (the format from its suffix) atomically, and close it."""
     out = Path(path)
-    write_file(out, lambda p: fig.savefig(p, dpi=120, format=Path(out).suffix[1:] or None))
-    plt.close(fig)
+    try:
+        write_file(out, lambda p: fig.savefig(p, dpi=120, format=out.suffix[1:] or None))
+    finally:
+        _pyplot().close(fig)
     return out
+
+
+def legend_colours(fig) -> dict[str, str]:
+    """What a figure's legends say: label -> colour as hex RGB (how the tests compare plots)."""
+    from matplotlib.colors import to_hex
+
+    legends = list(fig.legends) + [ax.get_legend() for ax in fig.axes if ax.get_legend()]
+    return {text.get_text(): to_hex(handle.get_facecolor())
+            for legend in legends
+            for text, handle in zip(legend.get_texts(), legend.legend_handles)}
 
 
 def _tick_labels(cs, spacing: float) -> list[tuple[int, str]]:
@@ -117,9 +138,14 @@ def _innermost(loops):
 
 
 def plot_annotate(stats: dict, path: str | Path, proc: str | None = None) -> Path:
-    """Cycles charged to each bundle address along the listing, stacked by cause, per processor.
-    A bar far above the rest (an idle `wait` or `recv`) is cut at 1.5× the next highest and
-    labelled with its cycles, so the others stay readable."""
+    """Cycles charged to each bundle address along the listing, stacked by cause, per processor,
+    written to `path`. A bar far above the rest (an idle `wait` or `recv`) is cut at 1.5× the
+    next highest and labelled with its cycles, so the others stay readable."""
+    return _save(annotate_figure(stats, proc), path)
+
+
+def annotate_figure(stats: dict, proc: str | None = None):
+    """The figure of `plot_annotate` (a matplotlib Figure; the caller closes it)."""
     from matplotlib.patches import Patch
 
     plt = _pyplot()
@@ -180,7 +206,4 @@ def plot_annotate(stats: dict, path: str | Path, proc: str | None = None) -> Pat
     order = [lb for lb in ["issued"] + causes + [OTHER] if lb in used]
     fig.legend([Patch(color=ISSUED_COLOUR if lb == "issued" else colours[lb]) for lb in order], order,
                loc="outside right upper", fontsize=8, frameon=False)
-    out = Path(path)
-    write_file(out, lambda p: fig.savefig(p, dpi=120, format=Path(out).suffix[1:] or None))
-    plt.close(fig)
-    return out
+    return fig

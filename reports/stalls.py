@@ -1,9 +1,9 @@
 """Stall report: every processor's cycles by cause and its stall cycles by code location.
 
-Causes are the emulator's (emulator/core.py, T10), explained in reports/glossary.py (and
-docs/stalls.md, generated from it): memory holds `local`, `resident`, `cache_hit`, `cache_miss`;
-`branch`; `operand:<m>`, `waw:<m>`, `unit_busy:<m>`, `write_port`; `fifo_empty:<port>`,
-`fifo_empty:any`, `fifo_full:<port>`. The `(issued)` row counts cycles that issued a bundle, so
+Causes are the emulator's (emulator/core.py, T10), one table in isa/stalls.py, explained by
+reports/glossary.py (and docs/stalls.md, generated from the table): memory holds `local`,
+`resident`, `cache_hit`, `cache_miss`; `branch`; `operand:<m>`, `waw:<m>`, `unit_busy:<m>`,
+`write_port`; `fifo_empty:<port>`, `fifo_empty:any`, `fifo_full:<port>`. The `(issued)` row counts cycles that issued a bundle, so
 each processor's shares add up to 100 %. With `explain`, a third table gives the meaning of
 every cause the run charged.
 """

@@ -42,8 +42,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TextIO
 
-from netsushisen.emulator.trace import CacheMiss, Event, FifoLevel, Issued, Stalled, Start
 from netsushisen.errors import NetsushisenError
+from netsushisen.isa.events import CacheMiss, Event, FifoLevel, Issued, Stalled, Start
 from netsushisen.outputs import replacing
 from netsushisen.isa.processors import STAGES
 

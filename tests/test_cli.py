@@ -44,10 +44,10 @@ IDS = [" ".join(path) for path, _ in LEAVES]
 
 
 def test_the_walk_sees_every_command():
-    from netsushisen.cli import _available_commands
+    from netsushisen.cli import COMMANDS
 
     top = {path[0] for path, _ in PARSERS}
-    assert top == set(_available_commands())
+    assert top == set(COMMANDS)
     assert ("report", "flat") in {path for path, _ in LEAVES}
 
 
@@ -143,6 +143,45 @@ def test_unknown_command_and_missing_arguments(cli):
                               "required: STATS.json\n")
     code, out, _ = cli()
     assert code == 1 and out.startswith("usage: netsushisen")
+
+
+def test_report_rejects_an_unknown_kind(cli, tmp_path):
+    code, out, err = cli("report", "stall", tmp_path / "s.json")
+    assert (code, out) == (1, "") and len(err.splitlines()) == 1
+    assert err.startswith("netsushisen report: error: argument REPORT: invalid choice: 'stall' "
+                          "(did you mean 'stalls'?) (choose from ilp, stalls, memory, annotate,")
+    code, _, err = cli("report", "zzz", tmp_path / "s.json")
+    assert code == 1 and "'zzz' (choose from ilp, stalls" in err and "did you mean" not in err
+    # and the dispatch behind the parser names the kinds too, instead of falling through
+    from netsushisen.commands.report import sections_for
+    from netsushisen.reports.tables import StatsError
+
+    with pytest.raises(StatsError, match=r"unknown report 'memroy' \(did you mean 'memory'\?\) "
+                                         r"\(reports: ilp, stalls, memory"):
+        sections_for(argparse.Namespace(kind="memroy"), {})
+
+
+def test_a_command_that_does_not_import_is_reported_not_hidden(cli, monkeypatch, tmp_path):
+    from netsushisen.cli import COMMANDS
+
+    (tmp_path / "broken_cmd.py").write_text("import no_such_dependency_of_netsushisen\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setitem(COMMANDS, "broken", ("broken_cmd", "a command whose dependency is gone"))
+    monkeypatch.setitem(COMMANDS, "ghost", ("netsushisen.commands.ghost",
+                                            "a command not installed"))
+    code, out, err = cli()  # the usage and the list of commands
+    assert "broken" in out and "ghost" in out and err == ""  # listed, not hidden
+    code, out, err = cli("broken", "x")
+    assert (code, out) == (1, "") and err.splitlines() == [
+        "netsushisen broken: error: the broken command is unavailable here: broken_cmd does not "
+        "import (ModuleNotFoundError: No module named 'no_such_dependency_of_netsushisen'); "
+        "reinstall netsushisen with its dependencies (pip install netsushisen)"]
+    code, _, err = cli("ghost", "--help")
+    assert code == 1 and len(err.splitlines()) == 1 and err.startswith(
+        "netsushisen ghost: error: the ghost command is unavailable here: "
+        "netsushisen.commands.ghost does not import (ModuleNotFoundError: ")
+    code, _, _ = cli("kernels", "list")  # the others are untouched
+    assert code == 0
 
 
 def test_an_error_inside_a_command_names_it(cli):

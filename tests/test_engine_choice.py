@@ -15,6 +15,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 BLOCK_NUMBA = textwrap.dedent("""\
@@ -63,7 +65,9 @@ def test_without_numba_asking_for_the_compiled_engine_is_one_line(tmp_path):
         "No module named 'numba'); engines: reference"]
 
 
-def test_commands_that_run_no_machine_do_not_import_numba(tmp_path, cli):
+@pytest.mark.parametrize("numba", ["installed", "missing"])
+def test_commands_that_run_no_machine_do_not_import_numba(tmp_path, cli, numba):
+    """Installed, they do not import it; missing, they work all the same."""
     stats = tmp_path / "s.json"
     code, _, err = cli("render", "tetra:1", "--res", "2", "-q", "-o", tmp_path / "t.png",
                        "--json", stats)
@@ -74,8 +78,12 @@ def test_commands_that_run_no_machine_do_not_import_numba(tmp_path, cli):
                 ["scene", "info", "tetra"], ["scene", "list"], ["config", "--dump"],
                 ["report", "ilp", str(stats)], ["report", "flat", str(stats)],
                 ["report", "stalls", "--explain"], ["disasm", "x.o"], ["kernels", "list"],
-                ["--help"]]
-    out = _python(textwrap.dedent(f"""\
+                ["report", "stalls", str(stats), "--plot", "s.png"],
+                ["report", "memory", str(stats)],
+                ["report", "annotate", str(stats)], ["report", "diff", str(stats), str(stats)],
+                ["golden", "tetra:1", "--res", "2", "-o", "g.png"], ["scene", "nff", "tetra:1"],
+                ["--help"], ["asm", "--help"]]
+    out = _python((BLOCK_NUMBA if numba == "missing" else "") + textwrap.dedent(f"""\
         import sys
         from netsushisen.cli import main
         for argv in {commands!r}:
@@ -88,6 +96,19 @@ def test_commands_that_run_no_machine_do_not_import_numba(tmp_path, cli):
         print("ok")
         """), tmp_path)
     assert out.returncode == 0 and out.stdout.endswith("ok\n"), out.stderr[-2000:]
+
+
+def test_asm_help_does_not_import_numba(tmp_path):
+    """The acceptance line of issue 31: `python -X importtime -m netsushisen.cli asm --help`
+    lists no numba module (nor `isa` and `scene info`, which run no machine either)."""
+    for argv in (["asm", "--help"], ["isa", "-o", "isa.md"], ["scene", "info", "tetra"]):
+        out = subprocess.run([sys.executable, "-X", "importtime", "-m", "netsushisen.cli", *argv],
+                             capture_output=True, text=True, timeout=120, cwd=tmp_path)
+        assert out.returncode == 0, out.stderr[-2000:]
+        imported = [line.rsplit("|", 1)[-1].strip() for line in out.stderr.splitlines()
+                    if line.startswith("import time:")]
+        assert "numpy" in imported  # the listing is read: it names what was imported
+        assert not [m for m in imported if m.split(".")[0] in ("numba", "llvmlite")], argv
 
 
 def test_render_and_run_name_the_engine(cli, tmp_path):

@@ -4,7 +4,6 @@ runs of both engines (`run`) and of `render`."""
 from __future__ import annotations
 
 import json
-import re
 from pathlib import Path
 
 import pytest
@@ -162,17 +161,19 @@ def test_annotate_without_a_listing(cli, render_pair, tmp_path):
     assert "no program listing" in rows["caption"]
 
 
-def test_every_cause_the_engines_charge_is_explained():
+def test_every_cause_the_engines_charge_is_in_the_one_table(render_pair):
     from netsushisen.emulator.compiled.state import CAUSES as ENGINE_CAUSES
+    from netsushisen.isa.stalls import HOLD_CAUSES, concrete_causes
 
-    charged = [c for c in ENGINE_CAUSES if c not in ("", "halted")]
-    assert charged and all(lookup(c) is not None for c in charged), \
-        [c for c in charged if lookup(c) is None]
-    # and the reference engine's literal causes
-    core = (Path(__file__).resolve().parents[1] / "emulator" / "core.py").read_text()
-    for literal in re.findall(r'_stall\("([a-z_]+:?)"', core):
-        assert lookup(literal if not literal.endswith(":") else literal + "fmul") is not None
+    charged = {c for c in ENGINE_CAUSES if c not in ("", "halted")}
+    assert charged == set(concrete_causes())
+    # what the reference engine charged in a real run is in the table too
+    stats = json.loads(render_pair[0].read_text())
+    seen = {c for p in stats["processors"].values() if p for c in p["stalls"]}
+    assert seen and all(lookup(c) is not None for c in seen), [c for c in seen if lookup(c) is None]
+    assert HOLD_CAUSES == {"local", "resident", "cache_hit", "cache_miss", "branch"}
     assert lookup("no_such_cause") is None and "does not know" in explain("no_such_cause")
+    assert lookup("operand:no_such_op") is None and lookup("fifo_full:nowhere") is None
     assert explain("operand:fdiv").count("`fdiv`") == 1 and "<m>" not in explain("operand:fdiv")
 
 
@@ -205,6 +206,33 @@ def test_plots(cli, render_pair, tmp_path, kind):
     assert code == 1 and "x.txt" in err and len(err.strip().splitlines()) == 1
     code, _, err = cli("report", kind, render_pair[0], "--plot", tmp_path / "no" / "x.png")
     assert code == 1 and "does not exist" in err
+
+
+def test_a_cause_has_one_colour_in_every_plot(render_pair):
+    """Both plots draw a cause in the table's colour, whatever else the plot shows (the old
+    palettes coloured causes by their rank in each plot, so `operand:fmul` changed colour)."""
+    import matplotlib.pyplot as plt
+
+    from netsushisen.isa.stalls import ISSUED_COLOUR, OTHER_COLOUR, colour
+    from netsushisen.reports.stall_plots import annotate_figure, legend_colours, stalls_figure
+
+    stats = json.loads(render_pair[1].read_text())
+    plots = []
+    for fig in (stalls_figure(stats), annotate_figure(stats, "pe0.ic"),
+                annotate_figure(stats, "pe0.sc")):
+        plots.append(legend_colours(fig))
+        plt.close(fig)
+    for legend in plots:
+        causes = [c for c in legend if c not in ("issued", "other")]
+        assert len(causes) >= 3 and legend["issued"] == ISSUED_COLOUR
+        assert all(legend[c] == colour(c) for c in causes), legend
+        assert len({legend[c] for c in causes}) == len(causes), legend  # told apart in a plot
+        assert legend.get("other", OTHER_COLOUR) == OTHER_COLOUR
+    shared = set(plots[0]) & set(plots[1]) & set(plots[2]) - {"issued", "other"}
+    assert shared and all(len({p[c] for p in plots}) == 1 for c in shared)
+    # a family's parameters are shades of its colour, told apart
+    assert colour("operand:fmul") != colour("operand:fadd")
+    assert colour("operand:") == lookup("operand:fmul").colour
 
 
 def test_summary_names_static_and_dynamic_ilp(render_pair):

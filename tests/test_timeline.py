@@ -458,9 +458,9 @@ def test_procs_chooses_the_rows(tmp_path, tiny):
 
 
 def test_default_window_says_so_when_the_run_goes_on(tmp_path, tiny, capsys, monkeypatch):
-    from netsushisen.emulator import trace
+    from netsushisen import timeline
 
-    monkeypatch.setattr(trace, "DEFAULT_WINDOW", 9)
+    monkeypatch.setattr(timeline, "DEFAULT_WINDOW", 9)
     path = tmp_path / "d.json"
     assert tiny("--timeline", str(path)) == 0
     events = check_trace_events(json.loads(path.read_text()))

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from netsushisen.isa import stalls as S
 from netsushisen.isa.opcodes import OPCODES
 from netsushisen.isa.processors import STAGES
 
@@ -107,14 +108,15 @@ CAUSE_OPERAND = 15  # + producer mnemonic id + 1 ("" producer: + 0)
 CAUSE_WAW = CAUSE_OPERAND + NM + 1
 CAUSE_UNIT = CAUSE_WAW + NM + 1
 CAUSES: tuple[str, ...] = (
-    ("", "halted", "branch", "local", "resident", "cache_hit", "cache_miss", "write_port",
-     "fifo_empty:any")
-    + tuple(f"fifo_empty:{p}" for p in PORTS) + tuple(f"fifo_full:{p}" for p in PORTS)
-    + tuple(f"{k}:{m}" for k in ("operand", "waw", "unit_busy") for m in ("",) + MNEMONICS))
+    ("", "halted", S.BRANCH, S.LOCAL, S.RESIDENT, S.CACHE_HIT, S.CACHE_MISS, S.WRITE_PORT,
+     S.FIFO_ANY)
+    + tuple(S.stall(S.FIFO_EMPTY, p) for p in PORTS) + tuple(S.stall(S.FIFO_FULL, p) for p in PORTS)
+    + tuple(S.stall(k, m) for k in (S.OPERAND, S.WAW, S.UNIT_BUSY) for m in ("",) + MNEMONICS))
+"""The names of isa/stalls.py's causes (and the core's "" and "halted" states) by id."""
 CAUSE_ID = {c: i for i, c in enumerate(CAUSES)}
-MEMORY_CAUSE = {"local": CAUSE_LOCAL, "resident": CAUSE_RESIDENT, "cache_hit": CAUSE_CACHE_HIT,
-                "cache_miss": CAUSE_CACHE_MISS}
-CAUSE_FLAGS = np.array([2 if c.startswith("fifo_empty") else 1 if c.startswith("fifo_") else 0
+MEMORY_CAUSE = {S.LOCAL: CAUSE_LOCAL, S.RESIDENT: CAUSE_RESIDENT, S.CACHE_HIT: CAUSE_CACHE_HIT,
+                S.CACHE_MISS: CAUSE_CACHE_MISS}
+CAUSE_FLAGS = np.array([2 if c.startswith(S.FIFO_EMPTY) else 1 if c.startswith(S.FIFO_FULL) else 0
                         for c in CAUSES], np.int64)
 """0: not a FIFO wait; 1: a FIFO wait (`fifo_full`); 2: waiting on an empty receive FIFO."""
 

@@ -58,7 +58,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from netsushisen.emulator.trace import TimelineRun
+    from netsushisen.timeline import TimelineRun
 
     check_resolution(args.res)
     check_output_folders(args.out, args.ids, args.json)

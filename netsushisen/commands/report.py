@@ -40,7 +40,7 @@ from pathlib import Path
 
 from netsushisen.outputs import write_text
 from netsushisen.errors import Diagnostic
-from netsushisen.options import add_output
+from netsushisen.options import add_output, closest
 from netsushisen.reports.tables import (FORMATS, StatsError, load_stats, render, report_sections,
                                        select, write_csv_dir)
 
@@ -135,7 +135,10 @@ def sections_for(args: argparse.Namespace, stats: dict, other: dict | None = Non
         return bounds_report(stats, args.proc, top, args.optimum_ops, str(args.stats))
     if kind == "diff":
         return report_sections(kind, stats, other, args.changed)
-    return report_sections(kind, stats)
+    if kind == "memory":
+        return report_sections(kind, stats)
+    raise StatsError(f"unknown report {kind!r}{closest(kind, REPORTS)} (reports: "
+                     f"{', '.join(REPORTS)})")
 
 
 def _check(args: argparse.Namespace) -> None:
@@ -175,7 +178,7 @@ def run(args: argparse.Namespace) -> int:
     _check(args)
     if args.kind == "stalls" and args.stats is None:
         from netsushisen.reports.glossary import glossary_markdown, glossary_section
-        sections, source, stats = [glossary_section()], "reports/glossary.py", None
+        sections, source, stats = [glossary_section()], "isa/stalls.py", None
         if args.format == "md":
             return _emit(args, glossary_markdown())
     elif args.kind == "flat":

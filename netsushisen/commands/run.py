@@ -55,7 +55,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from netsushisen.emulator import stats
     from netsushisen.emulator.engine import make_engine
-    from netsushisen.emulator.trace import TimelineRun, Tracer, parse_cycles
+    from netsushisen.emulator.trace import Tracer, parse_cycles
+    from netsushisen.timeline import TimelineRun
 
     request = timeline_from_args(args, owns_cycles=False)  # --cycles alone: the text trace's
     if request is not None and (args.trace or args.trace_filter or args.trace_out):

@@ -1,0 +1,153 @@
+"""Imports point down (issue 31, item 3): read from each module's syntax tree, every import
+statement included (those inside functions and `if TYPE_CHECKING:` too: a late import is still a
+dependency).
+
+- `isa/` (the machine as data) imports nothing above it: only `isa/` and the base;
+- `emulator/` (the machine) imports nothing from the top package `netsushisen/` but the base,
+  and nothing from `reports/`;
+- `reports/` reads statistics and records: it imports neither `host/` nor `emulator/` nor
+  numba;
+- numba is imported at module level only by the compiled engine (emulator/compiled/), so a
+  command that runs no machine never pays for it (tests/test_engine_choice.py runs them with
+  numba missing).
+
+The base is the top package's leaf modules every layer reports and writes through —
+`errors.py` (diagnostics) and `outputs.py` (atomic writes) — which themselves import nothing of
+the project but each other.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+BASE = {"netsushisen.errors", "netsushisen.outputs"}
+PACKAGES = {"isa": "netsushisen.isa", "asm": "netsushisen.asm", "emulator": "netsushisen.emulator",
+            "host": "netsushisen.host", "reports": "netsushisen.reports",
+            "debugger": "netsushisen.debugger"}
+TOP = "netsushisen"
+
+
+def _imports(path: Path, source: str | None = None) -> list[tuple[str, int, bool]]:
+    """(module imported, line, at module level) of every import statement in `path` (or in
+    `source`, read as if it were that file)."""
+    tree = ast.parse(path.read_text() if source is None else source, str(path))
+    package = _module_name(path).rsplit(".", 1)[0]
+    found: list[tuple[str, int, bool]] = []
+
+    def visit(node: ast.AST, top: bool) -> None:
+        for child in ast.iter_child_nodes(node):
+            inner = top and not isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef,
+                                                   ast.Lambda))
+            if isinstance(child, ast.Import):
+                found.extend((a.name, child.lineno, top) for a in child.names)
+            elif isinstance(child, ast.ImportFrom):
+                base = child.module or ""
+                if child.level:  # relative: resolve against the module's package
+                    parts = package.split(".")
+                    base = ".".join(parts[:len(parts) - child.level + 1] + ([base] if base else []))
+                found.append((base, child.lineno, top))
+                found.extend((f"{base}.{a.name}", child.lineno, top) for a in child.names)
+            visit(child, inner)
+
+    visit(tree, True)
+    return found
+
+
+def _module_name(path: Path) -> str:
+    rel = path.relative_to(ROOT)
+    folder = rel.parts[0]
+    dotted = ".".join(rel.with_suffix("").parts[1:])
+    return f"{PACKAGES.get(folder, TOP)}.{dotted}".removesuffix(".__init__")
+
+
+def _modules(folder: str) -> list[Path]:
+    return sorted((ROOT / folder).rglob("*.py"))
+
+
+def _project(name: str) -> str | None:
+    """The project module an import names, by the layer it belongs to: `netsushisen.isa`,
+    `netsushisen.errors` (a module of the top package), ...; None outside the project."""
+    parts = name.split(".")
+    if parts[0] != TOP or len(parts) < 2:
+        return None
+    return ".".join(parts[:2])
+
+
+def _offences(folder: str, allowed) -> list[str]:
+    out = []
+    for path in _modules(folder):
+        for name, line, _ in _imports(path):
+            layer = _project(name)
+            if layer is not None and not allowed(layer):
+                out.append(f"{path.relative_to(ROOT)}:{line}: imports {name}")
+    return sorted(set(out))
+
+
+def test_isa_imports_nothing_above_it():
+    assert _offences("isa", lambda m: m == PACKAGES["isa"] or m in BASE) == []
+
+
+def test_emulator_imports_nothing_from_the_top_package_or_reports():
+    allowed = {PACKAGES[p] for p in ("isa", "asm", "emulator")} | BASE
+    assert _offences("emulator", lambda m: m in allowed) == []
+
+
+def test_the_base_modules_are_leaves():
+    for name in BASE:
+        path = ROOT / "netsushisen" / (name.split(".")[1] + ".py")
+        imported = {_project(n) for n, _, _ in _imports(path)} - {None}
+        assert imported <= BASE, (name, imported)
+
+
+REPORTS_MOVING = {"reports/tracesim.py", "reports/paper_data.py", "reports/paper_machine.py"}
+"""The trace-driven memory model and the paper pipeline, which issue 31 item 1 moves out of
+reports/ (the only modules there that import host/, emulator/ or numba)."""
+
+
+def _reports_offences() -> list[str]:
+    bad = {PACKAGES["host"], PACKAGES["emulator"]}
+    out = _offences("reports", lambda m: m not in bad)
+    out += [f"{p.relative_to(ROOT)}:{line}: imports {name}" for p in _modules("reports")
+            for name, line, _ in _imports(p) if name.split(".")[0] == "numba"]
+    return sorted(set(out))
+
+
+def test_reports_import_no_host_emulator_or_numba_beyond_the_modules_moving_out():
+    assert [o for o in _reports_offences() if o.split(":")[0] not in REPORTS_MOVING] == []
+
+
+@pytest.mark.xfail(strict=False, reason="issue 31 item 1 moves reports/tracesim.py, paper_data.py "
+                   "and paper_machine.py out of reports/; they are the only offenders")
+def test_reports_import_no_host_emulator_or_numba():
+    assert _reports_offences() == []
+
+
+def test_numba_is_imported_at_module_level_only_by_the_compiled_engine():
+    offences = []
+    for folder in ("isa", "asm", "emulator", "host", "reports", "debugger", "netsushisen"):
+        for path in _modules(folder):
+            rel = path.relative_to(ROOT)
+            if rel.parts[:2] == ("emulator", "compiled") or str(rel) in REPORTS_MOVING:
+                continue
+            offences += [f"{rel}:{line}" for name, line, top in _imports(path)
+                         if top and name.split(".")[0] == "numba"]
+    assert offences == []
+
+
+def test_the_check_sees_late_relative_and_type_checking_imports():
+    """The walker is not blind: a late import, a TYPE_CHECKING one and a relative one in a
+    module of emulator/ all count (a source read as if it were a module of the tree)."""
+    source = ("from typing import TYPE_CHECKING\n"
+              "if TYPE_CHECKING:\n    from netsushisen.options import RunOptions\n"
+              "def f():\n    from netsushisen.reports import glossary\n    import numba\n"
+              "from ..reports import tables\n")
+    found = {(n, top) for n, _, top in _imports(ROOT / "emulator" / "probe.py", source)}
+    assert ("netsushisen.options", True) in found
+    assert ("netsushisen.reports.glossary", False) in found and ("numba", False) in found
+    assert ("netsushisen.reports", True) in found  # `..reports` from netsushisen.emulator
+    assert _project("netsushisen.options.RunOptions") == "netsushisen.options"
+    assert _project("numpy") is None

@@ -375,8 +375,8 @@ def sample_tiles(setup: RenderSetup, engine: str, tiles: list[int], n_tiles: int
     cache state, the pipeline's fill and its drain are the warm-up's, not the tile's.
 
     This marginal is unbiased up to a small residue: over all 64 tiles at 32x32 the marginals sum
-    to 1,209,271 cycles on tetra against the full run's 1,207,983 (+0.11 %) and to 5,625,738 on
-    balls against 5,611,789 (+0.25 %). Against the exact marginal T(tiles 0..t) − T(tiles 0..t−1)
+    to 1,031,329 cycles on tetra against the full run's 1,030,002 (+0.13 %) and to 5,033,465 on
+    balls against 5,019,913 (+0.27 %) (tests/data/tile_cycles.json, tools/tile_cycles.py). Against the exact marginal T(tiles 0..t) − T(tiles 0..t−1)
     (whose sum is the full run) each tile is off by a few hundred cycles of either sign (tetra:
     at most 2,354 on a 15 k-cycle tile; zero on the background tiles): the one-tile warm-up
     leaves a different cache content and round-robin phase than the whole history does. A
@@ -417,7 +417,8 @@ WARM_SAMPLES = 16
 leaves the caches colder and the pipeline emptier than the full run has them, and every tile's
 marginal comes out high: tetra at 16x16 (4 samples a tile), all 64 tiles sum to +5.5 % of the
 full run with a 1-tile (4-sample) warm-up, +2.9 % with 8 samples, +0.31 % with 16, −0.18 % with
-32; at 32x32 one 16-sample tile gives +0.11 % (tetra), +0.25 % (balls)."""
+32 (the classic kernels); with today's kernels and 16 samples: tetra 16² +0.00 %, 32² +0.13 %,
+balls 16² +0.43 %, 32² +0.27 % (tools/tile_cycles.py prints these)."""
 
 
 def warm_up_tiles(samples: int, n_tiles: int = TILES) -> int:
@@ -439,10 +440,12 @@ def tile_auxiliary(setup: RenderSetup, n_tiles: int = TILES) -> dict[str, list[i
     return {"tests": cut(tests), "rays": cut(rays)}
 
 
-PER_STRATUM = 4
-"""Tiles drawn in each stratum of consecutive tiles. Four, not two: the stratified jackknife
-needs a stable spread within each stratum; with two per stratum its 95 % intervals covered
-89–94 % of redraws (docs/accuracy.md)."""
+PER_STRATUM = 3
+"""Tiles drawn in each stratum of consecutive tiles. Three: with two the stratified jackknife's
+spread within a stratum is too unstable (coverage 89–94 %); with four, 10 % of 64 tiles (6) is
+one unstratified stratum, whose heavy tail (background tiles of zero cycles) covered 93.0 % on
+tetra 32²; three gives 6 tiles two strata, and Satterthwaite's degrees of freedom in
+`regression_estimate` account for the few samples per stratum (docs/accuracy.md)."""
 
 
 def strata_bounds(n_tiles: int, n: int, per_stratum: int = PER_STRATUM) -> list[int]:
@@ -454,7 +457,7 @@ def strata_bounds(n_tiles: int, n: int, per_stratum: int = PER_STRATUM) -> list[
 def stratified_tiles(rng: np.random.Generator, n_tiles: int, n: int, per_stratum: int = PER_STRATUM
                      ) -> list[int]:
     """n tiles of n_tiles: n // H at random in each of the H strata of `strata_bounds` (the
-    remainder one more each in the first strata), sorted.
+    remainder one more each in the first strata with room), sorted.
 
     Why strata: a tile's cycles follow where it lies in the image (background rows against the
     objects; next tiles' cycles correlate 0.84 on tetra, 0.75 on balls at 32x32), so a simple
@@ -462,9 +465,10 @@ def stratified_tiles(rng: np.random.Generator, n_tiles: int, n: int, per_stratum
     part of the image is sampled in proportion."""
     bounds = strata_bounds(n_tiles, n, per_stratum)
     sizes = np.diff(bounds)
-    take = [n // len(sizes)] * len(sizes)
-    for i in range(n - sum(take)):
-        take[i % len(take)] += 1
+    take = np.minimum(n // len(sizes), sizes)
+    while take.sum() < n:  # the remainder, one more each, to the first strata with room
+        room = np.flatnonzero(take < sizes)
+        take[room[:n - int(take.sum())]] += 1
     out = []
     for lo, size, k in zip(bounds, sizes, take):
         out += (lo + rng.choice(size, min(k, size), replace=False)).tolist()
@@ -503,7 +507,8 @@ def sampled_row(scene: str, share: float, tiles: dict[int, dict], chosen: list[i
                f"simulated on the {engine} engine after a warm-up of at least {WARM_SAMPLES} eye "
                "samples (warm-up + tile minus warm-up alone); total cycles by the stratified "
                "regression estimator on the golden model's intersection tests per tile, a 95 % "
-               "interval from the stratified jackknife widened by the warm-up allowance; ρ, μ, t from the "
+               "interval from the stratified jackknife with Satterthwaite's degrees of freedom and the warm-up "
+               "allowance in quadrature; ρ, μ, t from the "
                "tiles' IC counters; cost: cycles simulated, warm-ups included; seconds: host "
                "preparation + the tiles' runs",
                values, low, high, timing=timing)

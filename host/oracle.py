@@ -202,6 +202,57 @@ def allowed_hits(osc: OracleScene, o: np.ndarray, d: np.ndarray, precision: str,
     return exact, np.stack(sets, axis=1), t
 
 
+def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance (n,) from points p (n, k) to the segment a-b ((k,) each)."""
+    ab = b - a
+    den = float(ab @ ab)
+    s = np.clip(((p - a) @ ab) / den, 0.0, 1.0) if den > 0 else np.zeros(len(p))
+    return np.linalg.norm(p - (a + s[:, None] * ab), axis=1)
+
+
+def distance_to(osc: OracleScene, p: np.ndarray, prim: np.ndarray) -> np.ndarray:
+    """Distance (n,) from points p (n, 3) to the surface of primitive prim[i] (inf for -1): a
+    polygon's plane distance inside it, else the nearest edge; a sphere's | |p - c| - r |; an open
+    cone's or cylinder's distance in the meridian half-plane to its side segment. A ray whose
+    exact hit point lies within rounding of another primitive (an edge or vertex it shares, a
+    coplanar or coincident surface: a tie) may answer that one."""
+    out = np.full(len(p), np.inf)
+    for pid in np.unique(prim[prim >= 0]):
+        sel = np.flatnonzero(prim == pid)
+        q = p[sel]
+        k, j = osc.kind[pid], osc.local[pid]
+        if k == Kind.POLYGON:
+            v, n = osc.poly_v[j], osc.poly_n[j]
+            edges = np.min([_segment_distance(q, v[i], v[(i + 1) % len(v)]) for i in range(len(v))], axis=0)
+            if np.any(n):
+                plane = np.abs((q - v[0]) @ n)
+                drop = int(np.argmax(np.abs(n)))
+                a, b = [x for x in range(3) if x != drop]
+                wind = np.zeros(len(q), np.int64)
+                for i in range(len(v)):
+                    x0, y0, x1, y1 = v[i, a], v[i, b], v[(i + 1) % len(v), a], v[(i + 1) % len(v), b]
+                    side = (x1 - x0) * (q[:, b] - y0) - (q[:, a] - x0) * (y1 - y0)
+                    wind += ((y0 <= q[:, b]) & (y1 > q[:, b]) & (side > 0)).astype(np.int64)
+                    wind -= ((y0 > q[:, b]) & (y1 <= q[:, b]) & (side < 0)).astype(np.int64)
+                edges = np.where(wind != 0, plane, edges)
+            out[sel] = edges
+        elif k == Kind.SPHERE:
+            c = osc.sph[j]
+            out[sel] = np.abs(np.linalg.norm(q - c[:3], axis=1) - abs(c[3]))
+        else:
+            c = osc.cone[j]
+            axis = c[4:7] - c[:3]
+            length = float(np.linalg.norm(axis))
+            if length == 0:
+                continue
+            w = q - c[:3]
+            z = w @ (axis / length)
+            rho = np.sqrt(np.maximum((w * w).sum(axis=1) - z * z, 0.0))
+            out[sel] = _segment_distance(np.column_stack([z, rho]), np.array([0.0, abs(c[3])]),
+                                         np.array([length, abs(c[7])]))
+    return out
+
+
 def judge_hits(answer: np.ndarray, allowed: np.ndarray) -> np.ndarray:
     """Rays whose answer is not among the allowed ones (bool (n,))."""
     return ~np.any(allowed == np.asarray(answer)[:, None], axis=1)

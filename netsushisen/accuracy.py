@@ -40,8 +40,9 @@ from netsushisen.host.scenes import Scene
 from netsushisen.isa.config import MachineConfig, apply_override
 from netsushisen.pipeline import RenderResult, RenderSetup, finish, prepare
 from netsushisen.reports.accuracy import (Row, Timing, fidelity_errors, hit_id_share,
-                                          ic_regions, image_errors, memory_point, ray_errors,
-                                          regression_estimate, relative, traced_rays)
+                                          ic_regions, image_errors,
+                                          memory_point, ray_errors, regression_estimate, relative,
+                                          traced_rays)
 from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
 
 DEPTHS = tuple(range(1, 9))
@@ -56,8 +57,7 @@ consecutive samples in the order DIS hands them out (so a tile's predecessor is 
 did just before it: its warm-up)."""
 SAMPLE_SHARES = (0.10, 0.25, 0.50)
 """Shares of the tiles the sampled rows simulate. Each share's n tiles are a stratified random
-sample (`stratified_tiles`): the tiles cut into n // 4 strata of consecutive tiles, 4 drawn in
-each."""
+sample (`stratified_tiles`): the tiles cut into n // 4 strata of consecutive tiles, 4 drawn in each."""
 REFERENCE_BUDGET = 2_000_000
 """Cycles the reference engine (≈60 k cycles/s) is given; a longer run is compared over this
 prefix with the compiled engine's, and its full time extrapolated (0: no reference row)."""
@@ -190,8 +190,8 @@ def round_scene(scene: Scene, rounder: Callable[[np.ndarray], np.ndarray]) -> Sc
 def _image_row(axis, scene, setting, truth_img, u8, ids, rays, timing: Timing, cost, how,
                values=None) -> Row:
     errors, psnr = image_errors(u8, truth_img.image_u8)
-    errors = ({"hit_ids": hit_id_share(ids, truth_img.hit_ids)} | errors
-              | ray_errors(rays, truth_img.rays))
+    errors = {"hit_ids": hit_id_share(ids,
+                                      truth_img.hit_ids)} | errors | ray_errors(rays, truth_img.rays)
     return Row(axis, scene, setting, False, errors, timing.median, cost, how,
                {"psnr_db": psnr} | (values or {}), timing=timing, emulated=setting in EMULATED)
 
@@ -222,11 +222,18 @@ def precision_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
          "libm in float64 and is rounded into the float16 pixel sums); its seconds are numpy's "
          "software emulation of float16, not what fp16 hardware would take: its cost is the rays "
          "traced"),
-        ("golden bf16 scene", round_scene(scene, round_bf16), "fp32",
-         "every number of the scene (vertices, normals, centres, radii, cone ends, materials, "
-         "lights, camera) rounded to bfloat16 (8 significant bits, nearest even); the golden model "
-         "then computes in float32 (an emulation of bf16 storage: its seconds are not bf16's cost; "
-         "its cost is the rays traced)"),
+        ("golden bf16 scene", round_scene(scene, round_bf16), "fp32", "every number of the scene "
+                                                                      "(vertices, normals, "
+                                                                      "centres, radii, cone ends, "
+                                                                      "materials, lights, camera) "
+                                                                      "rounded to bfloat16 (8 "
+                                                                      "significant bits, nearest "
+                                                                      "even); the golden model "
+                                                                      "then computes in float32 "
+                                                                      "(an emulation of bf16 "
+                                                                      "storage: its seconds are "
+                                                                      "not bf16's cost; its cost "
+                                                                      "is the rays traced)"),
     )
     for setting, sc, precision, how in variants:
         progress(f"{name} precision: {setting}")
@@ -389,8 +396,8 @@ def sample_tiles(setup: RenderSetup, engine: str, tiles: list[int], n_tiles: int
     cache state, the pipeline's fill and its drain are the warm-up's, not the tile's.
 
     This marginal is unbiased up to a small residue: over all 64 tiles at 32x32 the marginals sum
-    to 1,209,271 cycles on tetra against the full run's 1,207,983 (+0.11 %) and to 5,625,738 on
-    balls against 5,611,789 (+0.25 %). Against the exact marginal T(tiles 0..t) − T(tiles 0..t−1)
+    to 1,031,329 cycles on tetra against the full run's 1,030,002 (+0.13 %) and to 5,033,465 on
+    balls against 5,019,913 (+0.27 %) (tests/data/tile_cycles.json, tools/tile_cycles.py). Against the exact marginal T(tiles 0..t) − T(tiles 0..t−1)
     (whose sum is the full run) each tile is off by a few hundred cycles of either sign (tetra:
     at most 2,354 on a 15 k-cycle tile; zero on the background tiles): the one-tile warm-up
     leaves a different cache content and round-robin phase than the whole history does. A
@@ -422,9 +429,10 @@ def sample_tiles(setup: RenderSetup, engine: str, tiles: list[int], n_tiles: int
             both, s1 = run(tile - warm_tiles, tile)
             warm, s2 = run(tile - warm_tiles, tile - 1)
             runs.append(s1 + s2)
-        out[tile] = {k: both[k] - warm[k] for k in both} | {
-            "seconds": float(np.median(runs)), "runs": runs,
-            "simulated": both["cycles"] + warm["cycles"]}
+        out[tile] = {k: both[k] - warm[k]
+                     for k in both} | {"seconds": float(np.median(runs)), "runs": runs,
+                                                            "simulated": both["cycles"]
+                                                            + warm["cycles"]}
     return out
 
 
@@ -433,7 +441,8 @@ WARM_SAMPLES = 16
 leaves the caches colder and the pipeline emptier than the full run has them, and every tile's
 marginal comes out high: tetra at 16x16 (4 samples a tile), all 64 tiles sum to +5.5 % of the
 full run with a 1-tile (4-sample) warm-up, +2.9 % with 8 samples, +0.31 % with 16, −0.18 % with
-32; at 32x32 one 16-sample tile gives +0.11 % (tetra), +0.25 % (balls)."""
+32 (the classic kernels); with today's kernels and 16 samples: tetra 16² +0.00 %, 32² +0.13 %,
+balls 16² +0.43 %, 32² +0.27 % (tools/tile_cycles.py prints these)."""
 
 
 def warm_up_tiles(samples: int, n_tiles: int = TILES) -> int:
@@ -455,10 +464,12 @@ def tile_auxiliary(setup: RenderSetup, n_tiles: int = TILES) -> dict[str, list[i
     return {"tests": cut(tests), "rays": cut(rays)}
 
 
-PER_STRATUM = 4
-"""Tiles drawn in each stratum of consecutive tiles. Four, not two: the stratified jackknife
-needs a stable spread within each stratum; with two per stratum its 95 % intervals covered
-89–94 % of redraws (docs/accuracy.md)."""
+PER_STRATUM = 3
+"""Tiles drawn in each stratum of consecutive tiles. Three: with two the stratified jackknife's
+spread within a stratum is too unstable (coverage 89–94 %); with four, 10 % of 64 tiles (6) is
+one unstratified stratum, whose heavy tail (background tiles of zero cycles) covered 93.0 % on
+tetra 32²; three gives 6 tiles two strata, and Satterthwaite's degrees of freedom in
+`regression_estimate` account for the few samples per stratum (docs/accuracy.md)."""
 
 
 def strata_bounds(n_tiles: int, n: int, per_stratum: int = PER_STRATUM) -> list[int]:
@@ -470,7 +481,7 @@ def strata_bounds(n_tiles: int, n: int, per_stratum: int = PER_STRATUM) -> list[
 def stratified_tiles(rng: np.random.Generator, n_tiles: int, n: int, per_stratum: int = PER_STRATUM
                      ) -> list[int]:
     """n tiles of n_tiles: n // H at random in each of the H strata of `strata_bounds` (the
-    remainder one more each in the first strata), sorted.
+    remainder one more each in the first strata with room), sorted.
 
     Why strata: a tile's cycles follow where it lies in the image (background rows against the
     objects; next tiles' cycles correlate 0.84 on tetra, 0.75 on balls at 32x32), so a simple
@@ -478,9 +489,10 @@ def stratified_tiles(rng: np.random.Generator, n_tiles: int, n: int, per_stratum
     part of the image is sampled in proportion."""
     bounds = strata_bounds(n_tiles, n, per_stratum)
     sizes = np.diff(bounds)
-    take = [n // len(sizes)] * len(sizes)
-    for i in range(n - sum(take)):
-        take[i % len(take)] += 1
+    take = np.minimum(n // len(sizes), sizes)
+    while take.sum() < n:  # the remainder, one more each, to the first strata with room
+        room = np.flatnonzero(take < sizes)
+        take[room[:n - int(take.sum())]] += 1
     out = []
     for lo, size, k in zip(bounds, sizes, take):
         out += (lo + rng.choice(size, min(k, size), replace=False)).tolist()
@@ -523,9 +535,9 @@ def sampled_row(scene: str, share: float, tiles: dict[int, dict], chosen: list[i
                f"simulated on the {engine} engine after a warm-up of at least {WARM_SAMPLES} eye "
                "samples (warm-up + tile minus warm-up alone); total cycles by the stratified "
                "regression estimator on the golden model's intersection tests per tile, a 95 % "
-               "interval from the stratified jackknife widened by the warm-up allowance; ρ, μ, t "
-               "from the tiles' IC counters; cost: cycles simulated, warm-ups included; seconds: "
-               "host preparation + the tiles' runs",
+               "interval from the stratified jackknife with Satterthwaite's degrees of freedom and "
+               "the warm-up allowance in quadrature; ρ, μ, t from the tiles' IC counters; cost: "
+               "cycles simulated, warm-ups included; seconds: host preparation + the tiles' runs",
                values, low, high, timing=timing)
 
 
@@ -598,8 +610,7 @@ def reference_row(setup: RenderSetup, full: RenderResult, full_seconds: float,
                   truth: dict, engine: str,
                   budget: int, progress: Progress = _quiet, host_seconds: float = 0.0) -> Row:
     """(e): the reference engine, whole when the run fits `budget` cycles, else over the first
-    `budget` cycles against the compiled engine stopped at the same cycle (its time
-    extrapolated)."""
+    `budget` cycles against the compiled engine stopped at the same cycle (its time extrapolated)."""
     name = setup.scene.name
     whole = truth["cycles"] <= budget
     progress(f"{name} fidelity: reference engine"

@@ -3,10 +3,14 @@
     netsushisen numerics [SCENE] [--res N] [--out DIR] [--engine NAME] [--config FILE] [--set k=v]...
 
 With a SCENE (built-in SPD name or .nff file): renders it with the golden model in fp32 and in
-fp64 and counts the pixels whose hit primitive or 8-bit colour differs (a map in
-DIR/numerics_map.png: white = another primitive, red = another colour), the shadow rays of eye
-hits that fp32 blocks and fp64 does not, and moves the scene by 1, 10, 100, ... until fp32 stops
-agreeing with fp64 there: the largest translation it survives. Writes DIR/numerics.json.
+fp64 and judges their differences as the catalog does (the float64 oracle, on the differing rays
+only): pixels whose hit primitive differs beyond rounding of an edge, vertex or tie, shadow rays
+of eye hits blocked in one precision only beyond rounding, and pixels whose 8-bit colour differs
+by more than one level with the same hit (a map in DIR/numerics_map.png: white / grey = another
+primitive beyond / within rounding, red = another colour); then moves the scene by 1, 10, 100,
+... until fp32 stops agreeing with fp64 there: the largest translation it survives. Writes
+DIR/numerics.json. Memory: the golden model's per eye ray, twice the pixels' worth at most
+(limits.numerics_footprint, checked before any work).
 
 Without a SCENE: the built-in catalog of hard cases (docs/golden.md, "The numerical catalog"),
 one row per case and path (golden fp32, golden fp64, the machine on --engine), each judged
@@ -28,6 +32,7 @@ from netsushisen.outputs import write_file
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.images import encode_png
+from netsushisen.limits import check_host, numerics_footprint
 from netsushisen.options import (add_config_options, add_engine, add_output, add_quiet,
                                  add_resolution, check_resolution, config_overrides,
                                  engine_from_args)
@@ -98,8 +103,9 @@ def _save_catalog(out: Path, verdicts) -> None:
 
 def _scene(args, out: Path) -> int:
     from netsushisen import numerics  # noqa: PLC0415
-    scene = load_scene(args.scene)
     res = args.res or 32
+    check_host(numerics_footprint(f"numerics {args.scene} {res}×{res}", res), quiet=args.quiet)
+    scene = load_scene(args.scene)
     sets = tuple(config_overrides(args))
     rep = numerics.SceneReport(scene.name, res)
     interrupted = False
@@ -114,16 +120,22 @@ def _scene(args, out: Path) -> int:
     _write(out / "numerics_map.png", lambda p: p.write_bytes(encode_png(numerics.difference_map(pair))))
     largest = rep.largest_stable_translation
     data = {"scene": scene.name, "res": res, "pixels": pair.pixels,
-            "hit_differs": int(pair.hit_differs.sum()), "colour_differs": int(pair.colour_differs.sum()),
+            "hit_differs": int(pair.hit_differs.sum()), "hit_beyond_rounding": int(pair.hit_beyond.sum()),
+            "colour_tolerance": numerics.COLOUR_TOLERANCE, "colour_differs": int(pair.colour_differs.sum()),
+            "colour_beyond_rounding": int(pair.colour_beyond.sum()), "max_colour_levels": pair.max_levels,
             "shadow_rays": pair.shadow_rays, "blocked_only_fp32": pair.blocked_only_fp32,
+            "shadow_differs": pair.shadow_differs, "shadow_beyond_rounding": pair.shadow_beyond,
             "stable": rep.stable(), "reasons": rep.reasons(), "largest_stable_translation": largest,
             "complete": not interrupted,
             "translations": [{"by": by, "stable": ok, "reasons": why} for by, ok, why in rep.translations]}
     _write(out / "numerics.json", lambda p: p.write_text(json.dumps(data, indent=2) + "\n"))
     print(f"{scene.name}: {res}x{res}, fp32 against fp64")
-    print(f"  pixels: {int(pair.hit_differs.sum())} hit another primitive, "
-          f"{int(pair.colour_differs.sum())} another colour, of {pair.pixels} (map: {out}/numerics_map.png)")
-    print(f"  shadow rays of eye hits: {pair.shadow_rays}, blocked by fp32 only: {pair.blocked_only_fp32}")
+    print(f"  pixels: {int(pair.hit_differs.sum())} hit another primitive ({int(pair.hit_beyond.sum())} "
+          f"beyond rounding), {int(pair.colour_differs.sum())} another colour by more than "
+          f"{numerics.COLOUR_TOLERANCE} level ({int(pair.colour_beyond.sum())} unexplained), of {pair.pixels} "
+          f"(map: {out}/numerics_map.png)")
+    print(f"  shadow rays of eye hits: {pair.shadow_rays}, blocked in one precision only: "
+          f"{pair.shadow_differs} ({pair.shadow_beyond} beyond rounding; fp32 only: {pair.blocked_only_fp32})")
     for by, ok, why in rep.translations:
         print(f"  translated by {by:g}: {'stable' if ok else 'breaks: ' + '; '.join(why)}")
     print(f"  largest stable translation: {'none' if largest is None else f'{largest:g}'}")

@@ -177,7 +177,8 @@ CATALOG: list[Case] = [
     *[Case(f"translated_{t:.0e}".replace("+0", ""), f"the mixed scene moved by {t:g} on every axis",
            MIXED, res=16, translate=t) for t in TRANSLATIONS],
     *[Case(f"contact_shadow_{t:.0e}".replace("+0", ""),
-           f"a plate {CONTACT_GAPS[t]:g} above a floor moved by {t:g}: its low-angle shadow",
+           f"a plate {CONTACT_GAPS[t] / float(np.spacing(np.float32(t))):g} fp32 ulps above a floor moved by "
+           f"{t:g}: its low-angle shadow",
            contact_scene(CONTACT_GAPS[t]), res=16, translate=t) for t in CONTACT_GAPS],
     Case("fp32_vs_fp64_balls", "an ordinary scene: SPD balls, size 1", "", res=12, compare_fp64=True,
          shadows=False, spec="balls:1"),

@@ -21,6 +21,7 @@ from netsushisen.host import golden
 from netsushisen.host.golden import render
 from netsushisen.host.grid import build_grid
 from netsushisen.host.nff import parse_nff, read_nff
+from netsushisen.host.oracle import offset_bound
 from netsushisen.host.rays import primary_rays
 from netsushisen.host.shapes import build_shape_data, ic_rays, intersect, surface_normals
 from netsushisen.host.traversal import OSGrid, trace
@@ -458,6 +459,10 @@ def test_contact_shadow_leaks_with_the_blanket_offset_not_with_the_bound(transla
     its shadow (the judge, from the path's own hit points, calls them wrongly unblocked)."""
     case = CASES[f"contact_shadow_{translation:.0e}".replace("+0", "")]
     sc = case.scene()
+    gap = numerics.CONTACT_GAPS[translation]
+    floor = np.full((1, 3), translation)  # the plate lies above the bound the judge forgives
+    bound = offset_bound(floor, np.array([[0.0, 1.0, 0.0]]), np.array([10.0]), 16.0, "fp32")[0]
+    assert bound < gap < 4 * 2.0 ** -24 * translation
     r = numerics.run_path(sc, "golden-fp32", case.res)
     v = numerics.judge(sc, r, case.res, "fp32")
     assert v.shadow_rays > 100 and v.wrongly_lit == 0 and v.wrongly_blocked == 0, v.reason()

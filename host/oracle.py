@@ -236,18 +236,21 @@ def offset_bound(point: np.ndarray, normal: np.ndarray, t_eye: np.ndarray, size:
 
 def contact_truth(osc: OracleScene, point: np.ndarray, prim: np.ndarray, normal: np.ndarray,
                   t_eye: np.ndarray, lights: np.ndarray, precision: str) -> tuple[np.ndarray, np.ndarray]:
-    """A shadow ray judged from the path's own hit point `point` (n, 3; the path's P before the
-    offset, in float64) on primitive `prim` (n,), its geometric normal facing the eye ray
-    `normal` (n, 3), the eye ray's t and one light per row: (blocked, ambiguous). The segment from P to the light is blocked when
-    it crosses a counting hit higher above P along the normal than `offset_bound` allows the
-    origin to sit (an occluder the offset may skip lies within it: a contact gap above the bound
-    must block) and short of the light by more than the shadow test's own rounding
-    tol = TOL_ULPS x u x (distance + size) — which scales with the distances the test
-    subtracts, not with |P|. Ambiguous: another primitive's counting hit lies within that height
-    (the origin may sit below or above it), the answer changes with the height threshold moved by
-    tol either way, the hit is within tol of the light, a ray from an origin up the slab the bound
-    allows (P + k/HEIGHTS x bound x Nf) or from the origin moved by bound + tol across the ray
-    along the surface (silhouettes) answers otherwise, or the light lies on or below the tangent plane."""
+    """A shadow ray judged from the path's own hit point `point` (n, 3: the path's P before the
+    offset, in float64) on primitive `prim` (n,), with its geometric normal facing the eye ray
+    `normal` (n, 3), the eye ray's t and one light per row: (blocked, ambiguous).
+
+    Blocked: the segment from P to the light crosses a counting hit higher above P along the
+    normal than `offset_bound` lets the origin sit, short of the light by more than the shadow
+    test's own rounding tol = TOL_ULPS x u x (distance + size) — which scales with the
+    distances the test subtracts, not with |P|. A contact gap above the bound must therefore
+    block. Ambiguous (either answer allowed): another primitive's counting hit lies within that
+    height (the origin may sit below or above it); the answer changes with the height threshold
+    moved by tol either way, or from an origin up the slab the bound allows
+    (P + k/HEIGHTS x bound x Nf: at a low light a raised origin moves the shadow's edge by
+    h / tan(angle)), or from the origin moved by bound + tol across the ray along the surface
+    (silhouettes); the hit is within tol of the light; the light lies on or below the tangent
+    plane."""
     u = float(np.finfo(dtype_of(precision)).eps) / 2.0
     to = lights - point
     dist = np.linalg.norm(to, axis=1)

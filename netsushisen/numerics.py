@@ -3,8 +3,9 @@
 The catalog is a list of small scenes, one per hard case (docs/golden.md, "The numerical
 catalog"). Each is rendered on a *path* — golden fp32, golden fp64, or the emulated machine — and
 judged against the brute-force float64 oracle (`host/oracle.py`) with its tolerance rule: every
-eye ray's hit must be one the oracle allows; every shadow ray of an eye ray's hit that the
-oracle says is unambiguously free must be unblocked (a *wrongly blocked* shadow ray); the
+eye ray's hit must be one the oracle allows; every shadow ray of an eye ray's hit, judged from
+the path's own hit point, must be blocked by an occluder above the offset's error bound (else
+*wrongly lit*) and unblocked when the oracle says it is unambiguously free (*wrongly blocked*); the
 translated cases must give exactly the hit ids of their untranslated scene; the machine must give
 golden fp32's hit ids and 8-bit image bit for bit. `scene_report` does the same for any scene:
 fp32 against fp64, and the scene translated by powers of ten until it breaks.
@@ -261,17 +262,18 @@ def eye_oracle(scene: Scene, res: int, precision: str):
 
 def judge(scene: Scene, result: PathResult, res: int, precision: str, shadows: bool = True,
           verdict: Verdict | None = None) -> Verdict:
-    """Hits against the oracle; with `shadows`, the eye hits' shadow rays (golden paths)."""
+    """Hits against the oracle; with `shadows`, the eye hits' shadow rays (golden paths), each
+    from the path's own hit point against the offset's bound (`oracle.contact_truth`)."""
     v = verdict or Verdict(scene.name, result.path)
     osc, exact, allowed, t, o, d = eye_oracle(scene, res, precision)
     v.rays = len(exact)
     v.wrong_hits = int(judge_hits(result.hit_ids, allowed).sum())
     if shadows and result.shadows is not None and len(result.shadows["sample"]):
-        sh = result.shadows
-        dt = sh["point"].dtype
-        lights = np.asarray(scene.light_position, np.float64).reshape(-1, 3).astype(dt).astype(np.float64)
-        blocked, amb = contact_truth(osc, sh["point"].T.astype(np.float64), sh["prim"], sh["normal"].T.astype(np.float64),
-                                     sh["t"].astype(np.float64), lights[sh["light"]], precision)
+        sh = result.shadows  # judged from the path's own hit points (docs/golden.md)
+        f64 = lambda a: np.asarray(a, np.float64)  # noqa: E731
+        lights = f64(f64(scene.light_position).reshape(-1, 3).astype(sh["point"].dtype))  # as the path holds them
+        blocked, amb = contact_truth(osc, f64(sh["point"].T), sh["prim"], f64(sh["normal"].T), f64(sh["t"]),
+                                     lights[sh["light"]], precision)
         path_blocked = sh["blocked"]
         v.shadow_rays = int((~amb).sum())
         v.wrongly_blocked = int((path_blocked & ~blocked & ~amb).sum())

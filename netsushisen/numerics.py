@@ -3,8 +3,9 @@
 The catalog is a list of small scenes, one per hard case (docs/golden.md, "The numerical
 catalog"). Each is rendered on a *path* — golden fp32, golden fp64, or the emulated machine — and
 judged against the brute-force float64 oracle (`host/oracle.py`) with its tolerance rule: every
-eye ray's hit must be one the oracle allows; every shadow ray of an eye ray's hit that the
-oracle says is unambiguously free must be unblocked (a *wrongly blocked* shadow ray); the
+eye ray's hit must be one the oracle allows; every shadow ray of an eye ray's hit, judged from
+the path's own hit point, must be blocked by an occluder above the offset's error bound (else
+*wrongly lit*) and unblocked when the oracle says it is unambiguously free (*wrongly blocked*); the
 translated cases must give exactly the hit ids of their untranslated scene; the machine must give
 golden fp32's hit ids and 8-bit image bit for bit. `scene_report` does the same for any scene:
 fp32 against fp64, and the scene translated by powers of ten until it breaks.
@@ -22,7 +23,7 @@ import numpy as np
 from netsushisen.host.golden import render as golden_render
 from netsushisen.host.grid import boundaries, build_grid
 from netsushisen.host.nff import parse_nff
-from netsushisen.host.oracle import (OracleScene, allowed_hits, distance_to, judge_hits, shadow_truth,
+from netsushisen.host.oracle import (OracleScene, allowed_hits, contact_truth, distance_to, judge_hits,
                                      tolerance)
 from netsushisen.host.rays import primary_rays
 from netsushisen.host.scenes import Scene
@@ -50,6 +51,25 @@ MIXED = _view("0.5 3 -8", "0 1 0", 45, lights="l -3 6 -5\nl 4 5 -3\n") + MATTE +
 """Floor, wall, glass sphere, cylinder and cone, an opaque sphere, two lights: all coordinates
 exact in fp32 at every translation by 1e3..1e6 (halves and quarters), so eye rays are
 bit-identical across translations."""
+
+CONTACT_GAPS = {1e4: 2 * 2.0 ** -10, 1e5: 3 * 2.0 ** -7, 1e6: 3 * 2.0 ** -4}
+"""Per translation, the contact gap of the plate above the floor: whole units in the last place of
+fp32 at the floor's height, above the offset's bound at that height and at most the old blanket
+offset 4u x (max|P| + t) + 64u x S (which starts the shadow ray on or above the plate)."""
+
+
+def contact_scene(gap: float) -> str:
+    """A floor, and a 7 x 2 plate `gap` above it (a face down, for the shadow rays, and a face up
+    at the same height, for the eye); the light `3 x gap` high and 15 units to the side, so the
+    shadow falls beyond the plate on floor the eye sees. Its colour keeps the lit floor near 0.5
+    at that low angle. Every coordinate is a multiple of `gap` or of 1/2: exact in fp32 after the
+    translation. At so low a light an origin raised by h moves the shadow by h / tan(angle), so
+    only the part of the shadow every origin within the offset's bound sees is judged."""
+    g = repr(gap)
+    light = f"l -14 {repr(3 * gap)} 0 {2.5 / gap:g} {2.5 / gap:g} {2.5 / gap:g}\n"
+    return (_view("2.5 4 -4", "2 0 0", 35, lights=light) + MATTE + "p 4\n-8 0 -4\n-8 0 4\n8 0 4\n8 0 -4\n"
+            f"p 4\n-6 {g} -1\n1 {g} -1\n1 {g} 1\n-6 {g} 1\np 4\n-6 {g} -1\n-6 {g} 1\n1 {g} 1\n1 {g} -1\n")
+
 
 OCTAHEDRON = "".join(f"p 3\n{a}\n{b}\n{c}\n" for a, b, c in [
     ("1 0 0", "0 1 0", "0 0 -1"), ("0 1 0", "-1 0 0", "0 0 -1"), ("-1 0 0", "0 -1 0", "0 0 -1"),
@@ -158,6 +178,10 @@ CATALOG: list[Case] = [
          GLASS + "s 0 0 0 1\n", res=9, sets=("render.max_depth=2",), shadows=False, tir=True),
     *[Case(f"translated_{t:.0e}".replace("+0", ""), f"the mixed scene moved by {t:g} on every axis",
            MIXED, res=16, translate=t) for t in TRANSLATIONS],
+    *[Case(f"contact_shadow_{t:.0e}".replace("+0", ""),
+           f"a plate {CONTACT_GAPS[t] / float(np.spacing(np.float32(t))):g} fp32 ulps above a floor moved by "
+           f"{t:g}: its low-angle shadow",
+           contact_scene(CONTACT_GAPS[t]), res=16, translate=t) for t in CONTACT_GAPS],
     Case("fp32_vs_fp64_balls", "an ordinary scene: SPD balls, size 1", "", res=12, compare_fp64=True,
          shadows=False, spec="balls:1"),
     Case("fp32_vs_fp64_tetra", "an ordinary scene: SPD tetra, size 2", "", res=12, compare_fp64=True,
@@ -239,23 +263,22 @@ def eye_oracle(scene: Scene, res: int, precision: str):
 
 def judge(scene: Scene, result: PathResult, res: int, precision: str, shadows: bool = True,
           verdict: Verdict | None = None) -> Verdict:
-    """Hits against the oracle; with `shadows`, the eye hits' shadow rays (golden paths)."""
+    """Hits against the oracle; with `shadows`, the eye hits' shadow rays (golden paths), each
+    from the path's own hit point against the offset's bound (`oracle.contact_truth`)."""
     v = verdict or Verdict(scene.name, result.path)
     osc, exact, allowed, t, o, d = eye_oracle(scene, res, precision)
     v.rays = len(exact)
     v.wrong_hits = int(judge_hits(result.hit_ids, allowed).sum())
     if shadows and result.shadows is not None and len(result.shadows["sample"]):
-        sh = result.shadows
-        s = sh["sample"]
-        ok = np.flatnonzero((exact[s] == sh["prim"]) & np.isfinite(t[s]))
-        if len(ok):
-            p = o[s[ok]] + t[s[ok]][:, None] * d[s[ok]]
-            lights = np.asarray(scene.light_position, np.float64).reshape(-1, 3)[sh["light"][ok]]
-            blocked, amb = shadow_truth(osc, p, sh["prim"][ok], lights, precision, t[s[ok]])
-            path_blocked = sh["blocked"][ok]
-            v.shadow_rays = int((~amb).sum())
-            v.wrongly_blocked = int((path_blocked & ~blocked & ~amb).sum())
-            v.wrongly_lit = int((~path_blocked & blocked & ~amb).sum())
+        sh = result.shadows  # judged from the path's own hit points (docs/golden.md)
+        f64 = lambda a: np.asarray(a, np.float64)  # noqa: E731
+        lights = f64(f64(scene.light_position).reshape(-1, 3).astype(sh["point"].dtype))  # as the path holds them
+        blocked, amb = contact_truth(osc, f64(sh["point"].T), sh["prim"], f64(sh["normal"].T), f64(sh["t"]),
+                                     lights[sh["light"]], precision)
+        path_blocked = sh["blocked"]
+        v.shadow_rays = int((~amb).sum())
+        v.wrongly_blocked = int((path_blocked & ~blocked & ~amb).sum())
+        v.wrongly_lit = int((~path_blocked & blocked & ~amb).sum())
     return v
 
 
@@ -460,14 +483,14 @@ def compare_precisions(scene: Scene, res: int, sets: tuple[str, ...] = ()) -> Sc
             near = np.isfinite(t) & (distance_to(osc, p, ans) <= tol)  # an edge, vertex or tie
             ok &= ~judge_hits(ans, allowed) | near
         explained[need] = ok & hit[need]
-        if len(flips):
-            s = a.shadows["sample"][ia[flips]]
-            row = np.searchsorted(need, s)
-            on = (exact[row] == a.hit_ids[s]) & np.isfinite(t[row])  # the oracle's point is on it
-            lights = np.asarray(scene.light_position, np.float64).reshape(-1, 3)[a.shadows["light"][ia[flips]]]
-            amb = np.zeros(len(flips), bool)
-            if on.any():
-                _, amb[on] = shadow_truth(osc, p[row][on], a.hit_ids[s][on], lights[on], "fp32", t[row][on])
+        if len(flips):  # judged from fp32's own hit points against its offset's bound
+            k = ia[flips]
+            s = a.shadows["sample"][k]
+            sh = a.shadows
+            f64 = lambda x: np.asarray(x, np.float64)  # noqa: E731
+            lights = f64(f64(scene.light_position).reshape(-1, 3).astype(sh["point"].dtype))
+            _, amb = contact_truth(osc, f64(sh["point"][:, k].T), sh["prim"][k], f64(sh["normal"][:, k].T),
+                                   f64(sh["t"][k]), lights[sh["light"][k]], "fp32")
             beyond = int((~amb).sum())
             explained[s[amb]] = True
     same = ~hit

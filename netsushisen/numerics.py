@@ -393,7 +393,7 @@ def translate_scene(scene: Scene, by: float) -> Scene:
                     polygons=replace(pg, vertices=pg.vertices + by),
                     spheres=replace(sp, center=sp.center + by),
                     cones=replace(cn, base=cn.base + by, apex=cn.apex + by))
-    checked = parse_nff(format_nff(moved), f"{scene.source or scene.name} moved by {by:g}")
+    checked = parse_nff(format_nff(moved, exact=True), f"{scene.source or scene.name} moved by {by:g}")
     return replace(checked, name=scene.name, source=scene.source)
 
 

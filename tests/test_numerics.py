@@ -471,3 +471,19 @@ def test_contact_shadow_leaks_with_the_blanket_offset_not_with_the_bound(transla
     old = numerics.run_path(sc, "golden-fp32", case.res)
     assert not old.shadows["blocked"].any()
     assert numerics.judge(sc, old, case.res, "fp32").wrongly_lit >= 5
+
+
+def test_a_moved_scene_keeps_offsets_below_six_digits():
+    """`translate_scene` reads the moved scene back through the NFF reader; written with `%g`
+    (six digits) a plate 0.0234 above a floor at 1e5 would land on the floor."""
+    from netsushisen.host.nff import format_nff, parse_nff
+    from netsushisen.numerics import translate_scene
+
+    text = ("b 0 0 0\nv\nfrom 0 3 -8\nat 0 0 0\nup 0 1 0\nangle 45\nhither 0\nresolution 8 8\n"
+                         "l 0 5 -5\nf 0.8 0.8 0.8 0.8 0 1 0 0\n"
+                         "p 4\n-4 0 -4\n-4 0 4\n4 0 4\n4 0 -4\np 4\n-1 0.0234 -1\n-1 0.0234 1\n1 0.0234 1\n1 0.0234 -1\n")
+    scene = parse_nff(text, "plate.nff")
+    moved = translate_scene(scene, 1e5)
+    assert np.array_equal(moved.polygons.vertices, scene.polygons.vertices + 1e5)
+    assert "100000.0234" in format_nff(moved, exact=True)
+    assert "100000.0234" not in format_nff(moved)  # the SPD's own six digits stay the default

@@ -578,6 +578,14 @@ MUTANTS = [
      "flt k_e0, k_e0, r0", "flt k_e0, r0, k_e0"),
     ("tetra:3", 12, 0.5, "ic.s",                              # resident when |P| <= M
      "{ li mlim, 2 * RESIDENT_M + 1 }", "{ li mlim, 2 * RESIDENT_M }"),
+    ("balls:2", 8, 0.5, "ic.s",                              # early rejection with a margin the
+     ".equ EARLY_K, 0.999755859375", ".equ EARLY_K, 1.25"),   #   wrong way: hits near the rim lost
+    ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # the cylinder's early rejection
+     "fmul c_Ak, c_A, c_k", "fadd c_Ak, c_A, c_A"),          #   rejecting hits (2 q.q > r2)
+    ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # ... also after the last cell
+     "fadd c_Zg, c_thr, c_Z", "fmov c_Zg, c_Z"),
+    ("grazing_sphere.nff", 9, 0.0, "ic_sphere.inc",          # the sphere's after the last cell
+     "fadd s_Zg, s_thr, s_r2", "fmov s_Zg, s_r2"),
 ]
 
 

@@ -54,6 +54,7 @@
 .equ HAS_RESIDENT, RESIDENT_M > 0 || GENERIC          # some record is resident: ldr code
 .equ HAS_GLOBAL, RESIDENT_M < N_PRIMITIVES || GENERIC # some record is in ICGM: ldg code
 .equ HAS_NGONS, MAX_VERTICES > 3 || GENERIC           # polygons other than triangles: the loop
+.equ QUADS, MAX_VERTICES == 4 && !HAS_PATCHES && !HAS_TWO_SIDED && !GENERIC  # ... or quads only
 .equ N_KINDS, HAS_POLYGONS + HAS_SPHERES + HAS_CYLINDERS + HAS_CONES
 
 # Slot table entry (SLOT_WORDS words per slot, the table at local address 0): the ray record as

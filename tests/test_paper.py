@@ -20,8 +20,8 @@ from netsushisen.isa.config import load_config
 from netsushisen.kernels import KERNELS
 from netsushisen.reports import paper as paper_mod
 from netsushisen.reports.paper import table2
-from netsushisen.reports.paper_data import PaperOptions, analyse_scene
-from netsushisen.reports.paper_machine import compare_counters
+from netsushisen.paper import analyse_scene, compare_counters
+from netsushisen.reports.paper_data import PaperOptions
 from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
 
 # ------------------------------------------------------------------------------------------------
@@ -235,7 +235,7 @@ def test_counter_comparison_names_the_first_difference():
 
 
 def test_paper_interrupted_writes_what_finished(tmp_path, cli, monkeypatch):
-    from netsushisen.commands import paper as paper_command
+    from netsushisen import paper as paper_command
 
     real = paper_command.analyse_scene
     calls = []
@@ -278,7 +278,7 @@ def test_trace_experiments_are_variants_of_the_main_pass():
     """Mailboxing tests each primitive at most once per ray; eye-only, no-shadow and depth-1
     variants keep a subset of the rays; all are counted from the reference trace."""
     from netsushisen.host.golden import SHADOW
-    from netsushisen.reports.paper_data import trace_experiments
+    from netsushisen.paper import trace_experiments
 
     config = load_config()
     g = golden_render(load_scene("mount:2"), config, res=8, keep_trace=True)

@@ -14,16 +14,16 @@ report.md) are in `reports/paper*.py`.
 mode and compares IC's counters with the trace-driven path's (`compare_counters`): accesses by
 memory and by region, loads per primitive, hence ρ and μ; they must be equal.
 
-`run_paper` runs a whole reproduction — every scene's analysis and machine check — and writes the
-figures, the CSV files and report.md; the command only parses, calls it and prints.
+`run_paper` runs a whole reproduction — every scene's analysis and machine check, each an
+independent run on the cluster layer (netsushisen/cluster.py) — and writes the figures, the CSV
+files and report.md; the command only parses, calls it and prints.
 """
 
 from __future__ import annotations
 
 import copy
-import multiprocessing
 import os
-import signal
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,6 +31,7 @@ from typing import Callable
 
 import numpy as np
 
+from netsushisen.cluster import Task, run_tasks
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.databases import plan_layout
@@ -189,33 +190,6 @@ def compare_counters(trace: dict, machine: dict) -> str:
                              {k: machine[k] for k in COMPARED if k in machine})
 
 
-def _ignore_sigint() -> None:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
-def run_parallel(tasks: list[tuple[Callable, tuple]], jobs: int,
-                 on_done: Callable[[int, object], None]) -> bool:
-    """Run `fn(*args)` for every task in `jobs` worker processes (spawned: no engine state is
-    inherited); `on_done(index, result)` in the parent as each finishes. A worker's exception is
-    raised here. Returns False when interrupted (Ctrl-C): workers are stopped, results already
-    delivered are kept."""
-    ctx = multiprocessing.get_context("spawn")
-    pool = ctx.Pool(max(1, jobs), initializer=_ignore_sigint)
-    try:
-        pending = {i: pool.apply_async(fn, args) for i, (fn, args) in enumerate(tasks)}
-        while pending:
-            for i in [i for i, a in pending.items() if a.ready()]:
-                on_done(i, pending.pop(i).get())
-            time.sleep(0.2)
-        pool.close()
-        return True
-    except KeyboardInterrupt:
-        return False
-    finally:
-        pool.terminate()
-        pool.join()
-
-
 def machine_check(scene: str, res: int, config, engine: str, corners: bool = False) -> dict:
     """Render `scene` on the machine in the serial ray-tree mode (SLOTS=1, SERIAL_TREES=1: one
     ray tree in flight, so IC sees the golden trace's rays in `tracesim.machine_order`) and
@@ -299,77 +273,51 @@ def output_folder(out: Path) -> Path:
     return out
 
 
-def run_paper(request: PaperRequest, show: bool = False) -> PaperRun:
-    """Every scene's analysis (and with `on_machine` its machine check), then the figures, the
-    CSV files and report.md in `request.out`. `show`: progress bars on standard error (one line
-    per finished task when it is not a terminal). Ctrl-C stops the work; what finished is
-    written and the run says it was interrupted."""
+def run_paper(request: PaperRequest, scheduler: str | None = None, show: bool = False) -> PaperRun:
+    """Every scene's analysis (and with `on_machine` its machine check) as independent runs on
+    the cluster (netsushisen/cluster.py: a LocalCluster, or the scheduler at `scheduler`), then
+    the figures, the CSV files and report.md in `request.out`, scenes in the order given.
+    `show`: progress on standard error (a bar on a terminal, else one line per finished run).
+    Ctrl-C stops the work; what finished is written and the run says it was interrupted."""
     r = request
     scenes = [load_scene(s) for s in r.scenes]  # every bad name is reported before any work
-    jobs = r.workers or max(1, min(os.cpu_count() or 1, len(scenes)))
     out = output_folder(r.out)
     start = time.perf_counter()
     results: dict[int, SceneData] = {}
     checks: dict[int, dict] = {}
-    progress = None
-    if show:
-        from rich.console import Console
-        from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
-                                   TimeElapsedColumn)
-        progress = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                            TimeElapsedColumn(), console=Console(stderr=True), transient=False)
-        progress.start()
+    n = len(scenes)
+    tasks = [Task(analyse_scene, (spec, r.res, r.config, r.corners, None, 16384, r.options),
+                  f"{scene.name}-trace") for spec, scene in zip(r.scenes, scenes)]
+    if r.on_machine:
+        tasks += [Task(machine_check, (spec, r.res, r.config, r.engine, r.corners), f"{scene.name}-machine")
+                  for spec, scene in zip(r.scenes, scenes)]
+    log = _log if show and not sys.stderr.isatty() else (lambda text: None)
 
-    def log(text: str) -> None:
-        if progress is not None and not progress.console.is_terminal:  # a log: one line per scene
-            progress.console.print(text)
-
-    try:
-        if jobs == 1 and not r.on_machine:
-            complete = True
-            try:
-                for i, scene in enumerate(scenes):
-                    task = progress.add_task(f"{scene.name}: start", total=1) if progress else None
-
-                    def shown(description: str, k: float, total: float, task=task) -> None:
-                        if progress is not None:
-                            progress.update(task, description=description, completed=k, total=total)
-
-                    results[i] = analyse_scene(scene, r.res, r.config, r.corners, shown, options=r.options)
-                    log(f"{scene.name}: done in {results[i].seconds['total']:.0f} s")
-            except KeyboardInterrupt:
-                complete = False
+    def done(i: int, result) -> None:
+        if i < n:
+            results[i] = result
+            log(f"{result.name}: trace-driven path done in {result.seconds['total']:.0f} s")
         else:
-            tasks = [(analyse_scene, (spec, r.res, r.config, r.corners, None, 16384, r.options))
-                     for spec in r.scenes]
-            if r.on_machine:
-                tasks += [(machine_check, (spec, r.res, r.config, r.engine, r.corners)) for spec in r.scenes]
-            bar = progress.add_task(f"{len(tasks)} tasks on {jobs} workers", total=len(tasks)) if progress else None
-            n = len(scenes)
+            checks[i - n] = result
+            log(f"{result['scene']}: machine {result['cycles']:,} cycles, counters "
+                + ("equal" if result["equal"] else "differ") + f", {result['seconds']:.0f} s")
 
-            def done(i: int, result) -> None:
-                if i < n:
-                    results[i] = result
-                    log(f"{result.name}: trace-driven path done in {result.seconds['total']:.0f} s")
-                else:
-                    checks[i - n] = result
-                    log(f"{result['scene']}: machine {result['cycles']:,} cycles, counters "
-                        + ("equal" if result["equal"] else "differ") + f", {result['seconds']:.0f} s")
-                if progress is not None:
-                    progress.advance(bar)
-
-            complete = run_parallel(tasks, jobs, done)
-    finally:
-        if progress is not None:
-            progress.stop()
+    outcome = run_tasks(tasks, done, scheduler=scheduler, workers=r.workers, title="paper", show=show,
+                        status=lambda: f"{len(results)} of {n} scenes"
+                        + (f", {len(checks)} machine checks" if r.on_machine else ""))
     run = PaperRun([results[i] for i in sorted(results)],
                    [s.name for i, s in enumerate(scenes) if i not in results],
-                   [checks[i] for i in sorted(checks)], interrupted=not complete)
-    _write(r, run, out, start, jobs)
+                   [checks[i] for i in sorted(checks)], interrupted=outcome.interrupted)
+    _write(r, run, out, start, r.workers or min(os.cpu_count() or 1, len(tasks)), scheduler)
     return run
 
 
-def _write(r: PaperRequest, run: PaperRun, out: Path, start: float, workers: int) -> None:
+def _log(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
+
+
+def _write(r: PaperRequest, run: PaperRun, out: Path, start: float, workers: int,
+           scheduler: str | None = None) -> None:
     """Figures, CSV files and report.md of what finished."""
     if run.scenes:
         run.files += write_figures(run.scenes, out)
@@ -380,7 +328,9 @@ def _write(r: PaperRequest, run: PaperRun, out: Path, start: float, workers: int
     machine = None
     if r.on_machine and run.checks:
         mc = r.config.ic_memory
-        machine = {"engine": r.engine, "res": r.res, "workers": workers, "seconds": run.seconds,
+        where = (f"on the Dask cluster at {scheduler}" if scheduler
+                 else f"{workers} runs at a time on a LocalCluster")
+        machine = {"engine": r.engine, "res": r.res, "workers": where, "seconds": run.seconds,
                    "memory": f"IC cache {mc.cache_bytes} B, resident {mc.resident_bytes} B"
                    if mc.cache_share is None else f"IC cache share {mc.cache_share}, resident share {mc.resident_share}",
                    "scenes": run.checks}

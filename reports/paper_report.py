@@ -82,7 +82,7 @@ def _on_machine(check: dict) -> list[str]:
     lines = ["## On the machine", "",
              f"`--on-machine`: each scene rendered by the emulated machine ({check['engine']} engine, serial "
              f"ray-tree mode SERIAL_TREES=1, one slot) at {check['res']}×{check['res']} with the default "
-             f"memory configuration ({check['memory']}), {check['workers']} scenes at a time; IC's counters "
+             f"memory configuration ({check['memory']}), {check['workers']}; IC's counters "
              "(accesses by memory and region, references per primitive, ρ, μ) compared with the "
              "trace-driven path's for the same images.", ""]
     rows = [[r["scene"], f"{r['cycles']:,}", f"{r['seconds']:.0f}", r["rho"], r["mu"],

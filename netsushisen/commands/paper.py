@@ -2,8 +2,9 @@
 say where we agree.
 
     netsushisen paper [--res N] [--scenes S ...] [--out DIR] [--corners] [--precision fp32|fp64]
-                      [--sizing records|records+lists] [--lists local|cache] [--jobs N]
-                      [--on-machine] [--config FILE] [--set field=value]... [--engine NAME]
+                      [--sizing records|records+lists] [--lists local|cache] [--on-machine]
+                      [--scheduler ADDRESS] [--workers N] [--config FILE] [--set field=value]...
+                      [--engine NAME]
 
 Writes into DIR (default `paper/`): report.md (both tables with the paper's numbers beside ours,
 each of the paper's findings decided by a stated threshold, counted per primitive reference —
@@ -15,9 +16,11 @@ It answers from the fastest exact path: the golden model's IC reference trace, i
 serial ray order, replayed through a trace-driven resident memory + direct-mapped cache for every
 memory configuration of the figures. `--on-machine` also renders every scene on the emulated
 machine (serial ray-tree mode, `--engine`, default compiled) with the default memory
-configuration and checks IC's counters equal the trace-driven path's. Scenes run in parallel
-over `--jobs` worker processes (default: one per core). Ctrl-C stops after writing what the
-finished scenes give.
+configuration and checks IC's counters equal the trace-driven path's. Each scene's analysis
+and each machine check is one run on the Dask layer (netsushisen/cluster.py): a LocalCluster of
+`--workers` processes (default one per core; `--jobs` is the old name), or the cluster whose
+scheduler listens at `--scheduler ADDRESS`. Ctrl-C stops after writing what the finished scenes
+give (exit 130).
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.cluster import add_cluster_options, check_cluster_options
 from netsushisen.options import (add_config_options, add_engine, add_output, add_quiet,
                                  add_resolution, check_footprint,
                                  check_resolution, config_from_args, engine_from_args)
@@ -47,8 +50,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--lists", choices=LIST_PLACEMENTS, default="local",
                         help="list cells in local memory, never cached (default, the paper's §4.4) or "
                              "in ICGM through the cache (the machine's IC kernel)")
-    parser.add_argument("--jobs", type=int, default=None, metavar="N",
-                        help="worker processes, one scene each (default: the cores, at most one per scene)")
+    add_cluster_options(parser, "one scene's analysis or machine check each at a time",
+                        aliases=("--jobs",))
     parser.add_argument("--on-machine", action="store_true",
                         help="also render each scene on the emulated machine (serial mode) and check "
                              "IC's counters equal the trace-driven path's")
@@ -74,26 +77,19 @@ def _command(args: argparse.Namespace) -> str:
     return " ".join(shlex.quote(p) for p in parts)
 
 
-def _jobs(args: argparse.Namespace, n_scenes: int) -> int:
-    if args.jobs is not None and args.jobs < 1:
-        raise NetsushisenError(Diagnostic(f"--jobs {args.jobs}: need at least 1 worker"))
-    return args.jobs or max(1, min(os.cpu_count() or 1, n_scenes))
-
-
 def run(args: argparse.Namespace) -> int:
     check_resolution(args.res)
     engine = engine_from_args(args)
     config = config_from_args(args)
     check_footprint("paper", None, args.res + 1 if args.corners else args.res, None, golden=True,
                     quiet=args.quiet)
-    if args.jobs is not None and args.jobs < 1:
-        raise NetsushisenError(Diagnostic(f"--jobs {args.jobs}: need at least 1 worker"))
+    check_cluster_options(args)
     from netsushisen.paper import PaperRequest, run_paper  # noqa: PLC0415 (host and machine: heavy)
 
     request = PaperRequest(list(args.scenes), args.res, config, Path(args.out),
                            PaperOptions(sizing=args.sizing, lists=args.lists), args.corners,
-                           args.on_machine, engine, _command(args), args.jobs)
-    done = run_paper(request, show=not args.quiet)
+                           args.on_machine, engine, _command(args), args.workers)
+    done = run_paper(request, args.scheduler, show=not args.quiet)
     names = ", ".join(p.name for p in done.files)
     if done.interrupted:
         print(f"netsushisen paper: interrupted; finished {', '.join(d.name for d in done.scenes) or 'no scene'}, "

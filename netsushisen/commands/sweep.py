@@ -24,16 +24,12 @@ from __future__ import annotations
 import argparse
 import csv
 import hashlib
-import json
-import logging
-import os
-import re
-import signal
 import sys
-import time
 from pathlib import Path
 
-from netsushisen.outputs import write_all, write_text
+from netsushisen.cluster import (ResultCache, Task, add_cluster_options, check_cluster_options,
+                                 run_tasks)
+from netsushisen.outputs import write_all
 from netsushisen.errors import NetsushisenError
 from netsushisen.options import add_output, add_quiet
 from netsushisen.sweep import Point, Spec, load_spec, point_config, points, run_point, tidy_row, with_keys
@@ -46,10 +42,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="the sweep spec; or `plot RESULTS` to draw a results table")
     parser.add_argument("results", nargs="?", metavar="RESULTS",
                         help="(plot) results.csv or results.parquet of a sweep")
-    parser.add_argument("--scheduler", metavar="ADDRESS",
-                        help="a running Dask scheduler (tcp://host:8786); default: a LocalCluster")
-    parser.add_argument("--workers", type=int, metavar="N",
-                        help="LocalCluster worker processes (default: one per core)")
+    add_cluster_options(parser, "one point each at a time")
     add_output(parser, "output folder (default sweep/); with plot: the image file (default next "
                        "to RESULTS)", metavar="PATH", aliases=("--output",))
     parser.add_argument("--engine", help="engine of every point (default: the spec's, else compiled)")
@@ -74,10 +67,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if args.results:
         raise NetsushisenError(f"sweep: unexpected argument {args.results!r} (only `sweep plot` takes RESULTS)")
-    if args.workers is not None and args.workers < 1:
-        raise NetsushisenError(f"--workers {args.workers}: give at least 1")
-    if args.scheduler is not None:
-        check_scheduler(args.scheduler)
+    check_cluster_options(args)
     spec = load_spec(args.spec)
     engine = _engine(args.engine or spec.engine)
     _check_footprint(spec, engine, args.quiet)
@@ -126,20 +116,6 @@ def _task(spec: Spec, p: Point, engine: str) -> dict:
             "config_file": spec.config_file, "res": spec.res, "engine": engine}
 
 
-def _checksum(result: dict) -> str:
-    body = {k: v for k, v in result.items() if k != "checksum"}
-    return hashlib.sha256(json.dumps(body, sort_keys=True, default=str).encode()).hexdigest()
-
-
-def _write_point(folder: Path, result: dict, spec_hash: str = "") -> None:
-    """Atomically (a killed sweep leaves whole files only), with the spec's hash and a
-    checksum of the content (`_load` verifies it)."""
-    result = json.loads(json.dumps(result, default=str))  # as it will read back
-    result["spec"] = spec_hash
-    result["checksum"] = _checksum(result)
-    write_text(folder / f"{result['key']}.json", json.dumps(result))
-
-
 def _spec_hash(spec: Spec) -> str:
     try:
         return hashlib.sha256(spec.path.read_bytes()).hexdigest()[:16]
@@ -157,54 +133,21 @@ def _warm(spec: Spec, pts: list[Point], engine: str) -> None:
         load(precision)
 
 
-_ADDRESS = re.compile(r"(tcp|tls)://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):(\d{1,5})\Z")
-
-
-def check_scheduler(address: str) -> None:
-    """A Dask scheduler address, `tcp://HOST:PORT` (or tls://), refused in one line before
-    anything starts otherwise."""
-    m = _ADDRESS.match(address)
-    if m is None or not 1 <= int(m.group(3)) <= 65535:
-        raise NetsushisenError(f"--scheduler {address!r}: expected tcp://HOST:PORT (a Dask "
-                               "scheduler's address, port 1..65535)")
-
-
-def _client(scheduler: str | None, workers: int | None):
-    from dask.distributed import Client, LocalCluster
-    if scheduler:
-        try:
-            return Client(scheduler, timeout="10s"), None
-        except (OSError, TimeoutError, ValueError, TypeError, MemoryError) as err:
-            # MemoryError: a server that is not Dask's (its reply read as a frame length)
-            raise NetsushisenError(f"--scheduler {scheduler}: cannot connect "
-                                   f"({type(err).__name__}: {str(err)[:200]})") from None
-    n = workers or os.cpu_count() or 1
-    # the workers ignore SIGINT (inherited; Python keeps an ignored SIGINT ignored): Ctrl-C at
-    # a terminal reaches the whole process group, and only this process should answer it
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.ERROR)
-    finally:
-        signal.signal(signal.SIGINT, previous)
-    return Client(cluster), cluster
-
-
 def run_sweep(spec: Spec, out: Path, engine: str, scheduler: str | None = None,
               workers: int | None = None, show: bool = False, retry: bool = True) -> Summary:
     """Run every point not already in out/points (a corrupt point file again, and a failed
-    point again unless `retry` is False); write the results tables (also on Ctrl-C)."""
+    point again unless `retry` is False) on the cluster (netsushisen/cluster.py); write the
+    results tables (also on Ctrl-C)."""
     pts = with_keys(spec, points(spec), engine)
-    folder = out / "points"
-    folder.mkdir(parents=True, exist_ok=True)
+    cache = ResultCache(out / "points")
     distinct: dict[str, Point] = {}
     for p in pts:
         distinct.setdefault(p.key, p)  # the first point of each key
     summary = Summary(len(distinct), len(pts) - len(distinct))
     spec_hash = _spec_hash(spec)
-    todo: dict[str, Point] = {}
+    todo: list[Point] = []
     for key, p in distinct.items():
-        found = _load(folder, key) if (folder / f"{key}.json").exists() else None
+        found = cache.load(key)
         if isinstance(found, str):
             print(f"sweep: point {key} ({p.scene}, {_shown(p)}) {found}: computing it again",
                   file=sys.stderr)
@@ -212,71 +155,50 @@ def run_sweep(spec: Spec, out: Path, engine: str, scheduler: str | None = None,
             summary.cached += 1
             summary.failed += found["status"] in FAILED
             continue
-        todo[key] = p
-    client = cluster = None
-    progress = None
+        todo.append(p)
+
+    def done(i: int, result: dict) -> None:
+        cache.store(result, spec_hash)
+        summary.computed += 1
+        summary.failed += result["status"] in FAILED
+
+    def lost(i: int, err: BaseException) -> None:  # a worker lost too often (KilledWorker) or the like
+        p = todo[i]
+        done(i, {"key": p.key, "scene": p.scene, "values": list(p.values), "status": "lost",
+                 "error": f"{type(err).__name__}: {err}", "stats": None, "seconds": 0.0,
+                 "engine": engine})
+
     try:
         if todo:
-            _warm(spec, list(todo.values()), engine)
-            client, cluster = _client(scheduler, workers)
-            from dask.distributed import as_completed
-            futures = [client.submit(run_point, _task(spec, p, engine), key=f"point-{p.key}",
-                                     pure=False) for p in todo.values()]
-            progress = _progress(show, summary)
-            for fut in as_completed(futures):
-                try:
-                    result = fut.result()
-                except Exception as err:  # a worker lost too often (KilledWorker) or the like
-                    p = todo[fut.key.removeprefix("point-")]
-                    result = {"key": p.key, "scene": p.scene, "values": list(p.values),
-                              "status": "lost", "error": f"{type(err).__name__}: {err}",
-                              "stats": None, "seconds": 0.0, "engine": engine}
-                _write_point(folder, result, spec_hash)
-                summary.computed += 1
-                summary.failed += result["status"] in FAILED
-                if progress:
-                    progress.update(summary)
+            _warm(spec, todo, engine)
+            tasks = [Task(run_point, (_task(spec, p, engine),), f"point-{p.key}") for p in todo]
+            outcome = run_tasks(tasks, done, scheduler=scheduler, workers=workers, title="sweep",
+                                show=show, on_error=lost, done_before=summary.cached,
+                                status=lambda: _status(summary))
+            summary.interrupted = outcome.interrupted
     except KeyboardInterrupt:
         summary.interrupted = True
     finally:
-        if progress:
-            progress.stop()
-        if client is not None:
-            client.close()
-        if cluster is not None:
-            cluster.close()
-        write_tables(spec, pts, folder, out)
+        write_tables(spec, pts, cache, out)
     return summary
+
+
+def _status(s: Summary) -> str:
+    return f"{s.computed} computed, {s.cached} cached, {s.failed} failed"
 
 
 def _shown(p: Point) -> str:
     return ", ".join(f"{k} = {v!r}" for k, v in p.values) or "base configuration"
 
 
-def _load(folder: Path, key: str) -> dict | str:
-    """A point's result, or what is wrong with its file: not readable JSON (truncated), no
-    checksum or one that does not match (edited), or written for another key."""
-    try:
-        result = json.loads((folder / f"{key}.json").read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError, RecursionError):
-        return "is not whole JSON (truncated?)"
-    if not isinstance(result, dict) or "checksum" not in result:
-        return "has no checksum"
-    if result["checksum"] != _checksum(result):
-        return "does not match its checksum (edited or damaged)"
-    if result.get("key") != key or "status" not in result:
-        return "was written for another point"
-    return result
-
-
-def write_tables(spec: Spec, pts: list[Point], folder: Path, out: Path) -> list[dict]:
+def write_tables(spec: Spec, pts: list[Point], cache: ResultCache, out: Path) -> list[dict]:
     """results.csv and results.parquet: one row per finished point of this spec, in spec order."""
     rows, seen = [], set()
     for p in pts:
-        if p.key in seen or not (folder / f"{p.key}.json").exists():
+        if p.key in seen or not cache.has(p.key):
             continue
         seen.add(p.key)
-        result = _load(folder, p.key)
+        result = cache.load(p.key)
         if isinstance(result, dict):
             rows.append(tidy_row(spec.fields, result))
     head = ["scene", *spec.fields, "status", "cycles"]
@@ -309,28 +231,3 @@ def _write_parquet(path: Path, columns: list[str], rows: list[dict]) -> None:
         else:
             arrays[c] = pa.array([None if v is None else str(v) for v in vals], pa.string())
     pq.write_table(pa.table(arrays), path)
-
-
-class _Bar:
-    def __init__(self, summary: Summary) -> None:
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-        self.p = Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
-                          TextColumn("{task.description}"), TimeRemainingColumn(),
-                          transient=True, redirect_stdout=False, redirect_stderr=False)
-        self.p.start()
-        self.task = self.p.add_task(self._text(summary), total=summary.total,
-                                    completed=summary.cached)
-
-    @staticmethod
-    def _text(s: Summary) -> str:
-        return f"{s.computed} computed, {s.cached} cached, {s.failed} failed"
-
-    def update(self, s: Summary) -> None:
-        self.p.update(self.task, completed=s.cached + s.computed, description=self._text(s))
-
-    def stop(self) -> None:
-        self.p.stop()
-
-
-def _progress(show: bool, summary: Summary):
-    return _Bar(summary) if show else None

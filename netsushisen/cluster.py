@@ -1,0 +1,317 @@
+"""One way to run many runs: the Dask layer under `paper`, `accuracy`, `numerics` and `sweep`.
+
+A multi-run command turns its independent runs (scenes, scene × axis units, catalog cases,
+sweep points) into `Task`s and hands them to `run_tasks`, which
+
+- runs them on a Dask LocalCluster (one single-threaded worker process per core, at most one
+  per task, or `--workers N`) or, with `--scheduler tcp://HOST:PORT`, on the cluster whose scheduler listens
+  there (`dask scheduler`, then `dask worker ADDRESS` on each machine): a user who outgrows one
+  machine points any of these commands at a cluster;
+- gives each result to the command by the task's index (`on_done`), so the command assembles its
+  output in input order, never in completion order: the same inputs give the same files;
+- passes what a task finishes before it returns (`emit`, e.g. each accuracy row) to `on_item`
+  as it comes, through a Dask queue, so Ctrl-C loses only what was still running;
+- shows one progress bar on standard error when it is a terminal (and, if the command asks,
+  one line per finished task when it is not);
+- on Ctrl-C stops the cluster and returns `interrupted`: the command writes what finished and
+  exits 130. LocalCluster workers ignore SIGINT (Ctrl-C at a terminal reaches the whole process
+  group), so no worker prints a traceback;
+- refuses a scheduler address that is not `tcp://HOST:PORT` before anything starts, and one that
+  does not speak Dask (nothing listening, an HTTP server, garbage) in one line: `cannot connect`.
+
+`ResultCache` is the content-keyed store of finished results (a sweep's `points/KEY.json`):
+written atomically with a checksum, read back verified, so a rerun computes only what is missing
+and a damaged file is named and computed again.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import logging
+import os
+import re
+import signal
+import sys
+import time
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+from netsushisen.errors import NetsushisenError
+from netsushisen.outputs import write_text
+
+POLL = 0.1
+"""Seconds between looks at finished tasks and emitted items."""
+
+
+# -- options ------------------------------------------------------------------------------------
+
+def add_cluster_options(parser: argparse.ArgumentParser, what: str,
+                        aliases: tuple[str, ...] = ()) -> None:
+    """`--scheduler ADDRESS` and `--workers N` (`what`: the runs a worker takes, for the help)."""
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="run on the Dask cluster whose scheduler listens at ADDRESS "
+                             "(tcp://host:8786); default: a LocalCluster on this machine")
+    parser.add_argument("--workers", *aliases, dest="workers", type=int, metavar="N",
+                        help=f"LocalCluster worker processes, {what} (default: one per core)")
+
+
+def check_cluster_options(args: argparse.Namespace, flag: str = "--workers") -> None:
+    """Refuse a worker count below 1 and a malformed scheduler address, before any work."""
+    if args.workers is not None and args.workers < 1:
+        raise NetsushisenError(f"{flag} {args.workers}: need at least 1 worker")
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
+
+
+_ADDRESS = re.compile(r"(tcp|tls)://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):(\d{1,5})\Z")
+
+
+def check_scheduler(address: str) -> None:
+    """A Dask scheduler address, `tcp://HOST:PORT` (or tls://), refused in one line before
+    anything starts otherwise."""
+    m = _ADDRESS.match(address)
+    if m is None or not 1 <= int(m.group(3)) <= 65535:
+        raise NetsushisenError(f"--scheduler {address!r}: expected tcp://HOST:PORT (a Dask "
+                               "scheduler's address, port 1..65535)")
+
+
+# -- the cluster --------------------------------------------------------------------------------
+
+def connect(scheduler: str | None, workers: int | None):
+    """(client, cluster): a client of the scheduler at `scheduler`, else of a new LocalCluster
+    of `workers` single-threaded processes (cluster None when it is not ours to close)."""
+    from dask.distributed import Client, LocalCluster
+    if scheduler:
+        greeting(scheduler)
+        try:
+            return Client(scheduler, timeout="10s"), None
+        except (OSError, TimeoutError, ValueError, TypeError, MemoryError, EOFError) as err:
+            # MemoryError: a server that is not Dask's (its reply read as a frame length)
+            raise NetsushisenError(f"--scheduler {scheduler}: cannot connect "
+                                   f"({type(err).__name__}: {str(err)[:200]})") from None
+    n = workers or os.cpu_count() or 1
+    # the workers ignore SIGINT (inherited; Python keeps an ignored SIGINT ignored): Ctrl-C at
+    # a terminal reaches the whole process group, and only this process should answer it
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=logging.ERROR)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    return Client(cluster), cluster
+
+
+GREETING_SECONDS = 10.0
+"""How long a scheduler may take to send its greeting (Client's own connect timeout)."""
+MAX_GREETING = 1 << 20
+"""A Dask greeting (its handshake) is a few hundred bytes: a first frame announced larger than
+this is not one."""
+
+
+def greeting(address: str) -> None:
+    """Check, before Dask reads anything, that a Dask scheduler answers at `address`: it sends
+    its handshake as soon as a connection opens, an 8-byte little-endian length first. Anything
+    else (an HTTP server, garbage, silence, a closed port) is one line here, where Dask's own
+    reader would take the first 8 bytes of "HTTP/1.1" for a frame length and try to allocate it.
+    tls:// addresses are left to Dask (their bytes are encrypted)."""
+    import socket
+    import struct
+
+    m = _ADDRESS.match(address)
+    if m is None or m.group(1) != "tcp":
+        return
+    host, port = m.group(2).strip("[]"), int(m.group(3))
+
+    def refuse(why: str) -> NetsushisenError:
+        return NetsushisenError(f"--scheduler {address}: cannot connect ({why})")
+
+    try:
+        with socket.create_connection((host, port), timeout=GREETING_SECONDS) as sock:
+            first = b""
+            while len(first) < 8:
+                chunk = sock.recv(8 - len(first))
+                if not chunk:
+                    raise refuse("the server closed the connection without a Dask greeting")
+                first += chunk
+    except TimeoutError:
+        raise refuse(f"no Dask greeting within {GREETING_SECONDS:g} s: not a Dask scheduler?") from None
+    except OSError as err:
+        raise refuse(err.strerror or type(err).__name__) from None
+    (size,) = struct.unpack("<Q", first)
+    if size > MAX_GREETING:
+        shown = first.decode("ascii", "replace")
+        shown = "".join(c if c.isprintable() else "?" for c in shown)
+        raise refuse(f"not a Dask scheduler: it answered {shown!r}")
+
+
+@dataclass(frozen=True)
+class Task:
+    """One independent run: `fn(*args)` in a worker (module-level, picklable). With `emits`,
+    `fn` also takes `emit=`, a callable that sends a finished part to the command at once."""
+
+    fn: Callable
+    args: tuple
+    label: str
+    emits: bool = False
+
+
+@dataclass
+class Outcome:
+    """How a batch ended: indexes done (their results went to `on_done`) and whether Ctrl-C
+    stopped it."""
+
+    done: set[int] = field(default_factory=set)
+    interrupted: bool = False
+
+
+def _call(fn: Callable, args: tuple, queue: str | None, index: int):
+    """In the worker: the task, its emitted parts tagged with its index."""
+    if queue is None:
+        return fn(*args)
+    from dask.distributed import Queue
+    q = Queue(queue)
+    return fn(*args, emit=lambda item: q.put((index, item)))
+
+
+def run_tasks(tasks: list[Task], on_done: Callable[[int, Any], None], *,
+              scheduler: str | None = None, workers: int | None = None, title: str = "runs",
+              show: bool = False, log: Callable[[str], None] | None = None,
+              on_item: Callable[[int, Any], None] | None = None,
+              on_error: Callable[[int, BaseException], None] | None = None,
+              status: Callable[[], str] | None = None, done_before: int = 0) -> Outcome:
+    """Run `tasks` on the cluster (see the module docstring). `on_done(index, result)` for each
+    as it finishes; `on_item(index, item)` for what a task emits before; a task's exception goes
+    to `on_error(index, error)`, or is raised here when there is none. `status()`: the bar's
+    text; `done_before`: runs already done (a cache's), counted on the bar."""
+    outcome = Outcome()
+    if not tasks:
+        return outcome
+    client = cluster = None
+    bar = _Bar(title, len(tasks) + done_before, done_before) if show and sys.stderr.isatty() else None
+    queue = None
+    try:
+        client, cluster = connect(scheduler, workers or min(os.cpu_count() or 1, len(tasks)))
+        from dask.distributed import Queue, as_completed
+        name = None
+        if on_item is not None and any(t.emits for t in tasks):
+            name = f"netsushisen-{uuid.uuid4().hex}"
+            queue = Queue(name, client=client)
+        index = {}
+        futures = []
+        for i, t in enumerate(tasks):
+            f = client.submit(_call, t.fn, t.args, name if t.emits else None, i,
+                              key=f"{t.label}-{uuid.uuid4().hex[:8]}", pure=False)
+            index[f.key] = i
+            futures.append(f)
+        pending = as_completed(futures)
+        while not pending.is_empty():
+            _drain(queue, on_item)
+            for fut in pending.next_batch(block=False):
+                i = index[fut.key]
+                _drain(queue, on_item)  # its parts before its result
+                try:
+                    result = fut.result()
+                except Exception as err:  # noqa: BLE001 (a worker lost too often, or the task's own)
+                    if on_error is None:
+                        raise
+                    on_error(i, err)
+                else:
+                    on_done(i, result)
+                outcome.done.add(i)
+                if log is not None:
+                    log(f"{tasks[i].label}: done")
+                if bar is not None:
+                    bar.update(len(outcome.done) + done_before, status() if status else "")
+            time.sleep(POLL)
+        _drain(queue, on_item)
+    except KeyboardInterrupt:
+        outcome.interrupted = True
+        try:
+            _drain(queue, on_item)  # what was emitted before the Ctrl-C is kept
+        except Exception:  # noqa: BLE001 (the scheduler may be gone: nothing more to keep)
+            pass
+    finally:
+        if bar is not None:
+            bar.stop()
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+    return outcome
+
+
+def _drain(queue, on_item) -> None:
+    if queue is None:
+        return
+    if queue.qsize():
+        for index, item in queue.get(batch=True):
+            on_item(index, item)
+
+
+class _Bar:
+    """One rich progress bar on standard error: tasks done of all, the command's status text."""
+
+    def __init__(self, title: str, total: int, done: int) -> None:
+        from rich.console import Console
+        from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
+                                   TimeRemainingColumn)
+        self.p = Progress(TextColumn(title), BarColumn(), MofNCompleteColumn(),
+                          TextColumn("{task.description}"), TimeRemainingColumn(),
+                          console=Console(stderr=True), transient=True)
+        self.p.start()
+        self.task = self.p.add_task("", total=total, completed=done)
+
+    def update(self, done: int, text: str) -> None:
+        self.p.update(self.task, completed=done, description=text)
+
+    def stop(self) -> None:
+        self.p.stop()
+
+
+# -- the result cache ---------------------------------------------------------------------------
+
+class ResultCache:
+    """Finished results as `FOLDER/KEY.json`, each with a checksum of its content and a stamp
+    (e.g. the hash of the spec that wrote it). `load` returns the result, None when there is no
+    file, or a sentence saying what is wrong with it (then it is computed again)."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+        folder.mkdir(parents=True, exist_ok=True)
+
+    def path(self, key: str) -> Path:
+        return self.folder / f"{key}.json"
+
+    def has(self, key: str) -> bool:
+        return self.path(key).exists()
+
+    def store(self, result: dict, stamp: str = "") -> None:
+        """Atomically (a killed run leaves whole files only); `result["key"]` names it."""
+        result = json.loads(json.dumps(result, default=str))  # as it will read back
+        result["spec"] = stamp
+        result["checksum"] = checksum(result)
+        write_text(self.path(result["key"]), json.dumps(result))
+
+    def load(self, key: str) -> dict | str | None:
+        if not self.has(key):
+            return None
+        try:
+            result = json.loads(self.path(key).read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, ValueError, RecursionError):
+            return "is not whole JSON (truncated?)"
+        if not isinstance(result, dict) or "checksum" not in result:
+            return "has no checksum"
+        if result["checksum"] != checksum(result):
+            return "does not match its checksum (edited or damaged)"
+        if result.get("key") != key or "status" not in result:
+            return "was written for another point"
+        return result
+
+
+def checksum(result: dict) -> str:
+    body = {k: v for k, v in result.items() if k != "checksum"}
+    return hashlib.sha256(json.dumps(body, sort_keys=True, default=str).encode()).hexdigest()

@@ -45,6 +45,9 @@ from netsushisen.outputs import write_text
 
 POLL = 0.1
 """Seconds between looks at finished tasks and emitted items."""
+IN_PROCESS = False
+"""The LocalCluster's workers as threads of this process (tests that patch the code a task runs
+set it); the commands always use processes."""
 
 
 # -- options ------------------------------------------------------------------------------------
@@ -98,7 +101,7 @@ def connect(scheduler: str | None, workers: int | None):
     # a terminal reaches the whole process group, and only this process should answer it
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=not IN_PROCESS,
                                dashboard_address=None, silence_logs=logging.ERROR)
     finally:
         signal.signal(signal.SIGINT, previous)
@@ -193,6 +196,8 @@ def run_tasks(tasks: list[Task], on_done: Callable[[int, Any], None], *,
     client = cluster = None
     bar = _Bar(title, len(tasks) + done_before, done_before) if show and sys.stderr.isatty() else None
     queue = None
+    futures: list = []
+    index: dict = {}
     try:
         client, cluster = connect(scheduler, workers or min(os.cpu_count() or 1, len(tasks)))
         from dask.distributed import Queue, as_completed
@@ -200,8 +205,6 @@ def run_tasks(tasks: list[Task], on_done: Callable[[int, Any], None], *,
         if on_item is not None and any(t.emits for t in tasks):
             name = f"netsushisen-{uuid.uuid4().hex}"
             queue = Queue(name, client=client)
-        index = {}
-        futures = []
         for i, t in enumerate(tasks):
             f = client.submit(_call, t.fn, t.args, name if t.emits else None, i,
                               key=f"{t.label}-{uuid.uuid4().hex[:8]}", pure=False)
@@ -232,6 +235,10 @@ def run_tasks(tasks: list[Task], on_done: Callable[[int, Any], None], *,
         outcome.interrupted = True
         try:
             _drain(queue, on_item)  # what was emitted before the Ctrl-C is kept
+            for f in futures:  # and every result that had arrived
+                if index[f.key] not in outcome.done and f.status == "finished":
+                    on_done(index[f.key], f.result())
+                    outcome.done.add(index[f.key])
         except Exception:  # noqa: BLE001 (the scheduler may be gone: nothing more to keep)
             pass
     finally:

@@ -27,24 +27,28 @@ import copy
 import dataclasses
 import json
 import os
+import sys
 import time
 import zlib
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
+from netsushisen.cluster import ResultCache, Task, content_key, run_cached
 from netsushisen.emulator import stats as run_stats
 from netsushisen.errors import NetsushisenError
 from netsushisen.host import golden
 from netsushisen.host.prepass import coarse_resolution
 from netsushisen.host.scenes import Scene
-from netsushisen.isa.config import MachineConfig, apply_override
+from netsushisen.isa.config import MachineConfig, apply_override, dump_toml
 from netsushisen.pipeline import RenderResult, RenderSetup, finish, prepare
 from netsushisen.reports.accuracy import (Row, Timing, fidelity_errors, hit_id_share, ic_regions, image_errors,
                                           memory_point, ray_errors, regression_estimate, relative,
                                           traced_rays)
 from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
+from netsushisen.sweep import kernel_digest, scene_digest
 
 DEPTHS = tuple(range(1, 9))
 TRUTH_DEPTH = 10
@@ -652,18 +656,23 @@ class Study:
     warm: dict[str, float]
     interrupted: bool
     where: str = ""
+    cached: int = 0  # scene × axis units taken from the cache
+
+
+def _rows(i: int, data: list[dict]) -> list[Row]:
+    """A cached unit's rows back from their plain form (`cluster.plain`)."""
+    return [Row(**(d | {"timing": Timing(**d["timing"]) if d["timing"] else None})) for d in data]
 
 
 def run_study(scenes: list[Scene], axes: list[str], res: int, config: MachineConfig, engine: str,
               seed: int = 1992, repeats: int = REPEATS, scheduler: str | None = None,
-              workers: int | None = None, show: bool = False) -> Study:
+              workers: int | None = None, show: bool = False, cache_dir=None,
+              fresh: bool = False) -> Study:
     """Warm up here (the compile lands in the disk cache the workers load), then every scene ×
     axis as one task on the cluster layer (netsushisen/cluster.py); rows arrive as they finish.
+    A unit whose rows are in `cache_dir` (a finished unit of an earlier run with the same
+    inputs, `repeats` and `seed` included) is not run again unless `fresh`.
     `show`: a progress bar on a terminal, else one line per finished row on standard error."""
-    import sys
-
-    from netsushisen.cluster import Task, run_tasks
-
     start = time.perf_counter()
     log = (lambda text: print(text, file=sys.stderr, flush=True)) if show and not sys.stderr.isatty() \
         else (lambda text: None)
@@ -686,12 +695,16 @@ def run_study(scenes: list[Scene], axes: list[str], res: int, config: MachineCon
 
     tasks = [Task(axis_unit, (scenes[si], axis, res, config, engine, seed, repeats),
                   f"{scenes[si].name}-{axis}", emits=True) for si, axis in units]
-    outcome = run_tasks(tasks, done, scheduler=scheduler, workers=workers, title="accuracy",
-                        show=show, on_item=item,
-                        status=lambda: f"{sum(map(len, partial.values()))} rows")
+    inputs = (res, dump_toml(config), engine, seed, repeats, kernel_digest())
+    digests = [scene_digest(scene) for scene in scenes]
+    keys = [content_key("accuracy unit", scenes[si].name, digests[si], axis, *inputs) for si, axis in units]
+    cache = ResultCache(Path(cache_dir)) if cache_dir is not None else None
+    outcome, cached = run_cached(tasks, keys, cache, done, decode=_rows, fresh=fresh, scheduler=scheduler,
+                                 workers=workers, title="accuracy", show=show, on_item=item,
+                                 status=lambda: f"{sum(map(len, partial.values()))} rows")
     rows: dict[str, list[Row]] = {a: [] for a in axes}
     for i, (si, axis) in enumerate(units):
         rows[axis] += finished.get(i, partial.get(i, []))
     n = workers or min(os.cpu_count() or 1, len(tasks))
     where = f"the Dask cluster at {scheduler}" if scheduler else f"a LocalCluster of {n} workers"
-    return Study({a: r for a, r in rows.items() if r}, warm, outcome.interrupted, where)
+    return Study({a: r for a, r in rows.items() if r}, warm, outcome.interrupted, where, cached)

@@ -19,9 +19,11 @@ sweep points) into `Task`s and hands them to `run_tasks`, which
 - refuses a scheduler address that is not `tcp://HOST:PORT` before anything starts, and one that
   does not speak Dask (nothing listening, an HTTP server, garbage) in one line: `cannot connect`.
 
-`ResultCache` is the content-keyed store of finished results (a sweep's `points/KEY.json`):
-written atomically with a checksum, read back verified, so a rerun computes only what is missing
-and a damaged file is named and computed again.
+`ResultCache` is the content-keyed store of finished results (a sweep's `points/KEY.json`,
+`paper`'s and `accuracy`'s `runs/KEY.json`): written atomically with a checksum, read back
+verified, so a rerun (after Ctrl-C, say) computes only what is missing and a damaged file is
+named and computed again. `run_cached` is `run_tasks` through such a cache; a run's key hashes
+everything its result is a function of (`content_key`).
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ import signal
 import sys
 import time
 import uuid
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -101,8 +104,12 @@ def connect(scheduler: str | None, workers: int | None):
     # a terminal reaches the whole process group, and only this process should answer it
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=not IN_PROCESS,
-                               dashboard_address=None, silence_logs=logging.ERROR)
+        with warnings.catch_warnings():
+            # its scheduler's HTTP endpoint (health, no dashboard) warns when another cluster on
+            # this machine holds the default port 8787, then takes another: not the user's concern
+            warnings.filterwarnings("ignore", message="Port .* is already in use")
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=not IN_PROCESS,
+                                   dashboard_address=None, silence_logs=logging.ERROR)
     finally:
         signal.signal(signal.SIGINT, previous)
     return Client(cluster), cluster
@@ -314,11 +321,89 @@ class ResultCache:
             return "has no checksum"
         if result["checksum"] != checksum(result):
             return "does not match its checksum (edited or damaged)"
-        if result.get("key") != key or "status" not in result:
-            return "was written for another point"
+        if result.get("key") != key:
+            return "was written for another run"
         return result
 
 
 def checksum(result: dict) -> str:
     body = {k: v for k, v in result.items() if k != "checksum"}
     return hashlib.sha256(json.dumps(body, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def content_key(*parts: object) -> str:
+    """The key of a run: a hash of everything its result is a function of (the project's version
+    among them), each part as text."""
+    from netsushisen import __version__
+    h = hashlib.sha256()
+    for part in (*parts, __version__):
+        h.update(str(part).encode() + b"\0")
+    return h.hexdigest()[:20]
+
+
+def plain(obj: Any) -> Any:
+    """`obj` as JSON values, losslessly for what runs return: dataclasses as dicts of their
+    fields, numpy arrays as {"__ndarray__": dtype, "data": [...]}, numpy scalars as Python
+    numbers (floats keep inf and nan: Python's JSON writes and reads them)."""
+    import dataclasses
+
+    import numpy as np
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return {f.name: plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+    if isinstance(obj, np.ndarray):
+        return {"__ndarray__": obj.dtype.str, "shape": list(obj.shape), "data": obj.ravel().tolist()}
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, dict):
+        return {str(k): plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [plain(v) for v in obj]
+    return obj
+
+
+def unplain(obj: Any) -> Any:
+    """The arrays of `plain` back (dataclasses stay dicts: their owner rebuilds them)."""
+    import numpy as np
+    if isinstance(obj, dict):
+        if "__ndarray__" in obj:
+            return np.asarray(obj["data"], dtype=np.dtype(obj["__ndarray__"])).reshape(obj["shape"])
+        return {k: unplain(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [unplain(v) for v in obj]
+    return obj
+
+
+def run_cached(tasks: list[Task], keys: list[str], cache: ResultCache | None,
+               on_done: Callable[[int, Any], None], *,
+               decode: Callable[[int, Any], Any] = lambda i, x: unplain(x),
+               fresh: bool = False, on_item: Callable[[int, Any], None] | None = None,
+               on_error: Callable[[int, BaseException], None] | None = None,
+               **options) -> tuple[Outcome, int]:
+    """`run_tasks` through `cache` (None: no cache): a task whose key has a whole result there
+    is not run, its result (`decode(index, plain form)`) goes to `on_done` at once; every computed
+    result is stored the moment it arrives. `fresh`: compute everything again. (outcome, the
+    number of results taken from the cache); indexes are the caller's throughout."""
+    todo: list[int] = []
+    cached = 0
+    for i, key in enumerate(keys):
+        found = cache.load(key) if cache is not None and not fresh else None
+        if isinstance(found, str):
+            print(f"{tasks[i].label}: {cache.path(key)} {found}: computing it again", file=sys.stderr)
+        elif found is not None:
+            on_done(i, decode(i, found["result"]))
+            cached += 1
+            continue
+        todo.append(i)
+
+    def done(j: int, result: Any) -> None:
+        i = todo[j]
+        if cache is not None:
+            cache.store({"key": keys[i], "result": plain(result)})
+        on_done(i, result)
+
+    outcome = run_tasks([tasks[i] for i in todo], done, done_before=cached,
+                        on_item=None if on_item is None else (lambda j, x: on_item(todo[j], x)),
+                        on_error=None if on_error is None else (lambda j, e: on_error(todo[j], e)),
+                        **options)
+    outcome.done = {todo[j] for j in outcome.done} | (set(range(len(keys))) - set(todo))
+    return outcome, cached

@@ -31,20 +31,21 @@ from typing import Callable
 
 import numpy as np
 
-from netsushisen.cluster import Task, run_tasks
+from netsushisen.cluster import ResultCache, Task, content_key, run_cached, unplain
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.databases import plan_layout
 from netsushisen.host.golden import render as render_golden
 from netsushisen.host.grid import build_grid
 from netsushisen.host.prepass import run_prepass
-from netsushisen.isa.config import MachineConfig
+from netsushisen.isa.config import MachineConfig, dump_toml
 from netsushisen.outputs import write_text
 from netsushisen.reports.paper import findings
 from netsushisen.reports.paper_data import (CACHE_SHARES, LOCAL_SHARES, RESIDENT_SPLITS, PaperOptions,
                                             Progress, SceneData)
 from netsushisen.reports.paper_plots import write_csvs, write_figures
 from netsushisen.reports.paper_report import report_markdown
+from netsushisen.sweep import kernel_digest, scene_digest
 from netsushisen.reports.tracesim import (SweepPoint, SweepStream, TraceMemory, machine_order,
                                           ordered_stream_chunks)
 
@@ -242,6 +243,7 @@ class PaperRequest:
     engine: str = "compiled"
     command: str = "netsushisen paper"
     workers: int | None = None
+    fresh: bool = False  # compute every run again (else a run cached in out/runs/ is reused)
 
 
 @dataclass
@@ -258,6 +260,7 @@ class PaperRun:
     files: list[Path] = field(default_factory=list)
     seconds: float = 0.0
     interrupted: bool = False
+    cached: int = 0  # runs taken from out/runs/
 
     @property
     def differing(self) -> list[dict]:
@@ -302,12 +305,25 @@ def run_paper(request: PaperRequest, scheduler: str | None = None, show: bool = 
             log(f"{result['scene']}: machine {result['cycles']:,} cycles, counters "
                 + ("equal" if result["equal"] else "differ") + f", {result['seconds']:.0f} s")
 
-    outcome = run_tasks(tasks, done, scheduler=scheduler, workers=r.workers, title="paper", show=show,
-                        status=lambda: f"{len(results)} of {n} scenes"
-                        + (f", {len(checks)} machine checks" if r.on_machine else ""))
+    config = dump_toml(r.config)
+    digests = [(scene.name, scene_digest(scene)) for scene in scenes]
+    keys = [content_key("paper scene", *d, r.res, r.corners, config, r.options.sizing, r.options.lists)
+            for d in digests]
+    if r.on_machine:
+        kernels = kernel_digest()
+        keys += [content_key("paper machine check", *d, r.res, r.corners, config, r.engine, kernels)
+                 for d in digests]
+
+    def decode(i: int, data):
+        return SceneData.from_plain(unplain(data)) if i < n else unplain(data)
+
+    outcome, cached = run_cached(tasks, keys, ResultCache(out / "runs"), done, decode=decode, fresh=r.fresh,
+                                 scheduler=scheduler, workers=r.workers, title="paper", show=show,
+                                 status=lambda: f"{len(results)} of {n} scenes"
+                                 + (f", {len(checks)} machine checks" if r.on_machine else ""))
     run = PaperRun([results[i] for i in sorted(results)],
                    [s.name for i, s in enumerate(scenes) if i not in results],
-                   [checks[i] for i in sorted(checks)], interrupted=outcome.interrupted)
+                   [checks[i] for i in sorted(checks)], interrupted=outcome.interrupted, cached=cached)
     _write(r, run, out, start, r.workers or min(os.cpu_count() or 1, len(tasks)), scheduler)
     return run
 

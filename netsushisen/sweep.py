@@ -358,11 +358,13 @@ def kernel_digest() -> str:
     return h.hexdigest()
 
 
-def scene_digest(scene: str) -> str:
-    """The hash of a scene's NFF text (a built-in scene's as generated)."""
+def scene_digest(scene) -> str:
+    """The hash of a scene's NFF text (a built-in scene's as generated; `scene`: a name or file
+    for `load_scene`, or a Scene)."""
     from netsushisen.host.catalog import load_scene
     from netsushisen.host.nff import format_nff
-    return hashlib.sha256(format_nff(load_scene(scene)).encode()).hexdigest()
+    return hashlib.sha256(format_nff(load_scene(scene) if isinstance(scene, str) else scene)
+                          .encode()).hexdigest()
 
 
 def with_keys(spec: Spec, pts: list[Point], engine: str) -> list[Point]:

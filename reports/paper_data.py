@@ -122,6 +122,11 @@ class SceneData:
         i = int(np.searchsorted(ck, c - 1e-12))
         return float(fk[min(i, self.n)])
 
+    @classmethod
+    def from_plain(cls, d: dict) -> "SceneData":
+        """A SceneData from its plain form (`cluster.plain`, arrays already back: a cached run)."""
+        return cls(**(d | {"options": PaperOptions(**d["options"])}))
+
     def with_references(self, refs: np.ndarray) -> "SceneData":
         """A copy counting `refs` as the tests per primitive (an experiment's variant)."""
         d = copy.copy(self)

@@ -114,17 +114,18 @@ def _emits(n: int, emit=None) -> int:
 
 
 def test_results_go_by_index_not_by_completion_and_parts_before_their_result():
-    """The first task is the slowest: it finishes last, and its result still lands at index 0."""
+    """The first task is the slowest: it finishes after the second, and its result still lands
+    at index 0."""
     order, results, parts = [], {}, []
 
     def done(i, r):
         order.append(i)
         results[i] = r
-    tasks = [Task(_slow_square, (3, 1.5), "slow"), Task(_slow_square, (4, 0.0), "fast"),
+    tasks = [Task(_slow_square, (3, 2.0), "slow"), Task(_slow_square, (4, 0.0), "fast"),
              Task(_emits, (3,), "emits", emits=True)]
     outcome = run_tasks(tasks, done, workers=2, on_item=lambda i, x: parts.append((i, x, i in results)))
     assert not outcome.interrupted and outcome.done == {0, 1, 2}
-    assert order[-1] == 0 and results == {0: 9, 1: 16, 2: 3}
+    assert order.index(1) < order.index(0) and results == {0: 9, 1: 16, 2: 3}
     assert parts == [(2, 0, False), (2, 1, False), (2, 2, False)]
 
 
@@ -257,3 +258,40 @@ def test_ctrl_c_on_paper_writes_the_finished_scenes(tmp_path):
     md = (out / "report.md").read_text()
     assert "Incomplete run" in md and "balls" in md.split("Incomplete run")[1].splitlines()[0]
     assert (out / "fig3_locality.png").exists()
+
+
+# -- the result cache -------------------------------------------------------------------------
+
+
+def test_paper_reuses_its_finished_runs_and_heals_a_damaged_one(tmp_path, cli):
+    argv = ["paper", "--res", "4", "--scenes", "tetra:1", "mount:1", "--out", tmp_path / "p", "--workers", "1"]
+    code, first, err = cli(*argv)
+    assert code == 0, err
+    assert "runs from" not in first
+    tables = {p.name: p.read_text() for p in (tmp_path / "p").glob("*.csv")}
+    runs = sorted((tmp_path / "p" / "runs").glob("*.json"))
+    assert len(runs) == 2
+    code, second, err = cli(*argv)
+    assert code == 0 and f"(2 runs from {tmp_path / 'p'}/runs/)" in second, err
+    assert {p.name: p.read_text() for p in (tmp_path / "p").glob("*.csv")} == tables
+    runs[0].write_text(runs[0].read_text().replace('"res": 4', '"res": 5'))  # edited
+    code, third, err = cli(*argv)
+    assert code == 0 and "(1 runs from" in third
+    assert f"{runs[0]} does not match its checksum (edited or damaged): computing it again" in err
+    assert {p.name: p.read_text() for p in (tmp_path / "p").glob("*.csv")} == tables
+
+
+@pytest.mark.slow  # about 8 s: three runs
+def test_accuracy_reuses_a_finished_scene_axis_unit_and_fresh_measures_again(tmp_path, cli):
+    argv = ["accuracy", "tetra:1", "--res", "4", "--axes", "precision", "--repeats", "1", "--out",
+            tmp_path / "a", "--workers", "1", "--quiet"]
+    assert cli(*argv)[0] == 0
+    rows = json.loads((tmp_path / "a" / "accuracy.json").read_text())["axes"]
+    code, out, err = cli(*argv[:-1])
+    assert code == 0 and f"(1 scene × axis units from {tmp_path / 'a'}/runs/)" in out, err
+    again = json.loads((tmp_path / "a" / "accuracy.json").read_text())["axes"]
+    assert again == rows  # timings included: the cached unit's own
+    cli(*argv, "--fresh")
+    fresh = json.loads((tmp_path / "a" / "accuracy.json").read_text())["axes"]
+    assert [_untimed(r) for r in fresh["precision"]] == [_untimed(r) for r in rows["precision"]]
+    assert [r["timing"] for r in fresh["precision"]] != [r["timing"] for r in rows["precision"]]

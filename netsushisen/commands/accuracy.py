@@ -55,6 +55,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repeats", type=int, default=3, metavar="N",
                         help="runs each row is timed over: its seconds are their median (default 3)")
     add_cluster_options(parser, "one scene × axis each at a time")
+    parser.add_argument("--fresh", action="store_true",
+                        help="measure every scene × axis again (default: one already in DIR/runs/ is reused)")
     add_quiet(parser, "no progress, no tables")
 
 
@@ -106,7 +108,8 @@ def run(args: argparse.Namespace) -> int:
 
     start = time.perf_counter()
     study = run_study(scenes, axes, args.res, config, engine, args.seed, args.repeats,
-                      args.scheduler, args.workers, show=not args.quiet)
+                      args.scheduler, args.workers, show=not args.quiet, cache_dir=out / "runs",
+                      fresh=args.fresh)
     rows, warm, interrupted = study.rows, study.warm, study.interrupted
     meta = {"command": _command(args, specs), "res": args.res, "engine": engine,
             "machine": _machine(), "seconds": time.perf_counter() - start,
@@ -128,5 +131,6 @@ def run(args: argparse.Namespace) -> int:
         return 130
     if not args.quiet:
         print(f"{len(scenes)} scenes, axes {', '.join(axes)} at {args.res}x{args.res} in "
-              f"{meta['seconds']:.0f} s; wrote {', '.join(str(p) for p in paths)}")
+              f"{meta['seconds']:.0f} s; wrote {', '.join(str(p) for p in paths)}"
+              + (f" ({study.cached} scene × axis units from {out}/runs/)" if study.cached else ""))
     return 0

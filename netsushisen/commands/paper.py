@@ -55,6 +55,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--on-machine", action="store_true",
                         help="also render each scene on the emulated machine (serial mode) and check "
                              "IC's counters equal the trace-driven path's")
+    parser.add_argument("--fresh", action="store_true",
+                        help="compute every run again (default: a run already in DIR/runs/ is reused)")
     add_config_options(parser, precision=True)
     add_engine(parser)
     add_quiet(parser, "no progress bars or summary")
@@ -88,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
 
     request = PaperRequest(list(args.scenes), args.res, config, Path(args.out),
                            PaperOptions(sizing=args.sizing, lists=args.lists), args.corners,
-                           args.on_machine, engine, _command(args), args.workers)
+                           args.on_machine, engine, _command(args), args.workers, args.fresh)
     done = run_paper(request, args.scheduler, show=not args.quiet)
     names = ", ".join(p.name for p in done.files)
     if done.interrupted:
@@ -98,7 +100,8 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         counts = verdict_counts(done.items)
         print(f"{len(done.scenes)} scenes at {args.res}x{args.res} in {done.seconds:.0f} s: findings "
-              + ", ".join(f"{v} {k}" for k, v in counts.items()) + f"; wrote {done.report} and " + names)
+              + ", ".join(f"{v} {k}" for k, v in counts.items()) + f"; wrote {done.report} and " + names
+              + (f" ({done.cached} runs from {args.out}/runs/)" if done.cached else ""))
     if done.differing:
         print("netsushisen paper: on the machine, IC's counters differ from the trace-driven path's: "
               + "; ".join(f"{c['scene']}: {c['difference']}" for c in done.differing), file=sys.stderr)

@@ -148,6 +148,8 @@ def run_sweep(spec: Spec, out: Path, engine: str, scheduler: str | None = None,
     todo: list[Point] = []
     for key, p in distinct.items():
         found = cache.load(key)
+        if isinstance(found, dict) and "status" not in found:
+            found = "was written for another point"
         if isinstance(found, str):
             print(f"sweep: point {key} ({p.scene}, {_shown(p)}) {found}: computing it again",
                   file=sys.stderr)
@@ -199,7 +201,7 @@ def write_tables(spec: Spec, pts: list[Point], cache: ResultCache, out: Path) ->
             continue
         seen.add(p.key)
         result = cache.load(p.key)
-        if isinstance(result, dict):
+        if isinstance(result, dict) and "status" in result:
             rows.append(tidy_row(spec.fields, result))
     head = ["scene", *spec.fields, "status", "cycles"]
     tail = ["seconds", "error", "key"]

@@ -2,7 +2,8 @@
 
     netsushisen accuracy [SCENE ...] [--res N] [--axes precision,depth,prepass,fidelity]
                          [--engine NAME] [--out DIR] [--config FILE] [--set field=value]...
-                         [--seed N] [--repeats N] [--scheduler ADDRESS] [--workers N] [--quiet]
+                         [--seed N] [--repeats N] [--scheduler ADDRESS] [--workers N] [--fresh]
+                         [--quiet]
 
 Axes (default all): precision (golden fp64 truth; golden fp32, fp16, bf16-rounded scene; the
 machine in fp32 and fp64), depth (truth: depth 10, 20, 40 until two give the same 8-bit image; depth 1 … 8), prepass (pre-pass sizes against
@@ -16,8 +17,10 @@ each row's seconds are the median of --repeats runs (default 3) with their min�
 preparation included on every row. Each scene × axis is one run on the Dask layer
 (netsushisen/cluster.py): a LocalCluster of --workers processes (default one per core, at most
 one per unit), or the cluster at --scheduler ADDRESS; each worker warms its engine before its
-first timed row. Rows are written in input order, whatever order they finish in. Ctrl-C writes
-every row that had finished (also those of a scene × axis still running) and exits 130.
+first timed row. Rows are written in input order, whatever order they finish in. A finished
+scene × axis is kept in DIR/runs/ by content key and reused by a rerun with the same inputs
+(--fresh: measure again). Ctrl-C writes every row that had finished (also those of a scene ×
+axis still running) and exits 130.
 """
 
 from __future__ import annotations

@@ -19,8 +19,9 @@ machine (serial ray-tree mode, `--engine`, default compiled) with the default me
 configuration and checks IC's counters equal the trace-driven path's. Each scene's analysis
 and each machine check is one run on the Dask layer (netsushisen/cluster.py): a LocalCluster of
 `--workers` processes (default one per core; `--jobs` is the old name), or the cluster whose
-scheduler listens at `--scheduler ADDRESS`. Ctrl-C stops after writing what the finished scenes
-give (exit 130).
+scheduler listens at `--scheduler ADDRESS`. Each finished run is kept in DIR/runs/ by content
+key: a rerun with the same inputs reuses it (`--fresh`: compute again). Ctrl-C stops after
+writing what the finished scenes give (exit 130).
 """
 
 from __future__ import annotations

@@ -635,13 +635,20 @@ _WARM: set[tuple[str, str]] = set()
 """(engine, precision) pairs this worker process has warmed (`axis_unit`)."""
 
 
+def precisions_of(axes: list[str], config: MachineConfig) -> tuple[str, ...]:
+    """The precisions the machine runs in on these axes: both on the precision axis, else the
+    configuration's."""
+    return ("fp32", "fp64") if "precision" in axes else (config.precision,)
+
+
 def axis_unit(scene: Scene, axis: str, res: int, config: MachineConfig, engine: str, seed: int,
               repeats: int, emit: Emit | None = None) -> list[Row]:
     """One scene × axis, in a worker: the engine is warmed once per process first (its numba
     cache load and first run are charged to no row), then each row is emitted as it is final."""
-    if (engine, config.precision) not in _WARM:
-        warm_up(scene, config, engine)
-        _WARM.add((engine, config.precision))
+    for precision in precisions_of([axis], config):
+        if (engine, precision) not in _WARM:
+            warm_up(scene, config, engine, (precision,))
+            _WARM.add((engine, precision))
     extra = {"seed": seed} if axis == "fidelity" else {}
     return AXIS_RUNNERS[axis](scene, res, config, engine, repeats=repeats, emit=emit, **extra)
 
@@ -677,7 +684,7 @@ def run_study(scenes: list[Scene], axes: list[str], res: int, config: MachineCon
     log = (lambda text: print(text, file=sys.stderr, flush=True)) if show and not sys.stderr.isatty() \
         else (lambda text: None)
     try:
-        warm = warm_up(scenes[0], config, engine, progress=log)
+        warm = warm_up(scenes[0], config, engine, precisions_of(axes, config), progress=log)
     except KeyboardInterrupt:
         return Study({}, {}, True)
     units = [(si, axis) for si in range(len(scenes)) for axis in axes]

@@ -66,11 +66,13 @@ def add_cluster_options(parser: argparse.ArgumentParser, what: str,
 
 
 def check_cluster_options(args: argparse.Namespace, flag: str = "--workers") -> None:
-    """Refuse a worker count below 1 and a malformed scheduler address, before any work."""
+    """Refuse a worker count below 1, a malformed scheduler address and one where no Dask
+    scheduler answers, before any work."""
     if args.workers is not None and args.workers < 1:
         raise NetsushisenError(f"{flag} {args.workers}: need at least 1 worker")
     if args.scheduler is not None:
         check_scheduler(args.scheduler)
+        greeting(args.scheduler)  # a wrong address is found before any work starts
 
 
 _ADDRESS = re.compile(r"(tcp|tls)://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):(\d{1,5})\Z")

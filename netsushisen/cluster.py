@@ -11,8 +11,8 @@ sweep points) into `Task`s and hands them to `run_tasks`, which
   output in input order, never in completion order: the same inputs give the same files;
 - passes what a task finishes before it returns (`emit`, e.g. each accuracy row) to `on_item`
   as it comes, through a Dask queue, so Ctrl-C loses only what was still running;
-- shows one progress bar on standard error when it is a terminal (and, if the command asks,
-  one line per finished task when it is not);
+- shows one progress bar on standard error when it is a terminal (a command that logs, e.g.
+  one line per finished run when it is not, does so in its `on_done`);
 - on Ctrl-C stops the cluster and returns `interrupted`: the command writes what finished and
   exits 130. LocalCluster workers ignore SIGINT (Ctrl-C at a terminal reaches the whole process
   group), so no worker prints a traceback;
@@ -56,13 +56,14 @@ set it); the commands always use processes."""
 # -- options ------------------------------------------------------------------------------------
 
 def add_cluster_options(parser: argparse.ArgumentParser, what: str,
-                        aliases: tuple[str, ...] = ()) -> None:
-    """`--scheduler ADDRESS` and `--workers N` (`what`: the runs a worker takes, for the help)."""
+                        aliases: tuple[str, ...] = (), default: str = "one per core") -> None:
+    """`--scheduler ADDRESS` and `--workers N` (`what`: the runs a worker takes, `default`: the
+    command's default count, for the help)."""
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="run on the Dask cluster whose scheduler listens at ADDRESS "
                              "(tcp://host:8786); default: a LocalCluster on this machine")
     parser.add_argument("--workers", *aliases, dest="workers", type=int, metavar="N",
-                        help=f"LocalCluster worker processes, {what} (default: one per core)")
+                        help=f"LocalCluster worker processes, {what} (default: {default})")
 
 
 def check_cluster_options(args: argparse.Namespace, flag: str = "--workers") -> None:
@@ -191,8 +192,7 @@ def _call(fn: Callable, args: tuple, queue: str | None, index: int):
 
 def run_tasks(tasks: list[Task], on_done: Callable[[int, Any], None], *,
               scheduler: str | None = None, workers: int | None = None, title: str = "runs",
-              show: bool = False, log: Callable[[str], None] | None = None,
-              on_item: Callable[[int, Any], None] | None = None,
+              show: bool = False, on_item: Callable[[int, Any], None] | None = None,
               on_error: Callable[[int, BaseException], None] | None = None,
               status: Callable[[], str] | None = None, done_before: int = 0) -> Outcome:
     """Run `tasks` on the cluster (see the module docstring). `on_done(index, result)` for each
@@ -234,8 +234,6 @@ def run_tasks(tasks: list[Task], on_done: Callable[[int, Any], None], *,
                 else:
                     on_done(i, result)
                 outcome.done.add(i)
-                if log is not None:
-                    log(f"{tasks[i].label}: done")
                 if bar is not None:
                     bar.update(len(outcome.done) + done_before, status() if status else "")
             time.sleep(POLL)

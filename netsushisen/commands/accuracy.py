@@ -15,9 +15,10 @@ prints a table per axis. Machine rows run on --engine (default the compiled engi
 timed row every path is compiled and warmed once per precision (reported once, as "warm-up");
 each row's seconds are the median of --repeats runs (default 3) with their min–max spread, host
 preparation included on every row. Each scene × axis is one run on the Dask layer
-(netsushisen/cluster.py): a LocalCluster of --workers processes (default one per core, at most
-one per unit), or the cluster at --scheduler ADDRESS; each worker warms its engine before its
-first timed row. Rows are written in input order, whatever order they finish in. A finished
+(netsushisen/cluster.py): a LocalCluster of --workers processes (default 1, so that no two
+timed runs share the cores), or the cluster at --scheduler ADDRESS; each worker warms its
+engine before its first timed row. Rows are written in input order, whatever order they finish
+in. A finished
 scene × axis is kept in DIR/runs/ by content key and reused by a rerun with the same inputs
 (--fresh: measure again). Ctrl-C writes every row that had finished (also those of a scene ×
 axis still running) and exits 130.
@@ -57,7 +58,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=1992, help="seed of the sampled tiles (default 1992)")
     parser.add_argument("--repeats", type=int, default=3, metavar="N",
                         help="runs each row is timed over: its seconds are their median (default 3)")
-    add_cluster_options(parser, "one scene × axis each at a time")
+    add_cluster_options(parser, "one scene × axis each at a time",
+                        default="1: rows are timed, and runs side by side share the cores")
     parser.add_argument("--fresh", action="store_true",
                         help="measure every scene × axis again (default: one already in DIR/runs/ is reused)")
     add_quiet(parser, "no progress, no tables")
@@ -111,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
 
     start = time.perf_counter()
     study = run_study(scenes, axes, args.res, config, engine, args.seed, args.repeats,
-                      args.scheduler, args.workers, show=not args.quiet, cache_dir=out / "runs",
+                      args.scheduler, args.workers or 1, show=not args.quiet, cache_dir=out / "runs",
                       fresh=args.fresh)
     rows, warm, interrupted = study.rows, study.warm, study.interrupted
     meta = {"command": _command(args, specs), "res": args.res, "engine": engine,

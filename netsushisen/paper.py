@@ -190,11 +190,11 @@ def compare_counters(trace: dict, machine: dict) -> str:
                              {k: machine[k] for k in COMPARED if k in machine})
 
 
-def machine_check(scene: str, res: int, config, engine: str, corners: bool = False) -> dict:
-    """Render `scene` on the machine in the serial ray-tree mode (SLOTS=1, SERIAL_TREES=1: one
-    ray tree in flight, so IC sees the golden trace's rays in `tracesim.machine_order`) and
-    compare IC's counters with the trace-driven path's for the same images. Runs in a worker
-    process: module-level, picklable arguments."""
+def machine_check(scene, res: int, config, engine: str, corners: bool = False) -> dict:
+    """Render `scene` (a name, a file or a Scene) on the machine in the serial ray-tree mode
+    (SLOTS=1, SERIAL_TREES=1: one ray tree in flight, so IC sees the golden trace's rays in
+    `tracesim.machine_order`) and compare IC's counters with the trace-driven path's for the
+    same images. Runs in a worker process: module-level, picklable arguments."""
     from netsushisen.pipeline import render  # noqa: PLC0415 (the machine side is heavy to import)
 
     t0 = time.perf_counter()
@@ -288,11 +288,12 @@ def run_paper(request: PaperRequest, scheduler: str | None = None, show: bool = 
     results: dict[int, SceneData] = {}
     checks: dict[int, dict] = {}
     n = len(scenes)
-    tasks = [Task(analyse_scene, (spec, r.res, r.config, r.corners, None, 16384, r.options),
-                  f"{scene.name}-trace") for spec, scene in zip(r.scenes, scenes)]
+    # the scenes as read here travel with the tasks: a worker on another machine has no .nff file
+    tasks = [Task(analyse_scene, (scene, r.res, r.config, r.corners, None, 16384, r.options),
+                  f"{scene.name}-trace") for scene in scenes]
     if r.on_machine:
-        tasks += [Task(machine_check, (spec, r.res, r.config, r.engine, r.corners), f"{scene.name}-machine")
-                  for spec, scene in zip(r.scenes, scenes)]
+        tasks += [Task(machine_check, (scene, r.res, r.config, r.engine, r.corners), f"{scene.name}-machine")
+                  for scene in scenes]
     log = _log if show and not sys.stderr.isatty() else (lambda text: None)
 
     def done(i: int, result) -> None:

@@ -229,16 +229,7 @@ def test_ctrl_c_on_accuracy_writes_every_finished_row(tmp_path):
                        f"depth ({len(settings)} rows)")
 
 
-@pytest.mark.slow  # about 9 s; the same layer behaviour as accuracy's test above
-def test_ctrl_c_on_paper_writes_the_finished_scenes(tmp_path):
-    out = tmp_path / "p"
-    code, _, err = _interrupt_after(["paper", "--res", "6", "--scenes", "tetra:1", "balls:3", "--workers", "1",
-                                     "--out", str(out)], "tetra: trace-driven path done")
-    assert code == 130, err
-    assert err[-1] == f"netsushisen paper: interrupted; finished tetra, not balls; wrote what was finished to {out}/"
-    md = (out / "report.md").read_text()
-    assert "Incomplete run" in md and "balls" in md.split("Incomplete run")[1].splitlines()[0]
-    assert (out / "fig3_locality.png").exists()
+# paper's Ctrl-C (one worker and two): tests/test_interrupts.py
 
 
 # -- the result cache -------------------------------------------------------------------------

@@ -36,7 +36,7 @@ from typing import Callable
 
 import numpy as np
 
-from netsushisen.cluster import ResultCache, Task, content_key, run_cached
+from netsushisen.cluster import ResultCache, Task, content_key, kernel_digest, run_cached, scene_digest
 from netsushisen.emulator import stats as run_stats
 from netsushisen.errors import NetsushisenError
 from netsushisen.host import golden
@@ -48,7 +48,6 @@ from netsushisen.reports.accuracy import (Row, Timing, fidelity_errors, hit_id_s
                                           memory_point, ray_errors, regression_estimate, relative,
                                           traced_rays)
 from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
-from netsushisen.sweep import kernel_digest, scene_digest
 
 DEPTHS = tuple(range(1, 9))
 TRUTH_DEPTH = 10

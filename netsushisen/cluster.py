@@ -341,6 +341,25 @@ def content_key(*parts: object) -> str:
     return h.hexdigest()[:20]
 
 
+def kernel_digest() -> str:
+    """The hash of the kernel sources (every .s and .inc under kernels/, by name)."""
+    from netsushisen.kernels import KERNELS
+    h = hashlib.sha256()
+    for p in sorted(Path(KERNELS).rglob("*")):
+        if p.is_file() and p.suffix in (".s", ".inc"):
+            h.update(p.name.encode() + b"\0" + p.read_bytes())
+    return h.hexdigest()
+
+
+def scene_digest(scene) -> str:
+    """The hash of a scene's NFF text (a built-in scene's as generated; `scene`: a name or file
+    for `load_scene`, or a Scene)."""
+    from netsushisen.host.catalog import load_scene
+    from netsushisen.host.nff import format_nff
+    return hashlib.sha256(format_nff(load_scene(scene) if isinstance(scene, str) else scene)
+                          .encode()).hexdigest()
+
+
 def plain(obj: Any) -> Any:
     """`obj` as JSON values, losslessly for what runs return: dataclasses as dicts of their
     fields, numpy arrays as {"__ndarray__": dtype, "data": [...]}, numpy scalars as Python

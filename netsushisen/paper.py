@@ -30,7 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from netsushisen.cluster import ResultCache, Task, content_key, run_cached, unplain
+from netsushisen.cluster import (ResultCache, Task, content_key, kernel_digest, run_cached, scene_digest,
+                                 unplain)
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.databases import plan_layout
@@ -44,7 +45,6 @@ from netsushisen.reports.paper_data import (CACHE_SHARES, LOCAL_SHARES, RESIDENT
                                             Progress, SceneData)
 from netsushisen.reports.paper_plots import write_csvs, write_figures
 from netsushisen.reports.paper_report import report_markdown
-from netsushisen.sweep import kernel_digest, scene_digest
 from netsushisen.reports.tracesim import (SweepPoint, SweepStream, TraceMemory, machine_order,
                                           ordered_stream_chunks)
 

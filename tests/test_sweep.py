@@ -152,7 +152,7 @@ def test_a_small_sweep_on_a_local_cluster_then_a_rerun_computes_nothing(tmp_path
 def test_a_worker_killed_mid_sweep_loses_no_point(tmp_path):
     from dask.distributed import Client, LocalCluster
 
-    from netsushisen.commands.sweep import run_sweep
+    from netsushisen.sweep import run_sweep
     spec = load_spec(write(tmp_path, SMALL.replace("res = 8", "res = 12").format(extra="")))
     out = tmp_path / "out"
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \

@@ -712,5 +712,5 @@ def run_study(scenes: list[Scene], axes: list[str], res: int, config: MachineCon
     for i, (si, axis) in enumerate(units):
         rows[axis] += finished.get(i, partial.get(i, []))
     n = workers or min(os.cpu_count() or 1, len(tasks))
-    where = f"the Dask cluster at {scheduler}" if scheduler else f"a LocalCluster of {n} workers"
+    where = f"the Dask cluster at {scheduler}" if scheduler else f"a LocalCluster of {n} worker{'s' * (n != 1)}"
     return Study({a: r for a, r in rows.items() if r}, warm, outcome.interrupted, where, cached)

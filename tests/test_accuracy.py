@@ -374,4 +374,16 @@ def test_cli_writes_every_file_and_keeps_the_contract(cli, tmp_path):
     assert "no change past depth 1" in report and "accuracy_fidelity.png" in report
 
 
-# Ctrl-C (every finished row written): tests/test_cluster.py
+def test_ctrl_c_before_any_row_finished_says_nothing_was_written(tmp_path, monkeypatch, capsys):
+    """issue 30 item 6: it said "wrote what was finished to acc/" over an empty folder. (Ctrl-C
+    during the warm-up, which runs in this process; every finished row written: test_cluster.py)"""
+    from netsushisen import accuracy
+    from netsushisen.cli import main
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(accuracy, "warm_up", interrupted)
+    out = tmp_path / "acc"
+    assert main(["accuracy", "tetra", "--axes", "depth", "--res", "4", "-q", "-o", str(out)]) == 130
+    assert capsys.readouterr().err.strip().endswith("no row had finished: nothing written")
+    assert not (out / "accuracy.json").exists()

@@ -18,10 +18,9 @@ preparation included on every row. Each scene × axis is one run on the Dask lay
 (netsushisen/cluster.py): a LocalCluster of --workers processes (default 1, so that no two
 timed runs share the cores), or the cluster at --scheduler ADDRESS; each worker warms its
 engine before its first timed row. Rows are written in input order, whatever order they finish
-in. A finished
-scene × axis is kept in DIR/runs/ by content key and reused by a rerun with the same inputs
-(--fresh: measure again). Ctrl-C writes every row that had finished (also those of a scene ×
-axis still running) and exits 130.
+in. A finished scene × axis is kept in DIR/runs/ by content key and reused by a rerun with the
+same inputs (--fresh: measure again). Ctrl-C writes every row that had finished (also those of
+a scene × axis still running) and exits 130.
 """
 
 from __future__ import annotations

@@ -26,18 +26,23 @@ from __future__ import annotations
 import copy
 import dataclasses
 import json
+import os
+import sys
 import time
 import zlib
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
+from netsushisen.cluster import ResultCache, Task, content_key, kernel_digest, run_cached, scene_digest
 from netsushisen.emulator import stats as run_stats
 from netsushisen.errors import NetsushisenError
 from netsushisen.host import golden
 from netsushisen.host.prepass import coarse_resolution
 from netsushisen.host.scenes import Scene
-from netsushisen.isa.config import MachineConfig, apply_override
+from netsushisen.isa.config import MachineConfig, apply_override, dump_toml
 from netsushisen.pipeline import RenderResult, RenderSetup, finish, prepare
 from netsushisen.reports.accuracy import (Row, Timing, fidelity_errors, hit_id_share,
                                           ic_regions, image_errors,
@@ -73,10 +78,25 @@ EMULATED = ("golden fp16", "golden bf16 scene")
 emulation's, not the precision's cost (their cost is rays traced), so they are timed once."""
 
 Progress = Callable[[str], None]
+Emit = Callable[[Row], None]
+"""emit(row): a row is final (the cluster layer sends it to the command at once, so Ctrl-C
+keeps every finished row, not only whole scene × axis units)."""
 
 
 def _quiet(_: str) -> None:
     pass
+
+
+class _Rows(list):
+    """The rows of an axis: each appended one is emitted."""
+
+    def __init__(self, emit: Emit | None) -> None:
+        super().__init__()
+        self.emit = emit or (lambda row: None)
+
+    def append(self, row: Row) -> None:
+        super().append(row)
+        self.emit(row)
 
 
 def with_sets(config: MachineConfig, **fields) -> MachineConfig:
@@ -205,14 +225,17 @@ def _golden(scene: Scene, config: MachineConfig, res: int, precision: str | None
 
 
 def precision_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
-                   progress: Progress = _quiet, repeats: int = REPEATS) -> list[Row]:
+                   progress: Progress = _quiet, repeats: int = REPEATS,
+                   emit: Emit | None = None) -> list[Row]:
     name = scene.name
     progress(f"{name} precision: golden fp64")
     truth, tt = _golden(scene, config, res, "fp64", repeats)
-    rows = [_image_row("precision", name, "golden fp64", truth, truth.image_u8,
+    first = _image_row("precision", name, "golden fp64", truth, truth.image_u8,
                        truth.hit_ids, truth.rays, tt, {"rays": traced_rays(truth.rays)},
-                       "the golden numpy model in float64: the truth")]
-    rows[0].truth = True
+                       "the golden numpy model in float64: the truth")
+    first.truth = True
+    rows = _Rows(emit)
+    rows.append(first)
     variants = (
         ("golden fp32", scene, "fp32",
          "the golden numpy model in float32 (the machine's precision)"),
@@ -250,7 +273,7 @@ def precision_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
                                mt, {"rays": traced_rays(r.rays), "cycles": r.run.cycles},
                                f"the kernels on the {engine} engine in {precision}; cost in "
                                "machine cycles; seconds: host preparation + the engine's run"))
-    return rows
+    return list(rows)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -277,22 +300,20 @@ def converged_truth(scene: Scene, config: MachineConfig, res: int, start: int = 
 
 def depth_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
                progress: Progress = _quiet, depths=DEPTHS, truth_depth: int = TRUTH_DEPTH,
-               repeats: int = REPEATS, cap: int = TRUTH_CAP) -> list[Row]:
+               repeats: int = REPEATS, cap: int = TRUTH_CAP, emit: Emit | None = None) -> list[Row]:
     """Each depth's golden image against the truth's, and the machine's cycles and time at that
     depth. A row's seconds are the machine's alone (host preparation + run, the cost of running
     at that depth); the golden render's time, which only serves the comparison, is not added."""
     name = scene.name
     truth_depth, converged, tried = converged_truth(scene, config, res, truth_depth, cap, progress)
-    measured = {}
-    for d in (truth_depth, *depths):
+    rows = _Rows(emit)
+    tg = None
+    for d in dict.fromkeys((truth_depth, *depths)):  # the truth first: each row is final when made
         progress(f"{name} depth {d}")
         cfg = with_sets(config, **{"render.max_depth": d})
         g = golden.render(scene, cfg, res=res)
         _, r, mt = machine_timed(scene, cfg, res, engine, repeats)
-        measured[d] = (g, r, mt)
-    tg, tr, ts = measured[truth_depth]
-    rows = []
-    for d, (g, r, mt) in measured.items():
+        tg = g if tg is None else tg
         errors, psnr = image_errors(g.image_u8, tg.image_u8)
         t = d == truth_depth
         rows.append(Row("depth", name, f"depth {d}", t, {k: 0.0 for k in errors} if t else errors,
@@ -324,12 +345,17 @@ def prepass_sides(res: int, share: float) -> list[int]:
 
 
 def prepass_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
-                 progress: Progress = _quiet, repeats: int = REPEATS) -> list[Row]:
+                 progress: Progress = _quiet, repeats: int = REPEATS,
+                 emit: Emit | None = None) -> list[Row]:
     """A row's seconds are its pre-pass's (the golden coarse render, over `repeats` preparations);
-    its time share is that against the main run's engine time."""
+    its time share is that against the main run's engine time. The truth (side = res) is
+    measured first, so each row is final when made; they are returned in `prepass_sides` order."""
     name = scene.name
-    measured = []
-    for side in prepass_sides(res, config.prepass.share):
+    sides = prepass_sides(res, config.prepass.share)
+    rows = _Rows(emit)
+    truth = None
+    measure_order = [res] + [s for s in sides if s != res]
+    for side in measure_order:
         progress(f"{name} pre-pass {side}x{side}")
         cfg = with_sets(config, **{"prepass.share": (side / res) ** 2})
         pre_runs, main_runs, host_runs = [], [], []
@@ -343,10 +369,8 @@ def prepass_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
         if setup.prepass.resolution != side:
             raise AssertionError(f"pre-pass side {setup.prepass.resolution}, wanted {side}")
         timing = Timing.of(pre_runs, {"prepass": pre_runs, "host": host_runs, "machine": main_runs})
-        measured.append((side, setup.prepass, machine_point(r.stats), timing))
-    truth = measured[-1][2]
-    rows = []
-    for side, pre, point, timing in measured:
+        pre, point = setup.prepass, machine_point(r.stats)
+        truth = point if truth is None else truth
         t = side == res
         default = side == coarse_resolution(res, config.prepass.share)
         errors = {"rho": abs(point["rho"] - truth["rho"]), "t": relative(point["t"], truth["t"]),
@@ -364,7 +388,7 @@ def prepass_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
                         {"rho": point["rho"], "mu": point["mu"], "t": point["t"],
                          "resident_count": pre.resident_count,
                          "main_seconds": timing.components["machine"]}, timing=timing))
-    return rows
+    return [rows[measure_order.index(side)] for side in sides]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -544,7 +568,7 @@ def sampled_row(scene: str, share: float, tiles: dict[int, dict], chosen: list[i
 def fidelity_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
                   progress: Progress = _quiet, shares=SAMPLE_SHARES, n_tiles: int = TILES,
                   seed: int = 1992, reference_budget: int = REFERENCE_BUDGET,
-                  repeats: int = REPEATS) -> list[Row]:
+                  repeats: int = REPEATS, emit: Emit | None = None) -> list[Row]:
     """Every row's seconds include host preparation (`prepare`, or the golden renders the model
     rows need) and are the median of `repeats` runs; the reference engine's row is one run."""
     name = scene.name
@@ -553,12 +577,13 @@ def fidelity_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
     full_seconds = ft.components["machine"]
     truth = machine_point(full.stats)
     mem = dataclasses.asdict(config.ic_memory)
-    rows = [Row("fidelity", name, f"(d) full ({engine})", True,
-                {k: 0.0 for k in ("cycles", "rho", "mu", "t")}, ft.median,
-                {"cycles": truth["cycles"]},
-                f"the whole render on the {engine} engine: the truth (seconds: host preparation + "
-                "run)",
-                dict(truth), timing=ft)]
+    rows = _Rows(emit)
+    rows.append(Row("fidelity", name, f"(d) full ({engine})", True,
+                    {k: 0.0 for k in ("cycles", "rho", "mu", "t")}, ft.median,
+                    {"cycles": truth["cycles"]},
+                    f"the whole render on the {engine} engine: the truth (seconds: host "
+                    "preparation + run)",
+                    dict(truth), timing=ft))
     # the analytic and trace-driven rows take their cycles from one small machine run
     progress(f"{name} fidelity: analytic and trace-driven")
     cal_res = min(CALIBRATION_RES, res)
@@ -603,7 +628,7 @@ def fidelity_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
     if engine != "reference" and reference_budget > 0:
         rows.append(reference_row(setup, full, full_seconds, truth, engine,
                                   reference_budget, progress, ft.components["host"]))
-    return rows
+    return list(rows)
 
 
 def reference_row(setup: RenderSetup, full: RenderResult, full_seconds: float,
@@ -642,3 +667,96 @@ def reference_row(setup: RenderSetup, full: RenderResult, full_seconds: float,
 
 AXIS_RUNNERS = {"precision": precision_rows, "depth": depth_rows, "prepass": prepass_rows,
                 "fidelity": fidelity_rows}
+
+
+# ------------------------------------------------------------------------------------------------
+# The study: every scene × axis as one run on the cluster layer
+
+
+_WARM: set[tuple[str, str]] = set()
+"""(engine, precision) pairs this worker process has warmed (`axis_unit`)."""
+
+
+def precisions_of(axes: list[str], config: MachineConfig) -> tuple[str, ...]:
+    """The precisions the machine runs in on these axes: both on the precision axis, else the
+    configuration's."""
+    return ("fp32", "fp64") if "precision" in axes else (config.precision,)
+
+
+def axis_unit(scene: Scene, axis: str, res: int, config: MachineConfig, engine: str, seed: int,
+              repeats: int, emit: Emit | None = None) -> list[Row]:
+    """One scene × axis, in a worker: the engine is warmed once per process first (its numba
+    cache load and first run are charged to no row), then each row is emitted as it is final."""
+    for precision in precisions_of([axis], config):
+        if (engine, precision) not in _WARM:
+            warm_up(scene, config, engine, (precision,))
+            _WARM.add((engine, precision))
+    extra = {"seed": seed} if axis == "fidelity" else {}
+    return AXIS_RUNNERS[axis](scene, res, config, engine, repeats=repeats, emit=emit, **extra)
+
+
+@dataclass
+class Study:
+    """The rows per axis (scenes in the order given, each unit's rows in its runner's order;
+    an interrupted unit keeps the rows it had finished), the warm-up seconds, whether Ctrl-C
+    stopped it."""
+
+    rows: dict[str, list[Row]]
+    warm: dict[str, float]
+    interrupted: bool
+    where: str = ""
+    cached: int = 0  # scene × axis units taken from the cache
+
+
+def _rows(i: int, data: list[dict]) -> list[Row]:
+    """A cached unit's rows back from their plain form (`cluster.plain`)."""
+    return [Row(**(d | {"timing": Timing(**d["timing"]) if d["timing"] else None})) for d in data]
+
+
+def run_study(scenes: list[Scene], axes: list[str], res: int, config: MachineConfig, engine: str,
+              seed: int = 1992, repeats: int = REPEATS, scheduler: str | None = None,
+              workers: int | None = None, show: bool = False, cache_dir=None,
+              fresh: bool = False) -> Study:
+    """Warm up here (the compile lands in the disk cache the workers load), then every scene ×
+    axis as one task on the cluster layer (netsushisen/cluster.py); rows arrive as they finish.
+    A unit whose rows are in `cache_dir` (a finished unit of an earlier run with the same
+    inputs, `repeats` and `seed` included) is not run again unless `fresh`.
+    `show`: a progress bar on a terminal, else one line per finished row on standard error."""
+    start = time.perf_counter()
+    log = (lambda text: print(text, file=sys.stderr,
+                              flush=True)) if show and not sys.stderr.isatty() \
+        else (lambda text: None)
+    try:
+        warm = warm_up(scenes[0], config, engine, precisions_of(axes, config), progress=log)
+    except KeyboardInterrupt:
+        return Study({}, {}, True)
+    units = [(si, axis) for si in range(len(scenes)) for axis in axes]
+    finished: dict[int, list[Row]] = {}
+    partial: dict[int, list[Row]] = {}
+
+    def item(i: int, row: Row) -> None:
+        partial.setdefault(i, []).append(row)
+        log(f"{row.scene} {row.axis}: {row.setting} done at {time.perf_counter() - start:.0f} s")
+
+    def done(i: int, rows: list[Row]) -> None:
+        finished[i] = rows
+        si, axis = units[i]
+        log(f"{scenes[si].name} {axis}: done at {time.perf_counter() - start:.0f} s")
+
+    tasks = [Task(axis_unit, (scenes[si], axis, res, config, engine, seed, repeats),
+                  f"{scenes[si].name}-{axis}", emits=True) for si, axis in units]
+    inputs = (res, dump_toml(config), engine, seed, repeats, kernel_digest())
+    digests = [scene_digest(scene) for scene in scenes]
+    keys = [content_key("accuracy unit", scenes[si].name, digests[si], axis, *inputs)
+            for si, axis in units]
+    cache = ResultCache(Path(cache_dir)) if cache_dir is not None else None
+    outcome, cached = run_cached(tasks, keys, cache, done, decode=_rows, fresh=fresh,
+                                 scheduler=scheduler,
+                                 workers=workers, title="accuracy", show=show, on_item=item,
+                                 status=lambda: f"{sum(map(len, partial.values()))} rows")
+    rows: dict[str, list[Row]] = {a: [] for a in axes}
+    for i, (si, axis) in enumerate(units):
+        rows[axis] += finished.get(i, partial.get(i, []))
+    n = workers or min(os.cpu_count() or 1, len(tasks))
+    where = f"the Dask cluster at {scheduler}" if scheduler else f"a LocalCluster of {n} worker{'s' * (n != 1)}"
+    return Study({a: r for a, r in rows.items() if r}, warm, outcome.interrupted, where, cached)

@@ -349,23 +349,29 @@ def run_catalog(paths: list[str], cases: list[Case] | None = None, res: int | No
     on the reference engine is slow); `progress` sees each verdict as it is made."""
     out = []
     for case in cases or CATALOG:
-        if res is not None and res < case.res:
-            case = replace(case, res=res)
-        ref = None
-        base = {}
-        if case.translate:  # the machine is compared with golden fp32's untranslated ids (it must
-            # equal golden fp32 anyway): one machine render per case, not two
-            plain = Case(case.name, case.what, case.nff, case.res, case.sets)
-            golden_paths = {p if p.startswith("golden-") else GOLDEN32 for p in paths}
-            runs = {p: run_path(plain.scene(), p, case.res, case.sets) for p in golden_paths}
-            base = {p: runs[p if p.startswith("golden-") else GOLDEN32] for p in paths}
-        if any(not p.startswith("golden-") for p in paths):
-            ref = run_path(case.scene(), GOLDEN32, case.res, case.sets)
-        for path in paths:
-            out.append(judge_case(case, path, None if path.startswith("golden-") else ref, base.get(path)))
+        for v in case_verdicts(case, paths, res):
+            out.append(v)
             if progress:
-                progress(out[-1])
+                progress(v)
     return out
+
+
+def case_verdicts(case: Case, paths: list[str], res: int | None = None) -> list[Verdict]:
+    """One case on every path (one run of `run_catalog`; independent of the other cases)."""
+    if res is not None and res < case.res:
+        case = replace(case, res=res)
+    ref = None
+    base = {}
+    if case.translate:  # the machine is compared with golden fp32's untranslated ids (it must
+        # equal golden fp32 anyway): one machine render per case, not two
+        plain = Case(case.name, case.what, case.nff, case.res, case.sets)
+        golden_paths = {p if p.startswith("golden-") else GOLDEN32 for p in paths}
+        runs = {p: run_path(plain.scene(), p, case.res, case.sets) for p in golden_paths}
+        base = {p: runs[p if p.startswith("golden-") else GOLDEN32] for p in paths}
+    if any(not p.startswith("golden-") for p in paths):
+        ref = run_path(case.scene(), GOLDEN32, case.res, case.sets)
+    return [judge_case(case, path, None if path.startswith("golden-") else ref, base.get(path))
+            for path in paths]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -555,3 +561,68 @@ def scene_report(scene: Scene, res: int, sets: tuple[str, ...] = (),
         if not p.stable():
             break
     return rep
+
+
+# ------------------------------------------------------------------------------------------------
+# The same runs on the cluster layer (netsushisen/cluster.py): one task per case, one per
+# translation; results in input order
+
+
+def catalog_on_cluster(paths: list[str], res: int | None = None, scheduler: str | None = None,
+                       workers: int | None = None, progress: Callable[[Verdict], None] | None = None,
+                       cases: list[Case] | None = None) -> tuple[list[Verdict], bool]:
+    """`run_catalog` with each case one task: (verdicts in catalog order, interrupted).
+    `progress` sees each verdict in catalog order, as soon as every case before it is done."""
+    from netsushisen.cluster import Task, run_tasks  # noqa: PLC0415
+    cases = list(cases or CATALOG)
+    got: dict[int, list[Verdict]] = {}
+    shown = [0]
+
+    def done(i: int, verdicts: list[Verdict]) -> None:
+        got[i] = verdicts
+        while shown[0] in got:
+            for v in got[shown[0]]:
+                if progress:
+                    progress(v)
+            shown[0] += 1
+
+    outcome = run_tasks([Task(case_verdicts, (c, paths, res), f"case-{c.name}") for c in cases], done,
+                        scheduler=scheduler, workers=workers, title="numerics")
+    return [v for i in range(shown[0]) for v in got[i]], outcome.interrupted
+
+
+def translation_check(scene: Scene, by: float, res: int, sets: tuple[str, ...] = ()
+                      ) -> tuple[float, bool, list[str], ScenePair]:
+    """fp32 against fp64 on `scene` moved by `by` (0: where it is): (by, stable, reasons, pair)."""
+    try:
+        p = compare_precisions(translate_scene(scene, by), res, sets)
+    except NetsushisenError as e:  # the moved scene fails the reader's (or the scale) checks
+        if by == 0:
+            raise
+        return by, False, [f"the moved scene is refused: {e.diagnostics[0].message}"], None
+    return by, p.stable(), p.reasons(), p
+
+
+def scene_report_on_cluster(scene: Scene, res: int, sets: tuple[str, ...] = (),
+                            scheduler: str | None = None, workers: int | None = None,
+                            report: SceneReport | None = None) -> tuple[SceneReport, bool]:
+    """`scene_report` with the comparison in place and every translation one task, all at once:
+    the report keeps the translations up to the first that breaks, as `scene_report` does.
+    (report, interrupted); an interrupted report keeps the translations measured in order."""
+    from netsushisen.cluster import Task, run_tasks  # noqa: PLC0415
+    rep = report if report is not None else SceneReport(scene.name, res)
+    moves = [0.0] + [10.0 ** k for k in range(MAX_TRANSLATION_EXP + 1)]
+    got: dict[int, tuple] = {}
+    outcome = run_tasks([Task(translation_check, (scene, by, res, sets), f"translate-{by:g}") for by in moves],
+                        lambda i, r: got.__setitem__(i, r), scheduler=scheduler, workers=workers,
+                        title="numerics")
+    if 0 in got:
+        rep.pair = got[0][3]
+    for i in range(1, len(moves)):
+        if i not in got:
+            break
+        by, ok, reasons, _ = got[i]
+        rep.translations.append((by, ok, reasons))
+        if not ok:
+            break
+    return rep, outcome.interrupted

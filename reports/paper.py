@@ -3,7 +3,7 @@ theirs.
 
 `tables(scenes)` gives the two tables as rows (paper value, our value); `findings(scenes)` checks
 each of the paper's findings against our numbers and says whether we agree and, where we do not,
-why; `report_markdown(...)` writes them up. The numbers come from `paper_data.analyse_scene`; the
+why; `report_markdown(...)` writes them up. The numbers come from `netsushisen.paper.analyse_scene`; the
 figures and CSV files from `paper_plots`.
 """
 

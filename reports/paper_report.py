@@ -87,9 +87,9 @@ def _on_machine(check: dict) -> list[str]:
              f"`--on-machine`: each scene rendered by the emulated machine ({check['engine']} "
              "engine, serial ray-tree mode SERIAL_TREES=1, one slot) at "
              f"{check['res']}×{check['res']} with the default memory configuration "
-             f"({check['memory']}), {check['workers']} scenes at a time; IC's counters (accesses "
-             "by memory and region, references per primitive, ρ, μ) compared with the trace-driven "
-             "path's for the same images.", ""]
+             f"({check['memory']}), {check['workers']}; IC's counters (accesses by memory and "
+             "region, references per primitive, ρ, μ) compared with the trace-driven path's for "
+             "the same images.", ""]
     rows = [[r["scene"], f"{r['cycles']:,}", f"{r['seconds']:.0f}", r["rho"], r["mu"],
              "equal" if r["equal"] else "DIFFERENT: " + r["difference"]] for r in check["scenes"]]
     lines += _md_table(["scene", "machine cycles", "wall s", "ρ (per word)", "μ (per word)",
@@ -123,8 +123,7 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
     lines += [
         "## How these numbers were made", "",
         f"- Main pass: the golden model at {res}×{res} "
-        f"({'SPD corner rays, (N+1)² eye rays' if d0.corners else 'one eye ray per pixel centre'})"
-        ", "
+        f"({'SPD corner rays, (N+1)² eye rays' if d0.corners else 'one eye ray per pixel centre'}), "
         f"{d0.precision}, ray-tree depth ≤ {settings.get('max_depth', 5)}; the paper rendered "
         f"{PAPER_RES}×{PAPER_RES}.",
         f"- Pre-pass (resident priorities): the golden model at {d0.prepass['resolution']}×"
@@ -164,8 +163,8 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
               f"{PAPER_RES}×{PAPER_RES})", ""]
     rows = [[r["scene"], _pair(r["visible_paper"], r["visible_ours"]),
              _pair(r["visible_share_paper"], r["visible_share_ours"], _pct),
-             _pair(r["reference_share_paper"], r["reference_share_ours"], _pct)]
-            for r in table2(scenes)]
+             _pair(r["reference_share_paper"], r["reference_share_ours"],
+                   _pct)] for r in table2(scenes)]
     lines += _md_table(["scene", "visible primitives", "share of all primitives",
                         "share of references to visible primitives"], rows) + [""]
     # Figure 3
@@ -186,8 +185,7 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
               "findings' explanations cite them.", ""]
     lines += _experiments(scenes) + [""]
     # Figure 4
-    lines += [f"## Figure 4: cache miss rate, cache-only local memory "
-              f"({d0.options.describe()})", "",
+    lines += [f"## Figure 4: cache miss rate, cache-only local memory ({d0.options.describe()})", "",
               "![Figure 4](fig4_miss_rate.png)", ""]
     shares = [r["cache_share"] for r in d0.fig4]
     for what in ("ref", "all"):

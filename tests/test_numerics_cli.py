@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
+import time
 
 import numpy as np
 import pytest
 
-from netsushisen import numerics
+from netsushisen import cluster, numerics
 from netsushisen.host.images import decode_png
 
 STABLE = """v
@@ -77,6 +80,7 @@ def test_catalog_prints_one_row_per_case_and_path(cli, tmp_path, monkeypatch):
 
 def test_catalog_exit_1_when_a_case_breaks(cli, tmp_path, monkeypatch):
     """A case whose path disagrees with the oracle makes the command fail with the reason."""
+    monkeypatch.setattr(cluster, "IN_PROCESS", True)  # the patched run_path runs in the workers
     cases = [c for c in numerics.CATALOG if c.name == "shared_edge_fan"]
     monkeypatch.setattr(numerics, "CATALOG", cases)
     real = numerics.run_path
@@ -116,20 +120,23 @@ def test_spd_scene_report(cli, tmp_path):
 
 def test_interrupt_keeps_what_was_measured(cli, tmp_path, monkeypatch):
     """Ctrl-C during the translations: fp32 against fp64 and the translations done are written,
-    exit 130."""
+    exit 130. (One worker thread in this process takes the runs in order: the third sends the
+    Ctrl-C and waits; the two before it have finished.)"""
     path = tmp_path / "stable.nff"
     path.write_text(STABLE)
+    monkeypatch.setattr(cluster, "IN_PROCESS", True)
     real = numerics.compare_precisions
     calls = []
 
     def stop_on_third(*a, **kw):
         calls.append(1)
         if len(calls) == 3:
-            raise KeyboardInterrupt
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(5)
         return real(*a, **kw)
 
     monkeypatch.setattr(numerics, "compare_precisions", stop_on_third)
-    code, out, err = cli("numerics", path, "--res", 6, "--out", tmp_path / "o")
+    code, out, err = cli("numerics", path, "--res", 6, "--out", tmp_path / "o", "--workers", 1)
     data = json.loads((tmp_path / "o" / "numerics.json").read_text())
     assert code == 130 and data["complete"] is False and len(data["translations"]) == 1
     assert "interrupted" in err

@@ -1,6 +1,7 @@
 """Is a scene numerically stable? fp32 against fp64, shadow acne, and how far it can be moved.
 
     netsushisen numerics [SCENE] [--res N] [--out DIR] [--engine NAME] [--config FILE] [--set k=v]...
+                         [--scheduler ADDRESS] [--workers N]
 
 With a SCENE (built-in SPD name or .nff file): renders it with the golden model in fp32 and in
 fp64 and judges their differences as the catalog does (the float64 oracle, on the differing rays
@@ -18,6 +19,11 @@ against the brute-force float64 oracle. Writes DIR/catalog.json and DIR/catalog.
 
 Exit 0 when everything is stable; 1 with the reasons on standard error when something is not.
 --res defaults to 32 with a SCENE (the catalog uses each case's own size, capped by --res).
+
+Each catalog case, and each translation of a SCENE (all tried at once; the report keeps those up
+to the first that breaks), is one run on the Dask layer (netsushisen/cluster.py): a LocalCluster
+of --workers processes or the cluster at --scheduler ADDRESS. Rows come in catalog order. Ctrl-C
+writes what was judged and exits 130.
 """
 
 from __future__ import annotations
@@ -29,6 +35,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from netsushisen.outputs import write_file
+from netsushisen.cluster import add_cluster_options, check_cluster_options
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.images import encode_png
@@ -45,6 +52,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_output(parser, "output folder (default numerics/)", metavar="DIR", default="numerics")
     add_engine(parser)
     add_config_options(parser)
+    add_cluster_options(parser, "one catalog case or one translation each at a time")
     add_quiet(parser, "no progress lines, no table (the verdict and the files still)")
 
 
@@ -81,9 +89,8 @@ def _catalog(args, out: Path, engine: str) -> int:
             print(row.format(v.case, v.path, v.rays, v.wrong_hits, v.shadow_rays, v.wrongly_blocked,
                              "stable" if v.stable else "UNSTABLE"), flush=True)
 
-    try:
-        numerics.run_catalog(paths, res=args.res, progress=show)
-    except KeyboardInterrupt:
+    _, interrupted = numerics.catalog_on_cluster(paths, args.res, args.scheduler, args.workers, progress=show)
+    if interrupted:
         print("interrupted: the rows above are what was judged", file=sys.stderr)
         _save_catalog(out, verdicts)
         return 130
@@ -107,15 +114,10 @@ def _scene(args, out: Path) -> int:
     check_host(numerics_footprint(f"numerics {args.scene} {res}×{res}", res), quiet=args.quiet)
     scene = load_scene(args.scene)
     sets = tuple(config_overrides(args))
-    rep = numerics.SceneReport(scene.name, res)
-    interrupted = False
-    try:
-        numerics.scene_report(scene, res, sets, progress=None if args.quiet else (lambda m: print(f"  {m}", file=sys.stderr)), report=rep)
-    except KeyboardInterrupt:
-        interrupted = True
-        if rep.pair is None:
-            print("interrupted before fp32 and fp64 were compared: nothing written", file=sys.stderr)
-            return 130
+    rep, interrupted = numerics.scene_report_on_cluster(scene, res, sets, args.scheduler, args.workers)
+    if rep.pair is None:
+        print("interrupted before fp32 and fp64 were compared: nothing written", file=sys.stderr)
+        return 130
     pair = rep.pair
     _write(out / "numerics_map.png", lambda p: p.write_bytes(encode_png(numerics.difference_map(pair))))
     largest = rep.largest_stable_translation
@@ -149,6 +151,7 @@ def _scene(args, out: Path) -> int:
 
 def run(args: argparse.Namespace) -> int:
     check_resolution(args.res)
+    check_cluster_options(args)
     engine = engine_from_args(args)
     out = Path(args.out)
     if not args.scene and (args.config or config_overrides(args)):

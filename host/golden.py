@@ -176,14 +176,16 @@ class _Recorder:
         out.trace_hit_fan = np.concatenate(self.hit_fan)[order].astype(np.int32)
 
 
-OFFSET_ULPS = 4
-"""Secondary-ray origins move OFFSET_ULPS x unit roundoff x (|P|max + t) + SIZE_ULPS x unit
-roundoff x the largest primitive size off the surface (docs/golden.md, "Secondary-ray origins")."""
+OFFSET_ULPS = 2.125
+"""Secondary-ray origins move delta = (sum_a |P_a Ng_a| + t) x OFFSET_ULPS x unit roundoff + SIZE_ULPS
+x unit roundoff x the largest primitive size along the geometric normal: 2u covers the rounding
+of P and of P + delta*Ng along the normal, u/8 the few roundings of delta itself
+(docs/golden.md, "Secondary-ray origins")."""
 SIZE_ULPS = 64
 
 
 def offset_scale(dt: type):
-    """k_rel = OFFSET_ULPS x the precision's unit roundoff (SC's scene block SCN_EPS_REL)."""
+    """k_rel = OFFSET_ULPS x the precision's unit roundoff (SC's scene block SCN_EPS_REL; exact)."""
     return dt(OFFSET_ULPS * float(np.finfo(dt).eps) / 2.0)
 
 
@@ -195,14 +197,19 @@ def scene_epsilon(grid: Grid, config: MachineConfig, dt: type):
     return dt(SIZE_ULPS * float(np.finfo(dt).eps) / 2.0 * grid.primitive_size)
 
 
+def offset_delta(p: np.ndarray, t: np.ndarray, ng: np.ndarray, k_rel, k_abs) -> np.ndarray:
+    """SC's offset length: delta = (((|Px*Ngx| + |Py*Ngy|) + |Pz*Ngz|) + t)*k_rel + k_abs, one IEEE
+    operation at a time in this order (a per-hit bound on P's rounding along the normal, pbrt-v4's
+    dot(|n|, pError); docs/golden.md, "Secondary-ray origins")."""
+    a = np.abs(p * ng)
+    return (((a[0] + a[1]) + a[2]) + t) * k_rel + k_abs
+
+
 def offset_vectors(p: np.ndarray, t: np.ndarray, ng: np.ndarray, inside: np.ndarray, k_rel, k_abs):
     """SC's secondary-ray origins: (front, back) = P +- delta*Nf with Nf the geometric normal
-    facing the incoming ray and delta = (max(max(|Px|, |Py|), |Pz|) + t)*k_rel + k_abs, one IEEE
-    operation at a time in this order. Shadow and reflection rays leave from the front, refraction
-    rays from the back; all with t_min = 0."""
-    a = np.abs(p)
-    m = np.maximum(np.maximum(a[0], a[1]), a[2])
-    delta = (m + t) * k_rel + k_abs
+    facing the incoming ray and delta = `offset_delta`. Shadow and reflection rays leave from the
+    front, refraction rays from the back; all with t_min = 0."""
+    delta = offset_delta(p, t, ng, k_rel, k_abs)
     delta = np.where(inside, -delta, delta)
     off = delta * ng
     return p + off, p - off
@@ -210,9 +217,11 @@ def offset_vectors(p: np.ndarray, t: np.ndarray, ng: np.ndarray, inside: np.ndar
 
 def _shadow_table(parts: list[dict], dt: type) -> dict[str, np.ndarray]:
     """The kept shadow rays of eye hits as one table: sample, light, hit primitive, origin (3, n),
-    blocked."""
+    the hit point P before the offset (3, n), the geometric normal facing the eye ray (3, n), the
+    eye ray's t, blocked."""
     empty = {"sample": np.zeros(0, np.int64), "light": np.zeros(0, np.int64), "prim": np.zeros(0, np.int32),
-             "origin": np.zeros((3, 0), dt), "blocked": np.zeros(0, bool)}
+             "origin": np.zeros((3, 0), dt), "point": np.zeros((3, 0), dt), "normal": np.zeros((3, 0), dt),
+             "t": np.zeros(0, dt), "blocked": np.zeros(0, bool)}
     if not parts:
         return empty
     return {k: np.concatenate([x[k] for x in parts], axis=-1) for k in empty}
@@ -233,8 +242,8 @@ def render(scene: Scene, config: MachineConfig | None = None, res: int = 64, cor
            precision: str | None = None, keep_trace: bool = False, grid: Grid | None = None,
            keep_shadows: bool = False) -> GoldenResult:
     """Render `scene` at res x res (pixel centres, or SPD corners with `corners`). `keep_shadows`
-    keeps every shadow ray of an eye ray's hit (sample, light, hit primitive, origin, blocked) for
-    the numerics checks."""
+    keeps every shadow ray of an eye ray's hit (sample, light, hit primitive, origin, hit point,
+    facing normal, eye t, blocked) for the numerics checks."""
     start = time.perf_counter()
     config = config or MachineConfig()
     precision = precision or config.precision
@@ -308,6 +317,7 @@ def _shade(batch: RayBatch, h: np.ndarray, tr, sd: ShapeData, lum: Luminance, sc
     ng, nsh = surface_normals(sd, prim, p, tr.fan[h], tr.b1[h], tr.b2[h])
     inside = dot(d, ng) > 0
     nsh = np.where(inside, -nsh, nsh)
+    point = p
     p, p_back = offset_vectors(p, t, ng, inside, k_rel, eps)  # front: shadow, reflection; back: refraction
     zero = np.zeros(len(h), dt)
     mat = scene.material[prim]
@@ -342,7 +352,9 @@ def _shade(batch: RayBatch, h: np.ndarray, tr, sd: ShapeData, lum: Luminance, sc
         counts["shadow"] += n
         lit = ~st.occluded
         if rec.shadows is not None and batch.depth == 1:
+            nf = np.where(inside, -ng, ng)
             rec.shadows.append({"sample": sb.sample, "light": sl, "prim": prim[face], "origin": sb.o,
+                                "point": point[:, face], "normal": nf[:, face], "t": t[face],
                                 "blocked": st.occluded})
         _accumulate(acc, sb.sample[lit], contrib[:, lit])
     if batch.depth >= max_depth:

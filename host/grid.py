@@ -44,6 +44,14 @@ MAX_TOP_PER_AXIS = 128
 MAX_SUB_PER_AXIS = 16
 PAD = 1e-5  # overlap boxes grow by at least PAD x the largest scene extent on every side
 PAD_ULPS = 64  # ... and by at least PAD_ULPS x unit roundoff x the largest coordinate magnitude
+MIN_CELL_PADS = 4
+"""Automatic voxels (either level) are at least this many pads wide on every axis. A unit's
+candidate range spans (size + 2 pad)/cell + 3 cells an axis; a scene far from the origin
+(pad = 64u x M, e.g. tetra moved by 1e5 in fp32: pad 0.38 on an extent of 2) would otherwise
+list every triangle in thousands of voxels it only touches through the pad — 5.6 GB of
+candidates for an 8x8 image, growing with the translation. Voxels no finer than 4 pads keep
+that at (size/cell + 3.5)^3 per unit and cost nothing at ordinary magnitudes (pad = 1e-5 x
+extent, far below any cell)."""
 
 
 @dataclass
@@ -109,7 +117,8 @@ def axis_resolution(extent: np.ndarray, target: np.ndarray, cap: int) -> np.ndar
 
 
 def choose_resolutions(extent: np.ndarray, n_prims: int, cfg: GridConfig, budget: int,
-                       count_top: Callable[[np.ndarray], np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+                       count_top: Callable[[np.ndarray], np.ndarray],
+                       min_cell: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """The sizing rule, in one place: (top resolution (3,), sub resolution (nx*ny*nz, 3), zero
     rows for undivided voxels).
 
@@ -118,28 +127,38 @@ def choose_resolutions(extent: np.ndarray, n_prims: int, cfg: GridConfig, budget
     SUB_DENSITY per listed primitive, 2..MAX_SUB_PER_AXIS per axis. OS voxel data then costs
     WORDS_PER_VOXEL per voxel of either level + WORDS_PER_SUBGRID per sub-grid; while that exceeds
     `budget` the sub-grids shrink (density halves), then the top level. Fixed resolutions from
-    the config (non-zero) are used as given.
+    the config (non-zero) are used as given; automatic ones never make a voxel narrower than
+    `min_cell` (MIN_CELL_PADS pads), so a sub-grid that would is not made.
     """
+    def widest(e: np.ndarray) -> np.ndarray:  # most voxels an axis of extent e may take
+        return np.maximum(np.floor(e / min_cell), 1).astype(np.int64) if min_cell > 0 \
+            else np.full(np.shape(e), 1 << 30, np.int64)
+
     top_scale, sub_scale = 1.0, 1.0
     while True:
         if cfg.top_resolution > 0:
             top = np.full(3, cfg.top_resolution, dtype=np.int64)
         else:
             target = min(n_prims * TOP_DENSITY * top_scale, max(budget // (2 * WORDS_PER_VOXEL), 1))
-            top = axis_resolution(extent[None], np.array([target]), MAX_TOP_PER_AXIS)[0]
+            top = np.minimum(axis_resolution(extent[None], np.array([target]), MAX_TOP_PER_AXIS)[0],
+                             widest(extent))
         counts = count_top(top)
         sub = np.zeros((len(counts), 3), dtype=np.int64)
         divided = counts > cfg.subdivide_threshold
+        room = widest(extent / top)
+        if cfg.sub_resolution == 0 and room.prod() < 2:
+            divided[:] = False  # a sub-voxel would be narrower than min_cell on every axis
         if divided.any():
             if cfg.sub_resolution > 0:
                 sub[divided] = cfg.sub_resolution
             else:
                 cell = extent / top
                 k = int(divided.sum())
-                sub[divided] = np.maximum(axis_resolution(np.tile(cell, (k, 1)),
-                                                          counts[divided] * SUB_DENSITY * sub_scale,
-                                                          MAX_SUB_PER_AXIS), 1)
-                sub[divided] = np.where(sub[divided].prod(axis=1, keepdims=True) < 2, 2, sub[divided])
+                sub[divided] = np.clip(axis_resolution(np.tile(cell, (k, 1)),
+                                                       counts[divided] * SUB_DENSITY * sub_scale,
+                                                       MAX_SUB_PER_AXIS), 1, room)
+                sub[divided] = np.where(sub[divided].prod(axis=1, keepdims=True) < 2,
+                                        np.minimum(2, room), sub[divided])
         words = int(np.prod(top)) * WORDS_PER_VOXEL + int(divided.sum()) * WORDS_PER_SUBGRID \
             + int(sub[divided].prod(axis=1).sum()) * WORDS_PER_VOXEL
         fixed = cfg.top_resolution > 0 and cfg.sub_resolution > 0
@@ -381,7 +400,8 @@ def build_grid(scene: Scene, config: MachineConfig | None = None) -> Grid:
         key = np.unique(flat * (scene.n_primitives + 1) + units.prim[u])
         return np.bincount(key // (scene.n_primitives + 1), minlength=int(np.prod(res)))
 
-    top, sub_res_all = choose_resolutions(extent, scene.n_primitives, cfg, config.os.local_words, count_top)
+    top, sub_res_all = choose_resolutions(extent, scene.n_primitives, cfg, config.os.local_words, count_top,
+                                          MIN_CELL_PADS * pad)
     cell = round_outward(extent / top, precision, up=True)
     u_top, flat_top = top_members(top)
     ntop = int(np.prod(top))

@@ -402,22 +402,32 @@ def _clip(tok: str, width: int = 24) -> str:
 # Writer
 # ------------------------------------------------------------------------------------------------
 
-def format_nff(scene: Scene) -> str:
-    """The scene as NFF text, numbers in C `%g` (six significant digits, as the SPD wrote them).
+def _g(template: str, exact: bool) -> str:
+    return template.replace("%g", "%s") if exact else template
+
+
+def _n(values: tuple, exact: bool) -> tuple:
+    return tuple(repr(float(v)) for v in values) if exact else values
+
+
+def format_nff(scene: Scene, exact: bool = False) -> str:
+    """The scene as NFF text, numbers in C `%g` (six significant digits, as the SPD wrote them),
+    or with `exact` in the shortest text that reads back to the same float64 (a scene built in
+    memory, e.g. moved by 1e5, must not lose its small offsets to six digits).
 
     `c` records are written on one line (SPD 3.14 layout); a light colour is written only when it
     is not the default white; an `f` record precedes each run of primitives sharing a material.
     """
-    out: list[str] = ["b %g %g %g\n" % tuple(scene.background.tolist())]
+    out: list[str] = [_g("b %g %g %g\n", exact) % _n(tuple(scene.background.tolist()), exact)]
     cam = scene.camera
-    out.append("v\nfrom %g %g %g\nat %g %g %g\nup %g %g %g\nangle %g\nhither %g\n"
-               "resolution %d %d\n" % (*cam.eye.tolist(), *cam.at.tolist(), *cam.up.tolist(),
-                                       cam.angle, cam.hither, *cam.resolution))
+    out.append(_g("v\nfrom %g %g %g\nat %g %g %g\nup %g %g %g\nangle %g\nhither %g\n", exact)
+               % _n((*cam.eye.tolist(), *cam.at.tolist(), *cam.up.tolist(), cam.angle, cam.hither), exact)
+               + "resolution %d %d\n" % tuple(cam.resolution))
     for pos, col in zip(scene.light_position.tolist(), scene.light_color.tolist()):
         if col == [1.0, 1.0, 1.0]:
-            out.append("l %g %g %g\n" % tuple(pos))
+            out.append(_g("l %g %g %g\n", exact) % _n(tuple(pos), exact))
         else:
-            out.append("l %g %g %g %g %g %g\n" % (*pos, *col))
+            out.append(_g("l %g %g %g %g %g %g\n", exact) % _n((*pos, *col), exact))
     mats = scene.materials
     mat_rows = np.column_stack([mats.color, mats.kd, mats.ks, mats.shine, mats.t,
                                 mats.ior]).tolist()
@@ -432,20 +442,21 @@ def format_nff(scene: Scene) -> str:
     for kind, mat, local in zip(scene.kind.tolist(), scene.material.tolist(),
                                 scene.local_index.tolist()):
         if mat != previous:
-            out.append("f %g %g %g %g %g %g %g %g\n" % tuple(mat_rows[mat]))
+            out.append(_g("f %g %g %g %g %g %g %g %g\n", exact) % _n(tuple(mat_rows[mat]), exact))
             previous = mat
         if kind == Kind.POLYGON:
             s, n = p_start[local], p_count[local]
             if p_patch[local]:
                 out.append(f"pp {n}\n")
-                out.extend("%g %g %g %g %g %g\n" % (*verts[i], *norms[i]) for i in range(s, s + n))
+                out.extend(_g("%g %g %g %g %g %g\n", exact) % _n((*verts[i], *norms[i]), exact)
+                           for i in range(s, s + n))
             else:
                 out.append(f"p {n}\n")
-                out.extend("%g %g %g\n" % tuple(verts[i]) for i in range(s, s + n))
+                out.extend(_g("%g %g %g\n", exact) % _n(tuple(verts[i]), exact) for i in range(s, s + n))
         elif kind == Kind.SPHERE:
-            out.append("s %g %g %g %g\n" % tuple(s_rows[local]))
+            out.append(_g("s %g %g %g %g\n", exact) % _n(tuple(s_rows[local]), exact))
         else:
-            out.append("c %g %g %g %g %g %g %g %g\n" % tuple(c_rows[local]))
+            out.append(_g("c %g %g %g %g %g %g %g %g\n", exact) % _n(tuple(c_rows[local]), exact))
     return "".join(out)
 
 

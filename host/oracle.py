@@ -13,6 +13,11 @@ also cast with its origin moved by `tol` along two directions across it (four mo
 answers of all five are the allowed set. A path's answer must be in it. A ray exactly on a shared
 edge therefore may hit either neighbour (the shifted rays find both) but never what lies behind
 (no shifted ray reaches it).
+
+Shadow rays are judged from the path's own hit point (`contact_truth`): an occluder higher above
+it along the normal than the secondary-ray offset's error bound (`offset_bound`) must block,
+whatever the point's magnitude — so a contact gap of a few units in the last place at 1e6 is
+judged, and an offset larger than the bound shows as light leaking under it.
 """
 
 from __future__ import annotations
@@ -150,10 +155,10 @@ def _cone(c: np.ndarray, two: bool, o, d, t_min):
     return _pick(t0, ok0, t1, ok1, t_min)
 
 
-def nearest(osc: OracleScene, o: np.ndarray, d: np.ndarray, t_min: float = 0.0,
+def nearest(osc: OracleScene, o: np.ndarray, d: np.ndarray, t_min: float | np.ndarray = 0.0,
             skip: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(hit primitive (n,) or -1, t (n,)) of rays o, d ((n, 3) float64) against every primitive.
-    `skip` (n,) names a primitive per ray to ignore (-1: none)."""
+    """(hit primitive (n,) or -1, t (n,)) of rays o, d ((n, 3) float64) against every primitive;
+    `t_min` is one number or one per ray. `skip` (n,) names a primitive per ray to ignore (-1: none)."""
     n = len(o)
     best_t = np.full(n, np.inf)
     best = np.full(n, -1, np.int64)
@@ -202,79 +207,126 @@ def allowed_hits(osc: OracleScene, o: np.ndarray, d: np.ndarray, precision: str,
     return exact, np.stack(sets, axis=1), t
 
 
+def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance (n,) from points p (n, k) to the segment a-b ((k,) each)."""
+    ab = b - a
+    den = float(ab @ ab)
+    s = np.clip(((p - a) @ ab) / den, 0.0, 1.0) if den > 0 else np.zeros(len(p))
+    return np.linalg.norm(p - (a + s[:, None] * ab), axis=1)
+
+
+def distance_to(osc: OracleScene, p: np.ndarray, prim: np.ndarray) -> np.ndarray:
+    """Distance (n,) from points p (n, 3) to the surface of primitive prim[i] (inf for -1): a
+    polygon's plane distance inside it, else the nearest edge; a sphere's | |p - c| - r |; an open
+    cone's or cylinder's distance in the meridian half-plane to its side segment. A ray whose
+    exact hit point lies within rounding of another primitive (an edge or vertex it shares, a
+    coplanar or coincident surface: a tie) may answer that one."""
+    out = np.full(len(p), np.inf)
+    for pid in np.unique(prim[prim >= 0]):
+        sel = np.flatnonzero(prim == pid)
+        q = p[sel]
+        k, j = osc.kind[pid], osc.local[pid]
+        if k == Kind.POLYGON:
+            v, n = osc.poly_v[j], osc.poly_n[j]
+            edges = np.min([_segment_distance(q, v[i], v[(i + 1) % len(v)]) for i in range(len(v))], axis=0)
+            if np.any(n):
+                plane = np.abs((q - v[0]) @ n)
+                drop = int(np.argmax(np.abs(n)))
+                a, b = [x for x in range(3) if x != drop]
+                wind = np.zeros(len(q), np.int64)
+                for i in range(len(v)):
+                    x0, y0, x1, y1 = v[i, a], v[i, b], v[(i + 1) % len(v), a], v[(i + 1) % len(v), b]
+                    side = (x1 - x0) * (q[:, b] - y0) - (q[:, a] - x0) * (y1 - y0)
+                    wind += ((y0 <= q[:, b]) & (y1 > q[:, b]) & (side > 0)).astype(np.int64)
+                    wind -= ((y0 > q[:, b]) & (y1 <= q[:, b]) & (side < 0)).astype(np.int64)
+                edges = np.where(wind != 0, plane, edges)
+            out[sel] = edges
+        elif k == Kind.SPHERE:
+            c = osc.sph[j]
+            out[sel] = np.abs(np.linalg.norm(q - c[:3], axis=1) - abs(c[3]))
+        else:
+            c = osc.cone[j]
+            axis = c[4:7] - c[:3]
+            length = float(np.linalg.norm(axis))
+            if length == 0:
+                continue
+            w = q - c[:3]
+            z = w @ (axis / length)
+            rho = np.sqrt(np.maximum((w * w).sum(axis=1) - z * z, 0.0))
+            out[sel] = _segment_distance(np.column_stack([z, rho]), np.array([0.0, abs(c[3])]),
+                                         np.array([length, abs(c[7])]))
+    return out
+
+
 def judge_hits(answer: np.ndarray, allowed: np.ndarray) -> np.ndarray:
     """Rays whose answer is not among the allowed ones (bool (n,))."""
     return ~np.any(allowed == np.asarray(answer)[:, None], axis=1)
 
 
-def shadow_truth(osc: OracleScene, p: np.ndarray, prim: np.ndarray, lights: np.ndarray,
-                 precision: str, t_eye: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """For surface points `p` (n, 3) on primitives `prim` and one light per row (n, 3): (blocked,
-    ambiguous). Blocked: some primitive's counting hit lies strictly between the point and the
-    light, beyond the tolerance at both ends (the surface the point lies on is skipped near 0,
-    not beyond). Ambiguous: the answer changes when the tolerance is applied either way (a hit
-    within it of the point, of the light or of a silhouette: the origin is moved by it along
-    +-e1, +-e2 across the ray, +-n along the normal and the diagonals of those). The tolerance here also covers
-    twice the offset the machine moves a secondary ray's origin by (`t_eye`: the eye ray's t), a
-    deliberate displacement off the surface."""
-    to = lights - p
+HEIGHTS = 8
+"""`contact_truth` casts the shadow ray from this many origins up the offset's slab."""
+
+
+def offset_bound(point: np.ndarray, normal: np.ndarray, t_eye: np.ndarray, size: float,
+                 precision: str) -> np.ndarray:
+    """How far along its normal (n,) a secondary ray's origin may legitimately sit above its hit
+    point `point` (n, 3): the error bound the offset covers, evaluated in float64 —
+    (sum_a |P_a Nf_a| + t) x OFFSET_ULPS x u + SIZE_ULPS x u x size — plus the rounding of the
+    origin P + delta*Nf itself (half a unit in the last place of each coordinate, weighted by
+    |Nf_a|) and a relative 8u for the few roundings of delta (docs/golden.md, "Secondary-ray
+    origins"). Computed from the bound, not from the path's offset: a path whose offset exceeds
+    it skips occluders it must see."""
+    dt = dtype_of(precision)
+    u = float(np.finfo(dt).eps) / 2.0
+    a = np.abs(normal)
+    delta = (np.sum(np.abs(point) * a, axis=1) + t_eye) * (OFFSET_ULPS * u) + SIZE_ULPS * u * size
+    moved = np.abs(point) + delta[:, None] * a
+    half_ulp = np.spacing(moved.astype(dt)).astype(np.float64) / 2
+    return delta * (1 + 8 * u) + np.sum(half_ulp * a, axis=1)
+
+
+def contact_truth(osc: OracleScene, point: np.ndarray, prim: np.ndarray, normal: np.ndarray,
+                  t_eye: np.ndarray, lights: np.ndarray, precision: str) -> tuple[np.ndarray, np.ndarray]:
+    """A shadow ray judged from the path's own hit point `point` (n, 3: the path's P before the
+    offset, in float64) on primitive `prim` (n,), with its geometric normal facing the eye ray
+    `normal` (n, 3), the eye ray's t and one light per row: (blocked, ambiguous).
+
+    Blocked: the segment from P to the light crosses a counting hit higher above P along the
+    normal than `offset_bound` lets the origin sit, short of the light by more than the shadow
+    test's own rounding tol = TOL_ULPS x u x (distance + size) — which scales with the
+    distances the test subtracts, not with |P|. A contact gap above the bound must therefore
+    block. Ambiguous (either answer allowed): another primitive's counting hit lies within that
+    height (the origin may sit below or above it); the answer changes with the height threshold
+    moved by tol either way, or from an origin up the slab the bound allows
+    (P + k/HEIGHTS x bound x Nf: at a low light a raised origin moves the shadow's edge by
+    h / tan(angle)), or from the origin moved by bound + tol across the ray along the surface
+    (silhouettes); the hit is within tol of the light; the light lies on or below the tangent
+    plane."""
+    u = float(np.finfo(dtype_of(precision)).eps) / 2.0
+    to = lights - point
     dist = np.linalg.norm(to, axis=1)
     d = to / dist[:, None]
-    u = float(np.finfo(dtype_of(precision)).eps) / 2.0
-    delta = u * (OFFSET_ULPS * (np.abs(p).max(axis=1) + t_eye) + SIZE_ULPS * osc.size)
-    tol = tolerance(osc, p, precision) + 2 * delta
-    # the own surface counts only clearly away from the point (a cylinder's far wall, say)
-    _, t_self_far = _self_hits(osc, p, d, prim, tol)
-    other, t_other = nearest(osc, p, d, 0.0, skip=prim)
-    t_hit = np.minimum(t_other, t_self_far)
-    blocked = t_hit < dist - tol
-    near_start = (t_other <= tol)
-    near_light = np.abs(t_hit - dist) <= tol
-    e1, e2 = _across(d)
-    n = normals(osc, p, prim)
-    amb = near_start | near_light
-    shifts = [e1, -e1, e2, -e2, n, -n]
-    shifts += [(a + b) / np.sqrt(2) for i, a in enumerate(shifts) for b in shifts[i + 2 - i % 2:]]
-    for e, s in ((e, 1) for e in shifts):
-        q = p + (s * tol)[:, None] * e
-        _, to2 = nearest(osc, q, d, 0.0, skip=prim)
-        _, ts2 = _self_hits(osc, q, d, prim, tol)  # a ray within rounding of tangent to its own surface
-        amb |= (np.minimum(to2, ts2) < dist - tol) != blocked
+    up = np.einsum("ij,ij->i", d, normal)
+    bound = offset_bound(point, normal, t_eye, osc.size, precision)
+    tol = TOL_ULPS * u * (dist + osc.size)
+    rising = up > 0
+    slope = np.where(rising, up, 1.0)
+
+    def blocked_above(o, height):  # the first counting hit above `height` (t_min: per ray)
+        _, t = nearest(osc, o, d, height / slope)
+        return t < dist - tol, t
+
+    blocked, t_hit = blocked_above(point, bound + tol)
+    lower, _ = blocked_above(point, np.maximum(bound - tol, 0.0))
+    _, t_other = nearest(osc, point, d, 0.0, skip=prim)
+    amb = ~rising | (lower != blocked) | (np.abs(t_hit - dist) <= tol) | (t_other * slope <= bound + tol)
+    for k in range(1, HEIGHTS + 1):  # origins up the slab the bound allows (a silhouette in it)
+        h = bound * (k / HEIGHTS)
+        amb |= blocked_above(point + h[:, None] * normal, bound + tol - h)[0] != blocked
+    side = np.cross(d, normal)  # across the ray and along the surface: the height stays
+    norm = np.linalg.norm(side, axis=1, keepdims=True)
+    side = np.where(norm > 1e-6, side / np.maximum(norm, 1e-300), _across(d)[0])
+    for s in (1, -1):
+        amb |= blocked_above(point + (s * (bound + tol))[:, None] * side, bound + tol)[0] != blocked
     return blocked, amb
 
-
-def _self_hits(osc: OracleScene, p, d, prim, tol):
-    """The own primitive's hits beyond the tolerance from the point: (pid, t)."""
-    t_far = np.full(len(p), np.inf)
-    for pid in np.unique(prim):
-        sel = np.flatnonzero(prim == pid)
-        one = OracleScene(kind=osc.kind[[pid]], local=osc.local[[pid]], two_sided=osc.two_sided[[pid]],
-                          poly_v=osc.poly_v, poly_n=osc.poly_n, sph=osc.sph, cone=osc.cone, lo=osc.lo,
-                          hi=osc.hi, size=osc.size)
-        # from a point on the surface the own roots near 0 are rounding; farther ones are real
-        _, t_far[sel] = nearest(one, p[sel], d[sel], 8 * tol[sel])
-    return prim, t_far
-
-
-def normals(osc: OracleScene, p: np.ndarray, prim: np.ndarray) -> np.ndarray:
-    """Unit surface normals (n, 3) at points `p` on primitives `prim` (outward / front side)."""
-    out = np.zeros_like(p)
-    for pid in np.unique(prim):
-        sel = np.flatnonzero(prim == pid)
-        k, j = osc.kind[pid], osc.local[pid]
-        if k == Kind.POLYGON:
-            out[sel] = osc.poly_n[j]
-        elif k == Kind.SPHERE:
-            v = p[sel] - osc.sph[j, :3]
-            out[sel] = v / np.linalg.norm(v, axis=1, keepdims=True)
-        else:
-            c = osc.cone[j]
-            axis = c[4:7] - c[:3]
-            length = np.linalg.norm(axis)
-            a = axis / length
-            w = p[sel] - c[:3]
-            radial = w - (w @ a)[:, None] * a
-            u = radial / np.linalg.norm(radial, axis=1, keepdims=True)
-            v = u - ((c[7] - c[3]) / length) * a
-            out[sel] = v / np.linalg.norm(v, axis=1, keepdims=True)
-    return out

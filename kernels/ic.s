@@ -54,6 +54,7 @@
 .equ HAS_RESIDENT, RESIDENT_M > 0 || GENERIC          # some record is resident: ldr code
 .equ HAS_GLOBAL, RESIDENT_M < N_PRIMITIVES || GENERIC # some record is in ICGM: ldg code
 .equ HAS_NGONS, MAX_VERTICES > 3 || GENERIC           # polygons other than triangles: the loop
+.equ QUADS, MAX_VERTICES == 4 && !HAS_PATCHES && !HAS_TWO_SIDED && !GENERIC  # ... or quads only
 .equ N_KINDS, HAS_POLYGONS + HAS_SPHERES + HAS_CYLINDERS + HAS_CONES
 
 # Slot table entry (SLOT_WORDS words per slot, the table at local address 0): the ray record as
@@ -278,6 +279,21 @@ fan_b:      .space FAN_WORDS
 # negative one has its sign bit set (a negative float or a NaN: fle gives 0), in fp32 and fp64.
 # A test forms go = flt(thr, -disc) with thr = more ? +0 : +inf, i.e. more && disc < 0 (NaN: no),
 # where -disc is computed beside disc as the reversed subtraction (exactly -disc, also for 0).
+
+# The early rejection (sphere, cylinder): the golden test computes q = v - s*u (the closest point
+# of the line) and disc = r2 - q.q after the division s = v.u / u.u (cylinder) or the product
+# s*u (sphere). Exactly, q.q * u.u = v.v * u.u - (v.u)^2, which needs neither: a test forms
+# E = v.v * u.u * EARLY_K - (v.u)^2 from the very words golden sums (v.u as golden rounds it) and
+# goes to the next cell at once when E > r2 * u.u (the sphere: u.u = d.d = 1, E > r2). The
+# factor EARLY_K = 1 - 2^-12 is a margin of 4096 rounding units of fp32 (2^43 of fp64): both
+# sides' rounding errors are below 50 units of v.v * u.u (docs/kernels.md, "Early rejection"),
+# so a rejected test is one golden finds no real root for (disc < 0), and the outcome, the
+# loads and the counts are unchanged; only the cycles differ. Guards keep the error bounds
+# relative: u.u and v.v at least EARLY_LO (no denormals on the way), v.v below EARLY_HI (no
+# overflow); outside them the test runs golden's chain only.
+.equ EARLY_K, 0.999755859375    # 1 - 2^-12, exact in fp32 and fp64
+.equ EARLY_LO, 1e-30
+.equ EARLY_HI, 1e30
 
 # ---- start -----------------------------------------------------------------------------------
 .text

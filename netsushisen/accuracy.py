@@ -26,22 +26,28 @@ from __future__ import annotations
 import copy
 import dataclasses
 import json
+import os
+import sys
 import time
 import zlib
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
+from netsushisen.cluster import ResultCache, Task, content_key, kernel_digest, run_cached, scene_digest
 from netsushisen.emulator import stats as run_stats
 from netsushisen.errors import NetsushisenError
 from netsushisen.host import golden
 from netsushisen.host.prepass import coarse_resolution
 from netsushisen.host.scenes import Scene
-from netsushisen.isa.config import MachineConfig, apply_override
+from netsushisen.isa.config import MachineConfig, apply_override, dump_toml
 from netsushisen.pipeline import RenderResult, RenderSetup, finish, prepare
 from netsushisen.reports.accuracy import (Row, Timing, fidelity_errors, hit_id_share,
-                                          ic_regions, image_errors, memory_point, ray_errors,
-                                          regression_estimate, relative, traced_rays)
+                                          ic_regions, image_errors,
+                                          memory_point, ray_errors, regression_estimate, relative,
+                                          traced_rays)
 from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
 
 DEPTHS = tuple(range(1, 9))
@@ -56,8 +62,7 @@ consecutive samples in the order DIS hands them out (so a tile's predecessor is 
 did just before it: its warm-up)."""
 SAMPLE_SHARES = (0.10, 0.25, 0.50)
 """Shares of the tiles the sampled rows simulate. Each share's n tiles are a stratified random
-sample (`stratified_tiles`): the tiles cut into n // 4 strata of consecutive tiles, 4 drawn in
-each."""
+sample (`stratified_tiles`): the tiles cut into n // 4 strata of consecutive tiles, 4 drawn in each."""
 REFERENCE_BUDGET = 2_000_000
 """Cycles the reference engine (≈60 k cycles/s) is given; a longer run is compared over this
 prefix with the compiled engine's, and its full time extrapolated (0: no reference row)."""
@@ -73,10 +78,25 @@ EMULATED = ("golden fp16", "golden bf16 scene")
 emulation's, not the precision's cost (their cost is rays traced), so they are timed once."""
 
 Progress = Callable[[str], None]
+Emit = Callable[[Row], None]
+"""emit(row): a row is final (the cluster layer sends it to the command at once, so Ctrl-C
+keeps every finished row, not only whole scene × axis units)."""
 
 
 def _quiet(_: str) -> None:
     pass
+
+
+class _Rows(list):
+    """The rows of an axis: each appended one is emitted."""
+
+    def __init__(self, emit: Emit | None) -> None:
+        super().__init__()
+        self.emit = emit or (lambda row: None)
+
+    def append(self, row: Row) -> None:
+        super().append(row)
+        self.emit(row)
 
 
 def with_sets(config: MachineConfig, **fields) -> MachineConfig:
@@ -190,8 +210,8 @@ def round_scene(scene: Scene, rounder: Callable[[np.ndarray], np.ndarray]) -> Sc
 def _image_row(axis, scene, setting, truth_img, u8, ids, rays, timing: Timing, cost, how,
                values=None) -> Row:
     errors, psnr = image_errors(u8, truth_img.image_u8)
-    errors = ({"hit_ids": hit_id_share(ids, truth_img.hit_ids)} | errors
-              | ray_errors(rays, truth_img.rays))
+    errors = {"hit_ids": hit_id_share(ids,
+                                      truth_img.hit_ids)} | errors | ray_errors(rays, truth_img.rays)
     return Row(axis, scene, setting, False, errors, timing.median, cost, how,
                {"psnr_db": psnr} | (values or {}), timing=timing, emulated=setting in EMULATED)
 
@@ -205,14 +225,17 @@ def _golden(scene: Scene, config: MachineConfig, res: int, precision: str | None
 
 
 def precision_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
-                   progress: Progress = _quiet, repeats: int = REPEATS) -> list[Row]:
+                   progress: Progress = _quiet, repeats: int = REPEATS,
+                   emit: Emit | None = None) -> list[Row]:
     name = scene.name
     progress(f"{name} precision: golden fp64")
     truth, tt = _golden(scene, config, res, "fp64", repeats)
-    rows = [_image_row("precision", name, "golden fp64", truth, truth.image_u8,
+    first = _image_row("precision", name, "golden fp64", truth, truth.image_u8,
                        truth.hit_ids, truth.rays, tt, {"rays": traced_rays(truth.rays)},
-                       "the golden numpy model in float64: the truth")]
-    rows[0].truth = True
+                       "the golden numpy model in float64: the truth")
+    first.truth = True
+    rows = _Rows(emit)
+    rows.append(first)
     variants = (
         ("golden fp32", scene, "fp32",
          "the golden numpy model in float32 (the machine's precision)"),
@@ -222,11 +245,18 @@ def precision_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
          "libm in float64 and is rounded into the float16 pixel sums); its seconds are numpy's "
          "software emulation of float16, not what fp16 hardware would take: its cost is the rays "
          "traced"),
-        ("golden bf16 scene", round_scene(scene, round_bf16), "fp32",
-         "every number of the scene (vertices, normals, centres, radii, cone ends, materials, "
-         "lights, camera) rounded to bfloat16 (8 significant bits, nearest even); the golden model "
-         "then computes in float32 (an emulation of bf16 storage: its seconds are not bf16's cost; "
-         "its cost is the rays traced)"),
+        ("golden bf16 scene", round_scene(scene, round_bf16), "fp32", "every number of the scene "
+                                                                      "(vertices, normals, "
+                                                                      "centres, radii, cone ends, "
+                                                                      "materials, lights, camera) "
+                                                                      "rounded to bfloat16 (8 "
+                                                                      "significant bits, nearest "
+                                                                      "even); the golden model "
+                                                                      "then computes in float32 "
+                                                                      "(an emulation of bf16 "
+                                                                      "storage: its seconds are "
+                                                                      "not bf16's cost; its cost "
+                                                                      "is the rays traced)"),
     )
     for setting, sc, precision, how in variants:
         progress(f"{name} precision: {setting}")
@@ -243,7 +273,7 @@ def precision_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
                                mt, {"rays": traced_rays(r.rays), "cycles": r.run.cycles},
                                f"the kernels on the {engine} engine in {precision}; cost in "
                                "machine cycles; seconds: host preparation + the engine's run"))
-    return rows
+    return list(rows)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -270,22 +300,20 @@ def converged_truth(scene: Scene, config: MachineConfig, res: int, start: int = 
 
 def depth_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
                progress: Progress = _quiet, depths=DEPTHS, truth_depth: int = TRUTH_DEPTH,
-               repeats: int = REPEATS, cap: int = TRUTH_CAP) -> list[Row]:
+               repeats: int = REPEATS, cap: int = TRUTH_CAP, emit: Emit | None = None) -> list[Row]:
     """Each depth's golden image against the truth's, and the machine's cycles and time at that
     depth. A row's seconds are the machine's alone (host preparation + run, the cost of running
     at that depth); the golden render's time, which only serves the comparison, is not added."""
     name = scene.name
     truth_depth, converged, tried = converged_truth(scene, config, res, truth_depth, cap, progress)
-    measured = {}
-    for d in (truth_depth, *depths):
+    rows = _Rows(emit)
+    tg = None
+    for d in dict.fromkeys((truth_depth, *depths)):  # the truth first: each row is final when made
         progress(f"{name} depth {d}")
         cfg = with_sets(config, **{"render.max_depth": d})
         g = golden.render(scene, cfg, res=res)
         _, r, mt = machine_timed(scene, cfg, res, engine, repeats)
-        measured[d] = (g, r, mt)
-    tg, tr, ts = measured[truth_depth]
-    rows = []
-    for d, (g, r, mt) in measured.items():
+        tg = g if tg is None else tg
         errors, psnr = image_errors(g.image_u8, tg.image_u8)
         t = d == truth_depth
         rows.append(Row("depth", name, f"depth {d}", t, {k: 0.0 for k in errors} if t else errors,
@@ -317,12 +345,17 @@ def prepass_sides(res: int, share: float) -> list[int]:
 
 
 def prepass_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
-                 progress: Progress = _quiet, repeats: int = REPEATS) -> list[Row]:
+                 progress: Progress = _quiet, repeats: int = REPEATS,
+                 emit: Emit | None = None) -> list[Row]:
     """A row's seconds are its pre-pass's (the golden coarse render, over `repeats` preparations);
-    its time share is that against the main run's engine time."""
+    its time share is that against the main run's engine time. The truth (side = res) is
+    measured first, so each row is final when made; they are returned in `prepass_sides` order."""
     name = scene.name
-    measured = []
-    for side in prepass_sides(res, config.prepass.share):
+    sides = prepass_sides(res, config.prepass.share)
+    rows = _Rows(emit)
+    truth = None
+    measure_order = [res] + [s for s in sides if s != res]
+    for side in measure_order:
         progress(f"{name} pre-pass {side}x{side}")
         cfg = with_sets(config, **{"prepass.share": (side / res) ** 2})
         pre_runs, main_runs, host_runs = [], [], []
@@ -336,10 +369,8 @@ def prepass_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
         if setup.prepass.resolution != side:
             raise AssertionError(f"pre-pass side {setup.prepass.resolution}, wanted {side}")
         timing = Timing.of(pre_runs, {"prepass": pre_runs, "host": host_runs, "machine": main_runs})
-        measured.append((side, setup.prepass, machine_point(r.stats), timing))
-    truth = measured[-1][2]
-    rows = []
-    for side, pre, point, timing in measured:
+        pre, point = setup.prepass, machine_point(r.stats)
+        truth = point if truth is None else truth
         t = side == res
         default = side == coarse_resolution(res, config.prepass.share)
         errors = {"rho": abs(point["rho"] - truth["rho"]), "t": relative(point["t"], truth["t"]),
@@ -357,7 +388,7 @@ def prepass_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
                         {"rho": point["rho"], "mu": point["mu"], "t": point["t"],
                          "resident_count": pre.resident_count,
                          "main_seconds": timing.components["machine"]}, timing=timing))
-    return rows
+    return [rows[measure_order.index(side)] for side in sides]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -389,8 +420,8 @@ def sample_tiles(setup: RenderSetup, engine: str, tiles: list[int], n_tiles: int
     cache state, the pipeline's fill and its drain are the warm-up's, not the tile's.
 
     This marginal is unbiased up to a small residue: over all 64 tiles at 32x32 the marginals sum
-    to 1,209,271 cycles on tetra against the full run's 1,207,983 (+0.11 %) and to 5,625,738 on
-    balls against 5,611,789 (+0.25 %). Against the exact marginal T(tiles 0..t) − T(tiles 0..t−1)
+    to 1,031,329 cycles on tetra against the full run's 1,030,002 (+0.13 %) and to 5,033,465 on
+    balls against 5,019,913 (+0.27 %) (tests/data/tile_cycles.json, tools/tile_cycles.py). Against the exact marginal T(tiles 0..t) − T(tiles 0..t−1)
     (whose sum is the full run) each tile is off by a few hundred cycles of either sign (tetra:
     at most 2,354 on a 15 k-cycle tile; zero on the background tiles): the one-tile warm-up
     leaves a different cache content and round-robin phase than the whole history does. A
@@ -422,9 +453,10 @@ def sample_tiles(setup: RenderSetup, engine: str, tiles: list[int], n_tiles: int
             both, s1 = run(tile - warm_tiles, tile)
             warm, s2 = run(tile - warm_tiles, tile - 1)
             runs.append(s1 + s2)
-        out[tile] = {k: both[k] - warm[k] for k in both} | {
-            "seconds": float(np.median(runs)), "runs": runs,
-            "simulated": both["cycles"] + warm["cycles"]}
+        out[tile] = {k: both[k] - warm[k]
+                     for k in both} | {"seconds": float(np.median(runs)), "runs": runs,
+                                                            "simulated": both["cycles"]
+                                                            + warm["cycles"]}
     return out
 
 
@@ -433,7 +465,8 @@ WARM_SAMPLES = 16
 leaves the caches colder and the pipeline emptier than the full run has them, and every tile's
 marginal comes out high: tetra at 16x16 (4 samples a tile), all 64 tiles sum to +5.5 % of the
 full run with a 1-tile (4-sample) warm-up, +2.9 % with 8 samples, +0.31 % with 16, −0.18 % with
-32; at 32x32 one 16-sample tile gives +0.11 % (tetra), +0.25 % (balls)."""
+32 (the classic kernels); with today's kernels and 16 samples: tetra 16² +0.00 %, 32² +0.13 %,
+balls 16² +0.43 %, 32² +0.27 % (tools/tile_cycles.py prints these)."""
 
 
 def warm_up_tiles(samples: int, n_tiles: int = TILES) -> int:
@@ -455,10 +488,12 @@ def tile_auxiliary(setup: RenderSetup, n_tiles: int = TILES) -> dict[str, list[i
     return {"tests": cut(tests), "rays": cut(rays)}
 
 
-PER_STRATUM = 4
-"""Tiles drawn in each stratum of consecutive tiles. Four, not two: the stratified jackknife
-needs a stable spread within each stratum; with two per stratum its 95 % intervals covered
-89–94 % of redraws (docs/accuracy.md)."""
+PER_STRATUM = 3
+"""Tiles drawn in each stratum of consecutive tiles. Three: with two the stratified jackknife's
+spread within a stratum is too unstable (coverage 89–94 %); with four, 10 % of 64 tiles (6) is
+one unstratified stratum, whose heavy tail (background tiles of zero cycles) covered 93.0 % on
+tetra 32²; three gives 6 tiles two strata, and Satterthwaite's degrees of freedom in
+`regression_estimate` account for the few samples per stratum (docs/accuracy.md)."""
 
 
 def strata_bounds(n_tiles: int, n: int, per_stratum: int = PER_STRATUM) -> list[int]:
@@ -470,7 +505,7 @@ def strata_bounds(n_tiles: int, n: int, per_stratum: int = PER_STRATUM) -> list[
 def stratified_tiles(rng: np.random.Generator, n_tiles: int, n: int, per_stratum: int = PER_STRATUM
                      ) -> list[int]:
     """n tiles of n_tiles: n // H at random in each of the H strata of `strata_bounds` (the
-    remainder one more each in the first strata), sorted.
+    remainder one more each in the first strata with room), sorted.
 
     Why strata: a tile's cycles follow where it lies in the image (background rows against the
     objects; next tiles' cycles correlate 0.84 on tetra, 0.75 on balls at 32x32), so a simple
@@ -478,9 +513,10 @@ def stratified_tiles(rng: np.random.Generator, n_tiles: int, n: int, per_stratum
     part of the image is sampled in proportion."""
     bounds = strata_bounds(n_tiles, n, per_stratum)
     sizes = np.diff(bounds)
-    take = [n // len(sizes)] * len(sizes)
-    for i in range(n - sum(take)):
-        take[i % len(take)] += 1
+    take = np.minimum(n // len(sizes), sizes)
+    while take.sum() < n:  # the remainder, one more each, to the first strata with room
+        room = np.flatnonzero(take < sizes)
+        take[room[:n - int(take.sum())]] += 1
     out = []
     for lo, size, k in zip(bounds, sizes, take):
         out += (lo + rng.choice(size, min(k, size), replace=False)).tolist()
@@ -523,16 +559,16 @@ def sampled_row(scene: str, share: float, tiles: dict[int, dict], chosen: list[i
                f"simulated on the {engine} engine after a warm-up of at least {WARM_SAMPLES} eye "
                "samples (warm-up + tile minus warm-up alone); total cycles by the stratified "
                "regression estimator on the golden model's intersection tests per tile, a 95 % "
-               "interval from the stratified jackknife widened by the warm-up allowance; ρ, μ, t "
-               "from the tiles' IC counters; cost: cycles simulated, warm-ups included; seconds: "
-               "host preparation + the tiles' runs",
+               "interval from the stratified jackknife with Satterthwaite's degrees of freedom and "
+               "the warm-up allowance in quadrature; ρ, μ, t from the tiles' IC counters; cost: "
+               "cycles simulated, warm-ups included; seconds: host preparation + the tiles' runs",
                values, low, high, timing=timing)
 
 
 def fidelity_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
                   progress: Progress = _quiet, shares=SAMPLE_SHARES, n_tiles: int = TILES,
                   seed: int = 1992, reference_budget: int = REFERENCE_BUDGET,
-                  repeats: int = REPEATS) -> list[Row]:
+                  repeats: int = REPEATS, emit: Emit | None = None) -> list[Row]:
     """Every row's seconds include host preparation (`prepare`, or the golden renders the model
     rows need) and are the median of `repeats` runs; the reference engine's row is one run."""
     name = scene.name
@@ -541,12 +577,13 @@ def fidelity_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
     full_seconds = ft.components["machine"]
     truth = machine_point(full.stats)
     mem = dataclasses.asdict(config.ic_memory)
-    rows = [Row("fidelity", name, f"(d) full ({engine})", True,
-                {k: 0.0 for k in ("cycles", "rho", "mu", "t")}, ft.median,
-                {"cycles": truth["cycles"]},
-                f"the whole render on the {engine} engine: the truth (seconds: host preparation + "
-                "run)",
-                dict(truth), timing=ft)]
+    rows = _Rows(emit)
+    rows.append(Row("fidelity", name, f"(d) full ({engine})", True,
+                    {k: 0.0 for k in ("cycles", "rho", "mu", "t")}, ft.median,
+                    {"cycles": truth["cycles"]},
+                    f"the whole render on the {engine} engine: the truth (seconds: host "
+                    "preparation + run)",
+                    dict(truth), timing=ft))
     # the analytic and trace-driven rows take their cycles from one small machine run
     progress(f"{name} fidelity: analytic and trace-driven")
     cal_res = min(CALIBRATION_RES, res)
@@ -591,15 +628,14 @@ def fidelity_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
     if engine != "reference" and reference_budget > 0:
         rows.append(reference_row(setup, full, full_seconds, truth, engine,
                                   reference_budget, progress, ft.components["host"]))
-    return rows
+    return list(rows)
 
 
 def reference_row(setup: RenderSetup, full: RenderResult, full_seconds: float,
                   truth: dict, engine: str,
                   budget: int, progress: Progress = _quiet, host_seconds: float = 0.0) -> Row:
     """(e): the reference engine, whole when the run fits `budget` cycles, else over the first
-    `budget` cycles against the compiled engine stopped at the same cycle (its time
-    extrapolated)."""
+    `budget` cycles against the compiled engine stopped at the same cycle (its time extrapolated)."""
     name = setup.scene.name
     whole = truth["cycles"] <= budget
     progress(f"{name} fidelity: reference engine"
@@ -631,3 +667,96 @@ def reference_row(setup: RenderSetup, full: RenderResult, full_seconds: float,
 
 AXIS_RUNNERS = {"precision": precision_rows, "depth": depth_rows, "prepass": prepass_rows,
                 "fidelity": fidelity_rows}
+
+
+# ------------------------------------------------------------------------------------------------
+# The study: every scene × axis as one run on the cluster layer
+
+
+_WARM: set[tuple[str, str]] = set()
+"""(engine, precision) pairs this worker process has warmed (`axis_unit`)."""
+
+
+def precisions_of(axes: list[str], config: MachineConfig) -> tuple[str, ...]:
+    """The precisions the machine runs in on these axes: both on the precision axis, else the
+    configuration's."""
+    return ("fp32", "fp64") if "precision" in axes else (config.precision,)
+
+
+def axis_unit(scene: Scene, axis: str, res: int, config: MachineConfig, engine: str, seed: int,
+              repeats: int, emit: Emit | None = None) -> list[Row]:
+    """One scene × axis, in a worker: the engine is warmed once per process first (its numba
+    cache load and first run are charged to no row), then each row is emitted as it is final."""
+    for precision in precisions_of([axis], config):
+        if (engine, precision) not in _WARM:
+            warm_up(scene, config, engine, (precision,))
+            _WARM.add((engine, precision))
+    extra = {"seed": seed} if axis == "fidelity" else {}
+    return AXIS_RUNNERS[axis](scene, res, config, engine, repeats=repeats, emit=emit, **extra)
+
+
+@dataclass
+class Study:
+    """The rows per axis (scenes in the order given, each unit's rows in its runner's order;
+    an interrupted unit keeps the rows it had finished), the warm-up seconds, whether Ctrl-C
+    stopped it."""
+
+    rows: dict[str, list[Row]]
+    warm: dict[str, float]
+    interrupted: bool
+    where: str = ""
+    cached: int = 0  # scene × axis units taken from the cache
+
+
+def _rows(i: int, data: list[dict]) -> list[Row]:
+    """A cached unit's rows back from their plain form (`cluster.plain`)."""
+    return [Row(**(d | {"timing": Timing(**d["timing"]) if d["timing"] else None})) for d in data]
+
+
+def run_study(scenes: list[Scene], axes: list[str], res: int, config: MachineConfig, engine: str,
+              seed: int = 1992, repeats: int = REPEATS, scheduler: str | None = None,
+              workers: int | None = None, show: bool = False, cache_dir=None,
+              fresh: bool = False) -> Study:
+    """Warm up here (the compile lands in the disk cache the workers load), then every scene ×
+    axis as one task on the cluster layer (netsushisen/cluster.py); rows arrive as they finish.
+    A unit whose rows are in `cache_dir` (a finished unit of an earlier run with the same
+    inputs, `repeats` and `seed` included) is not run again unless `fresh`.
+    `show`: a progress bar on a terminal, else one line per finished row on standard error."""
+    start = time.perf_counter()
+    log = (lambda text: print(text, file=sys.stderr,
+                              flush=True)) if show and not sys.stderr.isatty() \
+        else (lambda text: None)
+    try:
+        warm = warm_up(scenes[0], config, engine, precisions_of(axes, config), progress=log)
+    except KeyboardInterrupt:
+        return Study({}, {}, True)
+    units = [(si, axis) for si in range(len(scenes)) for axis in axes]
+    finished: dict[int, list[Row]] = {}
+    partial: dict[int, list[Row]] = {}
+
+    def item(i: int, row: Row) -> None:
+        partial.setdefault(i, []).append(row)
+        log(f"{row.scene} {row.axis}: {row.setting} done at {time.perf_counter() - start:.0f} s")
+
+    def done(i: int, rows: list[Row]) -> None:
+        finished[i] = rows
+        si, axis = units[i]
+        log(f"{scenes[si].name} {axis}: done at {time.perf_counter() - start:.0f} s")
+
+    tasks = [Task(axis_unit, (scenes[si], axis, res, config, engine, seed, repeats),
+                  f"{scenes[si].name}-{axis}", emits=True) for si, axis in units]
+    inputs = (res, dump_toml(config), engine, seed, repeats, kernel_digest())
+    digests = [scene_digest(scene) for scene in scenes]
+    keys = [content_key("accuracy unit", scenes[si].name, digests[si], axis, *inputs)
+            for si, axis in units]
+    cache = ResultCache(Path(cache_dir)) if cache_dir is not None else None
+    outcome, cached = run_cached(tasks, keys, cache, done, decode=_rows, fresh=fresh,
+                                 scheduler=scheduler,
+                                 workers=workers, title="accuracy", show=show, on_item=item,
+                                 status=lambda: f"{sum(map(len, partial.values()))} rows")
+    rows: dict[str, list[Row]] = {a: [] for a in axes}
+    for i, (si, axis) in enumerate(units):
+        rows[axis] += finished.get(i, partial.get(i, []))
+    n = workers or min(os.cpu_count() or 1, len(tasks))
+    where = f"the Dask cluster at {scheduler}" if scheduler else f"a LocalCluster of {n} worker{'s' * (n != 1)}"
+    return Study({a: r for a, r in rows.items() if r}, warm, outcome.interrupted, where, cached)

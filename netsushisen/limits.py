@@ -235,6 +235,20 @@ def render_footprint(what: str, config: MachineConfig | None, width: int, engine
     return Footprint(what, total, rays)
 
 
+NUMERICS_BYTES_PER_RAY = 8 * 1024
+"""Host memory per eye ray of `numerics SCENE` (measured: balls:1 128² → 256², 7.4 KiB a ray):
+golden fp32 and fp64 one after the other with every shadow ray of an eye hit kept, both results
+held while they are compared, and the oracle run on the differing rays only (a few float64
+vectors of them per primitive) — proportional to the pixels. The grid, which grew with a
+scene's distance from the origin, is bounded apart (host/grid.py MIN_CELL_PADS, and
+MAX_GRID_CANDIDATES)."""
+
+
+def numerics_footprint(what: str, res: int) -> Footprint:
+    """`numerics SCENE` at res×res: BASE_BYTES + NUMERICS_BYTES_PER_RAY a pixel."""
+    return Footprint(what, BASE_BYTES + res * res * NUMERICS_BYTES_PER_RAY, res * res)
+
+
 def check_host(footprint: Footprint, quiet: bool = False, announce=None) -> Footprint:
     """Refuse a run whose estimate exceeds the memory available (one line naming both), and
     announce a large one (`announce(line)`, default: print to standard error) unless quiet."""

@@ -28,6 +28,9 @@ A point's key is a hash of everything its result is a function of: the scene's N
 kernel sources, the resolution, the full resolved configuration, the engine and the project's
 version (the kernels' defines are a function of these). `points/KEY.json` holds its result; a
 rerun computes only the points whose file is missing.
+
+`run_sweep` runs the points not cached on the cluster layer (netsushisen/cluster.py) and writes
+the results tables (reports/sweep_table.py); the command only parses, calls it and prints.
 """
 
 from __future__ import annotations
@@ -38,6 +41,7 @@ import itertools
 import json
 import math
 import operator
+import sys
 import time
 import tomllib
 from dataclasses import dataclass, field
@@ -45,10 +49,12 @@ from pathlib import Path
 from typing import Any
 
 from netsushisen import __version__
+from netsushisen.cluster import ResultCache, Task, kernel_digest, run_tasks, scene_digest
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.limits import MAX_CONSTANT_BITS, MAX_SWEEP_POINTS, read_input
 from netsushisen.isa.config import MachineConfig, apply_override, dump_toml, load_config
 from netsushisen.options import MAX_RES
+from netsushisen.reports.sweep_table import write_results
 
 SPEC_KEYS = ("scenes", "res", "config", "set", "engine", "vary", "zip", "derive")
 
@@ -349,22 +355,6 @@ def point_config(spec: Spec, point: Point) -> MachineConfig:
     return load_config(spec.config_file, list(point.sets))
 
 
-def kernel_digest() -> str:
-    from netsushisen.kernels import KERNELS
-    h = hashlib.sha256()
-    for p in sorted(Path(KERNELS).rglob("*")):
-        if p.is_file() and p.suffix in (".s", ".inc"):
-            h.update(p.name.encode() + b"\0" + p.read_bytes())
-    return h.hexdigest()
-
-
-def scene_digest(scene: str) -> str:
-    """The hash of a scene's NFF text (a built-in scene's as generated)."""
-    from netsushisen.host.catalog import load_scene
-    from netsushisen.host.nff import format_nff
-    return hashlib.sha256(format_nff(load_scene(scene)).encode()).hexdigest()
-
-
 def with_keys(spec: Spec, pts: list[Point], engine: str) -> list[Point]:
     kernels = kernel_digest()
     scenes = {s: scene_digest(s) for s in spec.scenes}
@@ -410,47 +400,132 @@ def run_point(task: dict) -> dict:
     return out
 
 
-# -- results: one tidy row per point ------------------------------------------------------------
+# -- running a sweep: every point not cached, on the cluster layer -----------------------------
 
-def tidy_row(spec_fields: list[str], result: dict) -> dict[str, Any]:
-    """scene, every varied field, status, cycles, stalls by cause per processor, ρ / μ / t per
-    region of IC's memory (all PEs together), rays, seconds, key."""
-    from netsushisen.reports.summary import memory_figures
-    values = dict(result["values"])
-    row: dict[str, Any] = {"scene": result["scene"]}
-    row.update({f: values.get(f) for f in spec_fields})
-    row["status"] = result["status"]
-    s = result.get("stats")
-    row["cycles"] = s["run"]["cycles"] if s else None
-    if s:
-        for proc, p in sorted(s["processors"].items()):
-            for cause, n in sorted(p.get("stalls", {}).items()):
-                row[f"stall.{proc}.{cause}"] = n
-        merged = _merge_ic(s)
-        regions = sorted({k.split(".", 1)[1] for k in merged["memory"]["ic"]["regions"]
-                          if not k.startswith("local.")})
-        for region in regions + ["all"]:
-            f = memory_figures(merged, "ic", None if region == "all" else region)
-            if f:
-                row[f"rho.{region}"] = f["rho"]
-                row[f"mu.{region}"] = f["mu"]
-                row[f"t.{region}"] = f["measured"]
-        for kind, n in s.get("rays", {}).items():
-            row[f"rays.{kind}"] = n
-    row["seconds"] = round(result["seconds"], 3)
-    row["error"] = result.get("error") or ""
-    row["key"] = result["key"]
-    return row
+FAILED = ("error", "fault", "deadlock", "max_cycles", "interrupted", "lost")
 
 
-def _merge_ic(stats: dict) -> dict:
-    """Statistics with every PE's IC region counters summed under one processor `ic`."""
-    regions: dict[str, dict[str, int]] = {}
-    for name, mem in stats["memory"].items():
-        if name.endswith(".ic"):
-            for k, c in (mem.get("regions") or {}).items():
-                acc = regions.setdefault(k, {})
-                for field_, n in c.items():
-                    if isinstance(n, (int, float)):
-                        acc[field_] = acc.get(field_, 0) + n
-    return {"memory": {"ic": {"regions": regions}}, "config": stats["config"]}
+def check_sweep_footprint(spec: Spec, engine: str, quiet: bool) -> None:
+    """Before the cluster starts: the largest point must fit a worker's host (and the machine's
+    frame); a large one is announced (netsushisen/limits.py)."""
+    from netsushisen.limits import machine_bytes
+    from netsushisen.options import check_footprint
+
+    configs = [point_config(spec, p) for p in points(spec)]
+    if configs:
+        largest = max(configs, key=lambda c: machine_bytes(c, engine))
+        check_footprint(f"sweep point of {spec.path.name}", largest, spec.res, engine, quiet=quiet)
+
+
+def engine_of(name: str | None) -> str:
+    from netsushisen.emulator.engine import check_engine, default_engine
+    return check_engine(name) if name else default_engine()
+
+
+class Summary:
+    def __init__(self, total: int, duplicates: int = 0) -> None:
+        self.total, self.computed, self.cached, self.failed = total, 0, 0, 0
+        self.duplicates = duplicates
+        self.interrupted = False
+
+    def line(self) -> str:
+        dup = f" ({self.duplicates} more repeat one)" if self.duplicates else ""
+        rest = self.total - self.computed - self.cached
+        return (f"sweep: {self.total} points{dup}, {self.computed} computed, {self.cached} cached, "
+                f"{self.failed} failed" + (f", {rest} not run" if rest else "")
+                + (" (interrupted)" if self.interrupted else ""))
+
+
+def _task(spec: Spec, p: Point, engine: str) -> dict:
+    return {"key": p.key, "scene": p.scene, "values": list(p.values), "sets": list(p.sets),
+            "config_file": spec.config_file, "res": spec.res, "engine": engine}
+
+
+def _spec_hash(spec: Spec) -> str:
+    try:
+        return hashlib.sha256(spec.path.read_bytes()).hexdigest()[:16]
+    except OSError:
+        return ""
+
+
+def _warm(spec: Spec, pts: list[Point], engine: str) -> None:
+    """Compile (or load) the compiled engine once here, so workers load it from the disk cache
+    instead of each compiling it."""
+    if engine not in ("compiled", "tandem"):
+        return
+    from netsushisen.emulator.compiled.build import load
+    for precision in sorted({point_config(spec, p).precision for p in pts}):
+        load(precision)
+
+
+def run_sweep(spec: Spec, out: Path, engine: str, scheduler: str | None = None,
+              workers: int | None = None, show: bool = False, retry: bool = True) -> Summary:
+    """Run every point not already in out/points (a corrupt point file again, and a failed
+    point again unless `retry` is False) on the cluster (netsushisen/cluster.py); write the
+    results tables (also on Ctrl-C)."""
+    pts = with_keys(spec, points(spec), engine)
+    cache = ResultCache(out / "points")
+    distinct: dict[str, Point] = {}
+    for p in pts:
+        distinct.setdefault(p.key, p)  # the first point of each key
+    summary = Summary(len(distinct), len(pts) - len(distinct))
+    spec_hash = _spec_hash(spec)
+    todo: list[Point] = []
+    for key, p in distinct.items():
+        found = cache.load(key)
+        if isinstance(found, dict) and "status" not in found:
+            found = "was written for another point"
+        if isinstance(found, str):
+            print(f"sweep: point {key} ({p.scene}, {_shown(p)}) {found}: computing it again",
+                  file=sys.stderr)
+        elif found is not None and (found["status"] not in FAILED or not retry):
+            summary.cached += 1
+            summary.failed += found["status"] in FAILED
+            continue
+        todo.append(p)
+
+    def done(i: int, result: dict) -> None:
+        cache.store(result, spec_hash)
+        summary.computed += 1
+        summary.failed += result["status"] in FAILED
+
+    def lost(i: int, err: BaseException) -> None:  # a worker lost too often (KilledWorker) or the like
+        p = todo[i]
+        done(i, {"key": p.key, "scene": p.scene, "values": list(p.values), "status": "lost",
+                 "error": f"{type(err).__name__}: {err}", "stats": None, "seconds": 0.0,
+                 "engine": engine})
+
+    try:
+        if todo:
+            _warm(spec, todo, engine)
+            tasks = [Task(run_point, (_task(spec, p, engine),), f"point-{p.key}") for p in todo]
+            outcome = run_tasks(tasks, done, scheduler=scheduler, workers=workers, title="sweep",
+                                show=show, on_error=lost, done_before=summary.cached,
+                                status=lambda: _status(summary))
+            summary.interrupted = outcome.interrupted
+    except KeyboardInterrupt:
+        summary.interrupted = True
+    finally:
+        write_tables(spec, pts, cache, out)
+    return summary
+
+
+def _status(s: Summary) -> str:
+    return f"{s.computed} computed, {s.cached} cached, {s.failed} failed"
+
+
+def _shown(p: Point) -> str:
+    return ", ".join(f"{k} = {v!r}" for k, v in p.values) or "base configuration"
+
+
+def write_tables(spec: Spec, pts: list[Point], cache: ResultCache, out: Path) -> list[dict]:
+    """results.csv and results.parquet: one row per finished point of this spec, in spec order."""
+    results, seen = [], set()
+    for p in pts:
+        if p.key in seen or not cache.has(p.key):
+            continue
+        seen.add(p.key)
+        result = cache.load(p.key)
+        if isinstance(result, dict) and "status" in result:
+            results.append(result)
+    return write_results(out, spec.fields, results)

@@ -203,8 +203,17 @@ _T975 = (12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 
 """Student's t, 97.5 % quantile, 1..30 degrees of freedom (then 1.96): no scipy needed."""
 
 
-def t_quantile(dof: int) -> float:
-    return _T975[dof - 1] if 1 <= dof <= len(_T975) else 1.96
+def t_quantile(dof: float) -> float:
+    """t's 97.5 % quantile (1.96 from 31 degrees of freedom on); a fractional `dof`
+    (Satterthwaite's) interpolates linearly in 1/dof between the neighbouring integers."""
+    table = lambda k: _T975[k - 1] if k <= len(_T975) else 1.96  # noqa: E731
+    if dof <= 1:
+        return _T975[0]
+    lo = int(dof)
+    if lo == dof:
+        return table(lo)
+    w = (1 / lo - 1 / dof) / (1 / lo - 1 / (lo + 1))
+    return table(lo) + w * (table(lo + 1) - table(lo))
 
 
 def sampled_estimate(samples, population: int) -> tuple[float, float, float]:
@@ -261,10 +270,13 @@ def stratified_estimate(strata) -> tuple[float, float, float]:
     return est, low, est + half
 
 
-WARM_UP_ALLOWANCE = 0.0015
-"""Relative widening of a sampled interval on each side for the warm-up residue: the sampled
-tiles' marginals sum to the full run within +0.12 % (tetra) and +0.18 % (balls) at 32x32 with
-the 16-sample warm-up (`netsushisen.accuracy.WARM_SAMPLES`), a bias no spread of the tiles shows."""
+WARM_UP_ALLOWANCE = 0.002
+"""The warm-up residue as a standard uncertainty, relative to the estimate, added in quadrature
+to the sampling half-width: the 64 tiles' marginals sum to the full run within +0.00 % (tetra
+16²), +0.13 % (tetra 32²), +0.27 % (balls 32²) and +0.43 % (balls 16²) with the 16-sample
+warm-up (`netsushisen.accuracy.WARM_SAMPLES`), a bias no spread of the tiles shows. In
+quadrature, not added: a wide interval (few tiles) already covers it, a narrow one (half the
+tiles) needs it; added linearly it over-covered at 25 % (97.6 %)."""
 
 
 def _regression_total(strata) -> float:
@@ -284,9 +296,12 @@ def regression_estimate(strata, allowance: float = WARM_UP_ALLOWANCE) -> tuple[f
     """(estimate, low, high) of a total from a stratified sample with an auxiliary known for every
     unit: `strata` is a list of (sampled y, their x, every unit's x). The combined regression
     estimator Σ N_h·(ȳ_h + b·(X̄_h − x̄_h)) (b pooled within strata); its variance by the stratified
-    delete-one jackknife Σ_h (1 − f_h)·(n_h − 1)/n_h·Σ_j (θ_(hj) − θ̄_h)² (it follows the slope's
-    own uncertainty, which a residual variance misses); ± t(n − H)·√V, widened by `allowance` of the
-    estimate on each side (the warm-up residue). Every unit sampled: the exact total."""
+    delete-one jackknife V = Σ_h V_h, V_h = (1 − f_h)·(n_h − 1)/n_h·Σ_j (θ_(hj) − θ̄_h)² (it follows
+    the slope's own uncertainty, which a residual variance misses); the half-width
+    √((t(ν)·√V)² + (allowance·estimate)²) with ν = V² / Σ_h V_h²/(n_h − 1), Satterthwaite's
+    effective degrees of freedom (Cochran 5A.42): when one stratum carries most of the variance
+    the interval has its few degrees of freedom, not n − H; `allowance` is the warm-up residue.
+    Every unit sampled: the exact total."""
     strata = [(np.asarray(y, np.float64), np.asarray(x, np.float64), np.asarray(xs, np.float64))
               for y, x, xs in strata]
     if not strata or any(len(y) == 0 for y, _, _ in strata):
@@ -294,10 +309,9 @@ def regression_estimate(strata, allowance: float = WARM_UP_ALLOWANCE) -> tuple[f
     est = _regression_total(strata)
     if all(len(y) == len(xs) for y, _, xs in strata):
         return est, est, est
-    var, n = 0.0, 0
+    parts = []
     for h, (y, x, xs) in enumerate(strata):
         nh = len(y)
-        n += nh
         if nh < 2:
             return est, -math.inf, math.inf
         reps = []
@@ -305,18 +319,21 @@ def regression_estimate(strata, allowance: float = WARM_UP_ALLOWANCE) -> tuple[f
             keep = np.arange(nh) != j
             reps.append(_regression_total(strata[:h] + [(y[keep], x[keep], xs)] + strata[h + 1:]))
         r = np.asarray(reps)
-        var += (1 - nh / len(xs)) * (nh - 1) / nh * float(((r - r.mean()) ** 2).sum())
-    dof = n - len(strata)
-    half = t_quantile(dof) * math.sqrt(var) + allowance * abs(est)
+        parts.append(((1 - nh / len(xs)) * (nh - 1) / nh * float(((r - r.mean()) ** 2).sum()), nh))
+    var = sum(v for v, _ in parts)
+    dof = var * var / sum(v * v / (nh - 1) for v, nh in parts) if var > 0 else \
+        sum(nh for _, nh in parts) - len(parts)
+    half = math.hypot(t_quantile(dof) * math.sqrt(var), allowance * abs(est))
     return est, est - half, est + half
 
 
 def coverage(cycles, aux, full: float, n: int, redraws: int, seed: int = 0,
-             per_stratum: int = 4) -> float:
+             per_stratum: int | None = None) -> float:
     """Share of `redraws` stratified samples of n tiles whose interval covers `full` (the full
     run's cycles): the tiles' marginal cycles and auxiliary measured once, so this is arithmetic."""
-    from netsushisen.accuracy import strata_bounds, stratified_tiles
+    from netsushisen.accuracy import PER_STRATUM, strata_bounds, stratified_tiles
 
+    per_stratum = per_stratum or PER_STRATUM
     y, x = np.asarray(cycles, np.float64), np.asarray(aux, np.float64)
     rng = np.random.default_rng(seed)
     bounds = strata_bounds(len(y), n, per_stratum)
@@ -410,8 +427,7 @@ def axis_sentences(axis: str, rows: list[Row]) -> list[str]:
 def _cheapest(rows: list[Row], metric: str, within: float) -> str:
     ok = [r for r in rows if r.error[metric] <= within]
     if not ok:
-        return (f"no smaller pre-pass comes within {within:.0%} of the full-resolution ranking's "
-                "cycles")
+        return f"no smaller pre-pass comes within {within:.0%} of the full-resolution ranking's cycles"
     r = min(ok, key=lambda r: r.cost["rays"])
     return (f"the smallest pre-pass within {within:.0%} of the full-resolution ranking's cycles is "
             f"{r.setting} ({int(r.cost['rays']):,} eye rays)")

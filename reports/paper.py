@@ -2,7 +2,7 @@
 
 `tables(scenes)` gives the two tables as rows (paper value, our value); `findings(scenes)` checks
 each of the paper's findings against our numbers and says whether we agree and, where we do not,
-why; `report_markdown(...)` writes them up. The numbers come from `paper_data.analyse_scene`; the
+why; `report_markdown(...)` writes them up. The numbers come from `netsushisen.paper.analyse_scene`; the
 figures and CSV files from `paper_plots`.
 """
 
@@ -75,7 +75,7 @@ FIG4_LOW = 0.10  # "miss rates are low": at most 10 % at every cache size
 FIG4_SATURATION = 0.5  # hit-rate gain from 30 % to 100 % at most half the gain from 10 % to 30 %
 FIG5_BEST = (0.6, 0.8)  # "lowest near 70 % resident"
 FIG5_CLOSE = 0.10  # "30 % and 50 % differ little": best t within 10 % relative
-FIG5_GAIN = 0.02  # "resident memory beats cache-only": best split with resident memory ≥ 2 % below it
+FIG5_GAIN = 0.02  # "resident beats cache-only": the best split with resident memory ≥ 2 % below
 FIG3_MOST = 0.8  # "references concentrate on 20–50 % of the primitives": 80 % of them there
 FIG3_SPAN = (0.2, 0.5)
 FIG5_FALL = 0.01  # "t falls as the resident share grows": no step up to the best split rises > 1 %
@@ -200,7 +200,9 @@ def _with_candidates(items: list[Finding], scenes: list[SceneData], counting: st
         done = "; ".join(f"{k}: {g.verdict} ({g.ours})" for k, g in runs)
         head = (f"explained by {' / '.join(fixes)}" if fixes else
                 "unexplained after the candidates " + ", ".join(k for k, _ in runs))
-        detail = f.why.removeprefix("unexplained").lstrip(": ") if f.why.startswith("unexplained") else f.why
+        detail = f.why
+        if detail.startswith("unexplained"):
+            detail = detail.removeprefix("unexplained").lstrip(": ")
         f.why = f"{head} (candidates run — {done})" + (f"; {detail}" if detail else "")
     return items
 

@@ -1,12 +1,9 @@
-"""The numbers behind the paper's Table 1, Table 2 and Figures 3–5, from the fastest exact path.
+"""The records of `netsushisen paper`: what one scene's evaluation holds (`SceneData`), how it
+counts and sizes (`PaperOptions`), and the memory configurations Figures 4 and 5 sweep.
 
-Per scene: the golden model renders with its IC reference trace (`host/golden.py`), the
-pre-pass (`host/prepass.py`) gives the priorities, and the trace — in the machine's serial
-order (`tracesim.machine_order`) and as the IC access protocol's load stream
-(`host/ic_access.py`) — is replayed once through every memory configuration of the sweeps
-(`tracesim.SweepStream`): no cycle-accurate emulation. Each configuration is laid out by
-`host.databases.plan_layout` with the pre-pass priorities, so resident vs cache and every ICGM
-address are the ones the machine would get for that split.
+They are made by `netsushisen/paper.py` (the golden trace replayed through the trace-driven
+memory model for every configuration: no cycle-accurate emulation); the tables, findings,
+figures and report.md here only read them.
 
 Figure 4: cache-only local memory (resident 0) of 10 %, 20 %, ..., 100 % of the primitive
 database. Figure 5: local memory of 10 %, 30 %, 50 % of it, split resident : cache from
@@ -25,19 +22,10 @@ per primitive reference (`row["ref"]`, the paper's counting) and per word (`row[
 from __future__ import annotations
 
 import copy
-import time
 from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
-
-from netsushisen.host.catalog import load_scene
-from netsushisen.host.databases import plan_layout
-from netsushisen.host.golden import render
-from netsushisen.host.grid import build_grid
-from netsushisen.host.prepass import run_prepass
-from netsushisen.isa.config import MachineConfig
-from netsushisen.reports.tracesim import SweepPoint, SweepStream, machine_order, ordered_stream_chunks
 
 PAPER_SCENES = ("tetra", "balls", "mount", "rings")
 CACHE_SHARES = tuple(round(0.1 * i, 2) for i in range(1, 11))  # Figure 4
@@ -95,8 +83,8 @@ class SceneData:
     block_bytes: int = 64
     seconds: dict[str, float] = field(default_factory=dict)
     options: PaperOptions = field(default_factory=PaperOptions)
-    experiments: dict[str,
-                      np.ndarray] = field(default_factory=dict)  # variant -> tests per primitive
+    # variant -> tests per primitive
+    experiments: dict[str, np.ndarray] = field(default_factory=dict)
     readings: dict[str, "SceneData"] = field(default_factory=dict)  # candidate reading -> its sweep
 
     # Table 2 ------------------------------------------------------------------------------
@@ -137,172 +125,15 @@ class SceneData:
         i = int(np.searchsorted(ck, c - 1e-12))
         return float(fk[min(i, self.n)])
 
+    @classmethod
+    def from_plain(cls, d: dict) -> "SceneData":
+        """A SceneData from its plain form (`cluster.plain`, arrays already back: a cached run)."""
+        return cls(**(d | {"options": PaperOptions(**d["options"]),
+                           "readings": {k: cls.from_plain(v)
+                                        for k, v in d.get("readings", {}).items()}}))
+
     def with_references(self, refs: np.ndarray) -> "SceneData":
         """A copy counting `refs` as the tests per primitive (an experiment's variant)."""
         d = copy.copy(self)
         d.references = np.asarray(refs, np.int64)
         return d
-
-
-def scene_counts(scene) -> dict:
-    from netsushisen.host.scenes import Kind
-    return {"primitives": scene.n_primitives, "polygons": scene.count(Kind.POLYGON),
-            "spheres": scene.count(Kind.SPHERE), "cones": scene.count(Kind.CONE),
-            "cylinders": scene.count(Kind.CYLINDER), "lights": int(len(scene.light_position)),
-            "reflective": scene.reflective, "transparent": scene.transparent}
-
-
-def _sized(config: MachineConfig, base_words: int, resident: float, cache: float) -> MachineConfig:
-    """`config` with IC's resident and cache sizes set to shares of `base_words` (the sized
-    database), rounded as the machine rounds shares (resident: whole words, cache: whole blocks)."""
-    c = copy.deepcopy(config)
-    mc = c.ic_memory
-    wb = config.word_bytes
-    mc.resident_share = mc.cache_share = None
-    mc.resident_bytes = int(resident * base_words) * wb
-    size = int(cache * base_words * wb)
-    mc.cache_bytes = size - size % mc.block_bytes
-    return c
-
-
-def sweep_points(config: MachineConfig) -> list[tuple[str, float, float]]:
-    """(figure, local or cache share, resident split) of every configuration swept."""
-    out = [("fig4", c, 0.0) for c in CACHE_SHARES]
-    out += [("fig5", local, r) for local in LOCAL_SHARES for r in RESIDENT_SPLITS]
-    return out
-
-
-def trace_experiments(golden) -> dict[str, np.ndarray]:
-    """Tests per primitive under variants of the main pass that the reference trace alone can
-    answer (no new render): the experiments report.md's explanations cite."""
-    from netsushisen.host.golden import EYE, SHADOW
-
-    n = len(golden.references)
-    off = golden.trace_ray_offsets
-    ray = np.repeat(np.arange(len(off) - 1), np.diff(off))
-    prims = golden.trace_prims.astype(np.int64)
-    kind = golden.trace_kind[ray]
-    depth = golden.trace_depth[ray]
-    pairs = np.sort(ray * n + prims)  # np.sort + neighbours: np.unique hashes, slower on 10⁸ keys
-    pairs = pairs[np.concatenate([[True], pairs[1:] != pairs[:-1]])] if len(pairs) else pairs
-    return {
-        "as rendered": golden.references.astype(np.int64),
-        "mailboxing (each primitive tested once per ray)": np.bincount(pairs % n, minlength=n),
-        "eye rays only": np.bincount(prims[kind == EYE], minlength=n),
-        "no shadow rays": np.bincount(prims[kind != SHADOW], minlength=n),
-        "ray-tree depth 1 (eye rays and their shadow rays)": np.bincount(prims[depth <= 1], minlength=n),
-    }
-
-
-CANDIDATES = ("sizing records+lists", "lists in the cache", "32-byte blocks", "128-byte blocks")
-"""The trace-driven readings every "partly" or "differs" of Figures 4–5 is rerun under
-(`candidate_readings`); ray order and PE count need the machine (`--on-machine`)."""
-
-
-def candidate_readings(config: MachineConfig, options: PaperOptions) -> dict[str,
-                                                                             tuple[MachineConfig, PaperOptions]]:
-    """Each candidate explanation as a (config, options) that differs from the run's in one
-    choice; a candidate equal to the run's own reading is skipped."""
-    out = {}
-    other_sizing = "records+lists" if options.sizing == "records" else "records"
-    other_lists = "cache" if options.lists == "local" else "local"
-    out[f"sizing {other_sizing}"] = (config, PaperOptions(other_sizing, options.lists))
-    out[f"lists in {'the cache' if other_lists == 'cache' else 'local memory'}"] = (
-        config, PaperOptions(options.sizing, other_lists))
-    for block in (32, 128):
-        if block != config.ic_memory.block_bytes:
-            c = copy.deepcopy(config)
-            c.ic_memory.block_bytes = block
-            out[f"{block}-byte blocks"] = (c, options)
-    return out
-
-
-def _sweep(scene, golden, pre, grid, config: MachineConfig, options: PaperOptions, label: str,
-           progress: Progress, rays_per_chunk: int) -> tuple[dict, list[dict], list[dict], int]:
-    """Replay the trace through every memory configuration of Figures 4–5 under one reading:
-    (database sizes, fig4 rows, fig5 rows, loads replayed)."""
-    reference = plan_layout(scene, _sized(config, 1, 0.0, 0.0), pre.priorities, grid)
-    base = reference.shape_words if options.sizing == "records" else reference.primitive_database_words
-    wb = config.word_bytes
-    points: dict[tuple[int, int], SweepPoint] = {}
-    chosen = []
-    for fig, share, split in sweep_points(config):
-        if fig == "fig4":
-            cfg = _sized(config, base, 0.0, share)
-        else:
-            cfg = _sized(config, base, share * split, share * (1 - split))
-        lay = plan_layout(scene, cfg, pre.priorities, grid)
-        key = (lay.resident_count, lay.cache_bytes)
-        if key not in points:
-            points[key] = SweepPoint(lay, lay.cache_bytes, config.ic_memory.block_bytes)
-        chosen.append((fig, share, split, lay.resident_capacity * wb, key))
-    sweep = SweepStream(reference, list(points.values()), wb, lists_cached=options.lists == "cache")
-    order = machine_order(golden)
-    n_chunks = max(1, -(-len(order) // rays_per_chunk))
-    loads = 0
-    what = f"{scene.name}: replay {len(points)} memory configurations{label}"
-    for i, (space,
-            address) in enumerate(ordered_stream_chunks(reference, golden, order, rays_per_chunk)):
-        progress(what, i, n_chunks)
-        loads += len(address)
-        sweep.replay(space, address)
-    progress(what, n_chunks, n_chunks)
-    mc = config.ic_memory
-    fig4, fig5 = [], []
-    for fig, share, split, resident_bytes, key in chosen:
-        f = SweepStream.figures(points[key], mc.t_r, mc.t_c, mc.t_g)
-        row = {"resident_bytes": resident_bytes, "resident_count": key[0], "cache_bytes": key[1],
-               "all": f["all"], "shape": f["shape"], "ref": f["ref"]}
-        if fig == "fig4":
-            fig4.append({"cache_share": share} | row)
-        else:
-            fig5.append({"local_share": share, "resident_split": split} | row)
-    sizes = {"database": reference.sizes(), "primitive_database_bytes": base * wb}
-    return sizes, fig4, fig5, loads
-
-
-def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
-                  progress: Progress | None = None, rays_per_chunk: int = 16384,
-                  options: PaperOptions = PaperOptions(), candidates: bool = False) -> SceneData:
-    """Everything the paper's tables and figures need for one scene (`spec`: a name for
-    `load_scene`, or a Scene). `candidates`: also replay under every `candidate_readings`
-    (same golden trace and pre-pass; `SceneData.readings`), for the findings' experiments."""
-    progress = progress or (lambda *a: None)
-    seconds: dict[str, float] = {}
-    t0 = time.perf_counter()
-    scene = load_scene(spec) if isinstance(spec, str) else spec
-    spec = scene.name
-    grid = build_grid(scene, config)
-    progress(f"{spec}: golden render {res}x{res}", 0, 1)
-    golden = render(scene, config, res=res, corners=corners, keep_trace=True, grid=grid)
-    seconds["golden"] = time.perf_counter() - t0
-    progress(f"{spec}: pre-pass", 0, 1)
-    t1 = time.perf_counter()
-    pre = run_prepass(scene, config, res=res, corners=corners, grid=grid)
-    seconds["prepass"] = time.perf_counter() - t1
-    t2 = time.perf_counter()
-    sizes, fig4, fig5, loads = _sweep(scene, golden, pre, grid, config, options, "",
-                                      progress, rays_per_chunk)
-    seconds["replay"] = time.perf_counter() - t2
-    mc = config.ic_memory
-    data = SceneData(name=scene.name, res=res, corners=corners, precision=config.precision,
-                     counts=scene_counts(scene), database_bytes=sizes["database"],
-                     primitive_database_bytes=sizes["primitive_database_bytes"],
-                     rays=dict(golden.rays), references=golden.references.copy(),
-                     visible=np.unique(golden.hit_ids[golden.hit_ids >= 0]).astype(np.int64),
-                     prepass=pre.summary(), fig4=fig4, fig5=fig5, loads=loads, t_r=mc.t_r,
-                     block_bytes=mc.block_bytes, seconds=seconds, options=options,
-                     experiments=trace_experiments(golden))
-    if candidates:
-        t3 = time.perf_counter()
-        for label, (cfg, opts) in candidate_readings(config, options).items():
-            sizes, fig4, fig5, loads = _sweep(scene, golden, pre, grid, cfg, opts,
-                                              f" ({label})", progress, rays_per_chunk)
-            v = copy.copy(data)
-            v.database_bytes, v.primitive_database_bytes = sizes["database"], sizes["primitive_database_bytes"]
-            v.fig4, v.fig5, v.loads, v.options = fig4, fig5, loads, opts
-            v.block_bytes, v.readings = cfg.ic_memory.block_bytes, {}
-            data.readings[label] = v
-        seconds["candidates"] = time.perf_counter() - t3
-    seconds["total"] = time.perf_counter() - t0
-    return data

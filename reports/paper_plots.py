@@ -202,7 +202,7 @@ def figure5_drawn(scenes: list[SceneData], what: str = "ref"):
             line, = ax.plot(x, [min(v, hi) for v in t], linestyle=st["linestyle"],
                             marker=st["marker"], markersize=4, label=f"local {100 * local:.0f} %")
             for xx, v in zip(x, t):
-                if v > hi:  # clipped: the value in a column right of every marker, an arrow to the edge
+                if v > hi:  # clipped: the value right of every marker, an arrow
                     ax.annotate(f"{v:.1f}", (xx, hi),
                                 xytext=(CLIP_LABEL_X, hi - (0.12 + 0.09 * i) * (hi - lo)),
                                 fontsize=7, color=line.get_color(), ha="left", va="center",

@@ -87,9 +87,9 @@ def _on_machine(check: dict) -> list[str]:
              f"`--on-machine`: each scene rendered by the emulated machine ({check['engine']} "
              "engine, serial ray-tree mode SERIAL_TREES=1, one slot) at "
              f"{check['res']}×{check['res']} with the default memory configuration "
-             f"({check['memory']}), {check['workers']} scenes at a time; IC's per-word counters "
-             "(loads by memory and by region, loads per primitive, and the per-word ρ and μ) "
-             "compared with the trace-driven path's for the same images.", ""]
+             f"({check['memory']}), {check['workers']}; IC's per-word counters (loads by memory "
+             "and by region, loads per primitive, and the per-word ρ and μ) compared with the "
+             "trace-driven path's for the same images.", ""]
     rows = [[r["scene"], f"{r['cycles']:,}", f"{r['seconds']:.0f}", r["rho"], r["mu"],
              "equal" if r["equal"] else "DIFFERENT: " + r["difference"]] for r in check["scenes"]]
     lines += _md_table(["scene", "machine cycles", "wall s", "ρ (per word)", "μ (per word)",

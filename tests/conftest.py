@@ -105,3 +105,39 @@ def cli(capsys):
         return code, out, err
 
     return run
+
+
+@pytest.fixture
+def dask_apart(tmp_path):
+    """start(workers) -> address: `dask scheduler` and `workers` single-threaded `dask worker`s
+    as separate processes on the loopback address, stopped after the test."""
+    import json
+    import subprocess
+    import time
+
+    bindir = Path(sys.executable).parent
+    dask_cli = [str(bindir / "dask")] if (bindir / "dask").exists() else [sys.executable, "-m", "dask"]
+    procs: list[subprocess.Popen] = []
+
+    def start(workers: int = 1) -> str:
+        sched_file = tmp_path / "scheduler.json"
+        procs.append(subprocess.Popen(dask_cli + ["scheduler", "--host", "127.0.0.1", "--port", "0",
+                                                  "--no-dashboard", "--scheduler-file", str(sched_file)],
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        deadline = time.time() + 60
+        while not sched_file.exists() and time.time() < deadline:
+            time.sleep(0.1)
+        address = json.loads(sched_file.read_text())["address"]
+        for _ in range(workers):
+            procs.append(subprocess.Popen(dask_cli + ["worker", address, "--nthreads", "1", "--no-dashboard"],
+                                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        return address
+
+    yield start
+    for p in procs:
+        p.terminate()
+    for p in procs:
+        try:
+            p.wait(10)
+        except subprocess.TimeoutExpired:
+            p.kill()

@@ -1,9 +1,11 @@
-"""tools/doc_numbers.py (issue 29): the cheap quoted cycle counts match a fresh run, and an edited
-one is caught with its file and line."""
+"""tools/doc_numbers.py (issue 29): the cheap quoted numbers (cycles, bundles, ILP, stalls at
+small sizes) match a fresh run, and an edited one is caught with its file and line and put back
+by --write."""
 
 from __future__ import annotations
 
 import importlib.util
+import re
 import shutil
 import sys
 from pathlib import Path
@@ -19,17 +21,46 @@ def _tool():
     return mod
 
 
-def test_cheap_quoted_cycles_match_and_an_edit_is_caught(tmp_path):
+def _copy_documents(tool, cheap, to: Path) -> None:
+    for file in {c.file for c in cheap}:
+        (to / file).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(ROOT / file, to / file)
+
+
+def test_cheap_quoted_numbers_match_and_an_edit_is_caught(tmp_path):
     tool = _tool()
     cheap = [c for c in tool.CLAIMS if c.cheap]
-    assert cheap and tool.check(ROOT, cheap) == []
-    (tmp_path / "docs").mkdir()
-    shutil.copy(ROOT / "README.md", tmp_path / "README.md")
-    shutil.copy(ROOT / "docs" / "timeline.md", tmp_path / "docs" / "timeline.md")
+    assert {c.file for c in cheap} >= {"README.md", "docs/timeline.md", "docs/api.md"}
+    assert tool.check(ROOT, cheap) == []
+    _copy_documents(tool, cheap, tmp_path)
     doc = tmp_path / "docs" / "timeline.md"
-    measured = tool.cycles("tetra", 4, False)
+    measured = tool.cycles("tetra", 4)
     doc.write_text(doc.read_text().replace(f"its {measured:,} cycles", f"its {measured + 1:,} cycles"))
+    # a cycle count in a README table row (tetra's ILP row at 16×16), one off
+    readme = tmp_path / "README.md"
+    row = tool.cycles("tetra", 16)
+    text = readme.read_text()
+    assert re.search(rf"\| tetra \| {row:,} \| [\d.]+ / ", text)
+    readme.write_text(text.replace(f"| tetra | {row:,} |", f"| tetra | {row - 1:,} |", 1))
     problems = tool.check(tmp_path, cheap)
-    assert len(problems) == 1 and problems[0].startswith("docs/timeline.md:") and f"{measured:,}" in problems[0]
-    tool.check(tmp_path, cheap, write=True)  # --write puts the measured number back
+    assert len(problems) == 2, problems
+    assert any(p.startswith("docs/timeline.md:22:") and f"{measured + 1:,}" in p for p in problems)
+    assert any(p.startswith("README.md:") and "ILP table row tetra" in p and f"{row:,}" in p for p in problems)
+    tool.check(tmp_path, cheap, write=True)  # --write puts the measured numbers back
     assert tool.check(tmp_path, cheap) == []
+    assert readme.read_text() == (ROOT / "README.md").read_text()
+
+
+def test_a_claim_that_left_its_document_is_reported(tmp_path):
+    tool = _tool()
+    claim = next(c for c in tool.CLAIMS if c.file == "docs/timeline.md")
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "docs" / "timeline.md").write_text("the sentence was rewritten\n")
+    problems = tool.check(tmp_path, [claim])
+    assert problems == [f"docs/timeline.md: the claim '{claim.what}' (/{claim.pattern}/) is not in the document"]
+
+
+def test_formats_are_the_documents():
+    tool = _tool()
+    assert tool.change(309_434, 267_640) == "−13.5" and tool.change(20_589, 22_744) == "+10.5"
+    assert tool.count(1_193_425) == "1,193,425" and tool.share(0.357) == "36" and tool.fixed(1.2799, 3) == "1.280"

@@ -221,3 +221,29 @@ def test_dda_visits_exactly_the_voxels_the_segment_crosses(precision):
             sgot = set(v[v[:, 1] == top, 2].tolist())
             assert smust <= sgot <= smay
     assert checked == len(o)
+
+
+def test_grid_memory_does_not_grow_with_the_distance_from_the_origin():
+    """tetra moved by 3e4: fp32's pad (64u × 3e4 ≈ 0.11 on an extent of 2) used to list every
+    triangle in the hundreds of voxels it touches only through the pad — 1.07 M list entries and
+    a 1.1 GB peak (5.6 GB at 1e5, numerics tetra --res 8); voxels at least MIN_CELL_PADS pads
+    wide keep the entries near the primitives' count and the peak small, at any translation."""
+    import tracemalloc
+
+    from netsushisen.host.grid import MIN_CELL_PADS
+    from netsushisen.numerics import translate_scene
+
+    base = load_scene("tetra")
+    for by in (3e4, 1e6):
+        scene = translate_scene(base, by)
+        tracemalloc.start()
+        try:
+            g = build_grid(scene, load_config(None, []))
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        assert g.stats()["list_entries"] <= 8 * scene.n_primitives
+        assert peak < 300 * 2**20, f"moved by {by:g}: {peak / 2**20:.0f} MiB"
+        assert np.all(g.cell >= MIN_CELL_PADS * g.pad) or np.all(g.res == 1)
+    untranslated = build_grid(base, load_config(None, []))  # ordinary scenes keep their grid
+    assert untranslated.stats()["list_entries"] == 49636 and len(untranslated.sub_res) == 812

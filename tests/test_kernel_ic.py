@@ -159,6 +159,14 @@ p 5
 -1 -1 0
 -2 0 0
 """
+QUADS4_NFF = QUADS_NFF.split("p 5")[0].replace("100000 0.5 1.3", "100000 0 0") + """p 4
+0 0 0
+0 -2 0
+-2 -2 0
+-2 0 0
+"""
+"""Opaque quadrilaterals only (MAX_VERTICES = 4, one-sided: IC's straight-line quad test, not the
+n-gon loop), with the shared edges and vertex of QUADS_NFF."""
 
 
 # ---- rays ----------------------------------------------------------------------------------------
@@ -289,7 +297,7 @@ class Case:
     traced: list[Traced]  # surface batches and shadow batches
 
 
-INLINE = {"cones": CONES_NFF, "patches": PATCH_NFF, "quads": QUADS_NFF}
+INLINE = {"cones": CONES_NFF, "patches": PATCH_NFF, "quads": QUADS_NFF, "quads4": QUADS4_NFF}
 
 
 @functools.lru_cache(maxsize=None)
@@ -508,6 +516,7 @@ CASES = [
     ("cones", "fp32", 10, 0.5, False),         # cones, cylinders, spheres; two-sided ones
     ("patches", "fp32", 10, 0.5, False),       # pp patches: shading normals, fan j > 0, concave
     ("quads", "fp32", 9, 0.5, False),          # n-gons, shared edges and vertex
+    ("quads4", "fp32", 9, 0.5, False),         # quads only (their own test), the same ties
     ("shared_edge.nff", "fp32", 9, 0.5, False),
     ("grazing_sphere.nff", "fp32", 9, 0.0, False),     # cache only: no ldr code assembled
     ("far_tiny_sphere.nff", "fp32", 5, 1.0, False),    # resident only: no ldg shape code
@@ -516,7 +525,7 @@ CASES = [
     ("patches", "fp64", 8, 0.5, False),
     ("quads", "fp64", 9, 0.5, False),
 ]
-GENERIC = {"cones", "patches", "quads", "shared_edge.nff"}
+GENERIC = {"cones", "patches", "quads", "quads4", "shared_edge.nff"}
 
 
 def case_id(c) -> str:
@@ -578,6 +587,18 @@ MUTANTS = [
      "flt k_e0, k_e0, r0", "flt k_e0, r0, k_e0"),
     ("tetra:3", 12, 0.5, "ic.s",                              # resident when |P| <= M
      "{ li mlim, 2 * RESIDENT_M + 1 }", "{ li mlim, 2 * RESIDENT_M }"),
+    ("balls:2", 8, 0.5, "ic.s",                              # early rejection with a margin the
+     ".equ EARLY_K, 0.999755859375", ".equ EARLY_K, 1.25"),   #   wrong way: hits near the rim lost
+    ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # the cylinder's early rejection
+     "fmul c_Ak, c_A, c_k", "fadd c_Ak, c_A, c_A"),          #   rejecting hits (2 q.q > r2)
+    ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # ... also after the last cell
+     "fadd c_Zg, c_thr, c_Z", "fmov c_Zg, c_Z"),
+    ("quads4", 9, 0.5, "ic_polygon.inc",                     # quads: tie-break dy before dx
+     "fsel \\i, \\b, v_w, \\i", "fsel \\i, \\b, \\i, v_w"),
+    ("quads4", 9, 0.5, "ic_polygon.inc",                     # quads: the second fan triangle
+     "fsel v_c3, v_n12, r0, v_n03", "fsel v_c3, v_n12, r0, v_n02"),
+    ("grazing_sphere.nff", 9, 0.0, "ic_sphere.inc",          # the sphere's after the last cell
+     "fadd s_Zg, s_thr, s_r2", "fmov s_Zg, s_r2"),
 ]
 
 

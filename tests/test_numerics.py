@@ -21,6 +21,7 @@ from netsushisen.host import golden
 from netsushisen.host.golden import render
 from netsushisen.host.grid import build_grid
 from netsushisen.host.nff import parse_nff, read_nff
+from netsushisen.host.oracle import offset_bound
 from netsushisen.host.rays import primary_rays
 from netsushisen.host.shapes import build_shape_data, ic_rays, intersect, surface_normals
 from netsushisen.host.traversal import OSGrid, trace
@@ -414,3 +415,75 @@ def test_catalog_scenes_are_what_they_claim():
         moved = primary_rays(numerics.Case("m", "", numerics.MIXED, translate=t).scene().camera, 16, precision="fp32")
         assert np.array_equal(plain.direction, moved.direction)
         assert np.array_equal(moved.origin.astype(np.float64) - t, plain.origin.astype(np.float64))
+
+
+# ------------------------------------------------------------------------------------------------
+# Offsets from error bounds (issue 29): delta = (sum |P_a Ng_a| + t) x 2.125u + 64u x S per hit.
+
+
+def _blanket_delta(p, t, ng, k_rel, k_abs):
+    """The offset before issue 29: (max|P_a| + t) x 4u + k_abs, whatever k_rel says."""
+    dt = p.dtype.type
+    a = np.abs(p)
+    return (np.maximum(np.maximum(a[0], a[1]), a[2]) + t) * dt(4 * float(np.finfo(dt).eps) / 2) + k_abs
+
+
+@settings(max_examples=200, deadline=None)
+@given(p_exp=st.floats(-3, 7), pdir=_vec, ndir=_vec, t_exp=st.floats(-3, 4), inside=st.booleans(),
+       precision=st.sampled_from(PRECISIONS))
+def test_offset_covers_the_rounding_of_p_and_stays_below_the_blanket(p_exp, pdir, ndir, t_exp, inside, precision):
+    """Along the normal, the front origin sits above P by at least P's own rounding bound
+    u x (sum |P_a Ng_a| + t) — after the rounding of P + delta*Ng itself — and delta never exceeds
+    the blanket offset it replaced."""
+    dt = np.float32 if precision == "fp32" else np.float64
+    u = float(np.finfo(dt).eps) / 2
+    p = (10.0 ** p_exp * _unit(pdir)).astype(dt)[:, None]
+    ng = _unit(ndir).astype(dt)[:, None]
+    t = np.array([10.0 ** t_exp], dt)
+    k_abs = dt(64 * u)
+    front, back = golden.offset_vectors(p, t, ng, np.array([inside]), golden.offset_scale(dt), k_abs)
+    nf = (-ng if inside else ng)[:, 0].astype(np.float64)
+    p64 = p[:, 0].astype(np.float64)
+    need = u * (np.abs(p64) @ np.abs(ng[:, 0].astype(np.float64)) + float(t[0]))
+    assert (front[:, 0].astype(np.float64) - p64) @ nf > need
+    assert (p64 - back[:, 0].astype(np.float64)) @ nf > need
+    delta = golden.offset_delta(p, t, ng, golden.offset_scale(dt), k_abs)
+    assert delta[0] <= _blanket_delta(p, t, ng, None, k_abs)[0]
+
+
+@pytest.mark.parametrize("translation", sorted(numerics.CONTACT_GAPS))
+def test_contact_shadow_leaks_with_the_blanket_offset_not_with_the_bound(translation, monkeypatch):
+    """A plate a few units in the last place above a floor moved by 1e4..1e6, lit at a low angle:
+    with the per-hit bound no shadow ray the judge can decide is wrong, and the shadow is there;
+    with the blanket offset the shadow rays start on or above the plate and light the floor under
+    its shadow (the judge, from the path's own hit points, calls them wrongly unblocked)."""
+    case = CASES[f"contact_shadow_{translation:.0e}".replace("+0", "")]
+    sc = case.scene()
+    gap = numerics.CONTACT_GAPS[translation]
+    floor = np.full((1, 3), translation)  # the plate lies above the bound the judge forgives
+    bound = offset_bound(floor, np.array([[0.0, 1.0, 0.0]]), np.array([10.0]), 16.0, "fp32")[0]
+    assert bound < gap < 4 * 2.0 ** -24 * translation
+    r = numerics.run_path(sc, "golden-fp32", case.res)
+    v = numerics.judge(sc, r, case.res, "fp32")
+    assert v.shadow_rays > 100 and v.wrongly_lit == 0 and v.wrongly_blocked == 0, v.reason()
+    assert r.shadows["blocked"].sum() > 20
+    monkeypatch.setattr(golden, "offset_delta", _blanket_delta)
+    old = numerics.run_path(sc, "golden-fp32", case.res)
+    assert not old.shadows["blocked"].any()
+    assert numerics.judge(sc, old, case.res, "fp32").wrongly_lit >= 5
+
+
+def test_a_moved_scene_keeps_offsets_below_six_digits():
+    """`translate_scene` reads the moved scene back through the NFF reader; written with `%g`
+    (six digits) a plate 0.0234 above a floor at 1e5 would land on the floor."""
+    from netsushisen.host.nff import format_nff, parse_nff
+    from netsushisen.numerics import translate_scene
+
+    text = ("b 0 0 0\nv\nfrom 0 3 -8\nat 0 0 0\nup 0 1 0\nangle 45\nhither 0\nresolution 8 8\n"
+                         "l 0 5 -5\nf 0.8 0.8 0.8 0.8 0 1 0 0\n"
+                         "p 4\n-4 0 -4\n-4 0 4\n4 0 4\n4 0 -4\np 4\n-1 0.0234 -1\n-1 0.0234 1\n1 0.0234 1\n1 0.0234 -1\n")
+    scene = parse_nff(text, "plate.nff")
+    moved = translate_scene(scene, 1e5)
+    assert np.array_equal(moved.polygons.vertices, scene.polygons.vertices + 1e5)
+    assert "100000.0234" in format_nff(moved, exact=True)
+    assert "100000.0234" not in format_nff(moved)  # the SPD's own six digits stay the default

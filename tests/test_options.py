@@ -61,7 +61,8 @@ def no_work(monkeypatch):
     """Any scene loading, host work or machine building fails the test: a rejected option must
     be rejected before anything is allocated."""
     from netsushisen import pipeline as render
-    from netsushisen.commands import golden, paper
+    from netsushisen import paper
+    from netsushisen.commands import golden
     from netsushisen.emulator import engine
 
     def forbidden(*args, **kwargs):

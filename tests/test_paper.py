@@ -20,8 +20,8 @@ from netsushisen.isa.config import load_config
 from netsushisen.kernels import KERNELS
 from netsushisen.reports import paper as paper_mod
 from netsushisen.reports.paper import table2
-from netsushisen.reports.paper_data import PaperOptions, analyse_scene
-from netsushisen.reports.paper_machine import compare_counters
+from netsushisen.paper import analyse_scene, compare_counters
+from netsushisen.reports.paper_data import PaperOptions
 from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
 
 # ------------------------------------------------------------------------------------------------
@@ -234,34 +234,16 @@ def test_counter_comparison_names_the_first_difference():
     assert compare_counters(a, b).startswith("cache:")
 
 
-def test_paper_interrupted_writes_what_finished(tmp_path, cli, monkeypatch):
-    from netsushisen.commands import paper as paper_command
-
-    real = paper_command.analyse_scene
-    calls = []
-
-    def fake(scene, *a, **k):
-        calls.append(scene.name)
-        if len(calls) == 2:
-            raise KeyboardInterrupt
-        return real(scene, *a, **k)
-
-    monkeypatch.setattr(paper_command, "analyse_scene", fake)
-    out = tmp_path / "p"
-    code, _, err = cli("paper", "--res", "6", "--scenes", "tetra:1", "balls:1", "--out", out, "--quiet",
-                       "--jobs", "1")
-    assert code == 130
-    assert "interrupted; finished tetra, not balls" in err
-    md = (out / "report.md").read_text()
-    assert "Incomplete run" in md and "balls" in md.split("Incomplete run")[1].splitlines()[0]
-    assert (out / "fig3_locality.png").exists()
+# Ctrl-C (the finished scenes written): tests/test_cluster.py
 
 
 @pytest.mark.parametrize("argv, message", [
     (["--scenes", "nosuchscene"], "cannot load scene"),
     (["--res", "0"], "--res 0"),
     (["--set", "ic_memory.block_bytes=48"], "block_bytes must be a power of two"),
-    (["--jobs", "0"], "--jobs 0"),
+    (["--jobs", "0"], "--workers 0"),
+    (["--workers", "0"], "--workers 0"),
+    (["--scheduler", "http://x:80"], "expected tcp://HOST:PORT"),
 ])
 def test_paper_bad_input_is_one_located_line(tmp_path, cli, argv, message):
     code, _, err = cli("paper", "--out", tmp_path / "p", "--quiet", *argv)
@@ -278,7 +260,7 @@ def test_trace_experiments_are_variants_of_the_main_pass():
     """Mailboxing tests each primitive at most once per ray; eye-only, no-shadow and depth-1
     variants keep a subset of the rays; all are counted from the reference trace."""
     from netsushisen.host.golden import SHADOW
-    from netsushisen.reports.paper_data import trace_experiments
+    from netsushisen.paper import trace_experiments
 
     config = load_config()
     g = golden_render(load_scene("mount:2"), config, res=8, keep_trace=True)

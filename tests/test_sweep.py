@@ -152,7 +152,7 @@ def test_a_small_sweep_on_a_local_cluster_then_a_rerun_computes_nothing(tmp_path
 def test_a_worker_killed_mid_sweep_loses_no_point(tmp_path):
     from dask.distributed import Client, LocalCluster
 
-    from netsushisen.commands.sweep import run_sweep
+    from netsushisen.sweep import run_sweep
     spec = load_spec(write(tmp_path, SMALL.replace("res = 8", "res = 12").format(extra="")))
     out = tmp_path / "out"
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
@@ -173,38 +173,16 @@ def test_a_worker_killed_mid_sweep_loses_no_point(tmp_path):
     assert [r["status"] for r in rows(out)] == ["finished"] * 6
 
 
-def test_a_scheduler_and_two_workers_started_apart(tmp_path):
+def test_a_scheduler_and_two_workers_started_apart(tmp_path, dask_apart):
     """`dask scheduler` and two `dask worker`s as separate processes on the loopback address."""
-    bindir = Path(sys.executable).parent
-    dask_cli = [str(bindir / "dask")] if (bindir / "dask").exists() else [sys.executable, "-m", "dask"]
-    sched_file = tmp_path / "scheduler.json"
-    procs = [subprocess.Popen(dask_cli + ["scheduler", "--host", "127.0.0.1", "--port", "0",
-                                          "--no-dashboard", "--scheduler-file", str(sched_file)],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
-    try:
-        deadline = time.time() + 60
-        while not sched_file.exists() and time.time() < deadline:
-            time.sleep(0.1)
-        address = json.loads(sched_file.read_text())["address"]
-        for _ in range(2):
-            procs.append(subprocess.Popen(dask_cli + ["worker", address, "--nthreads", "1",
-                                                      "--no-dashboard"],
-                                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
-        spec = write(tmp_path, SMALL.format(extra=""))
-        out = tmp_path / "out"
-        done = subprocess.run([sys.executable, "-m", "netsushisen.cli", "sweep", str(spec), "--out",
-                               str(out), "--scheduler", address], capture_output=True, text=True,
-                              timeout=240)
-        assert done.returncode == 0, done.stderr
-        assert done.stdout.strip().splitlines()[-1] == "sweep: 6 points, 6 computed, 0 cached, 0 failed"
-    finally:
-        for p in procs:
-            p.terminate()
-        for p in procs:
-            try:
-                p.wait(10)
-            except subprocess.TimeoutExpired:
-                p.kill()
+    address = dask_apart(2)
+    spec = write(tmp_path, SMALL.format(extra=""))
+    out = tmp_path / "out"
+    done = subprocess.run([sys.executable, "-m", "netsushisen.cli", "sweep", str(spec), "--out",
+                           str(out), "--scheduler", address], capture_output=True, text=True,
+                          timeout=240)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().splitlines()[-1] == "sweep: 6 points, 6 computed, 0 cached, 0 failed"
 
 
 def test_an_unreachable_scheduler_is_one_line(tmp_path, cli):

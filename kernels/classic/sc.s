@@ -315,16 +315,20 @@ hit:
     fneg nsy, nsy
     fneg nsz, nsz
 outside:
-# Secondary-ray origins (docs/golden.md, "Secondary-ray origins"): delta = (max|P_a| + t)*k_rel
-# + k_abs, negated when the ray is inside, so delta*Ng points to the side the ray came from.
+# Secondary-ray origins (docs/golden.md, "Secondary-ray origins"): delta = (((|Px*Ngx| +
+# |Py*Ngy|) + |Pz*Ngz|) + t)*k_rel + k_abs, the hit's own bound on P's rounding along the normal,
+# negated when the ray is inside, so delta*Ng points to the side the ray came from.
 # Shadow and reflection rays leave from P + delta*Ng (it replaces P in px..pz), the refraction
 # ray from P - delta*Ng (kept at p_back); all with t_min = 0. Ng is still in ngx..ngz here.
-    fabs ox, px                       # (o is dead once P is known)
-    fabs oy, py
-    fabs oz, pz
+    fmul ox, px, ngx                  # (o is dead once P is known)
+    fmul oy, py, ngy
+    fmul oz, pz, ngz
     ld g1, [SCENE_BASE + SCN_EPS_REL] # k_rel
-    fmax ox, ox, oy
-    fmax ox, ox, oz                   # max(max(|Px|, |Py|), |Pz|)
+    fabs ox, ox
+    fabs oy, oy
+    fabs oz, oz
+    fadd ox, ox, oy
+    fadd ox, ox, oz                   # sum |P_a*Ng_a|
     fadd ox, ox, t
     fmul ox, ox, g1
     fadd ox, ox, k_eps                # delta

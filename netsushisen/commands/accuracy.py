@@ -2,7 +2,8 @@
 
     netsushisen accuracy [SCENE ...] [--res N] [--axes precision,depth,prepass,fidelity]
                          [--engine NAME] [--out DIR] [--config FILE] [--set field=value]...
-                         [--seed N] [--repeats N] [--quiet]
+                         [--seed N] [--repeats N] [--scheduler ADDRESS] [--workers N] [--fresh]
+                         [--quiet]
 
 Axes (default all): precision (golden fp64 truth; golden fp32, fp16, bf16-rounded scene; the
 machine in fp32 and fp64), depth (truth: depth 10, 20, 40 until two give the same 8-bit image; depth 1 … 8), prepass (pre-pass sizes against
@@ -13,8 +14,13 @@ paper's four (tetra balls mount rings); --res defaults to 32. Writes into DIR (d
 prints a table per axis. Machine rows run on --engine (default the compiled engine). Before any
 timed row every path is compiled and warmed once per precision (reported once, as "warm-up");
 each row's seconds are the median of --repeats runs (default 3) with their min–max spread, host
-preparation included on every row. Ctrl-C writes what the finished scenes and axes give and
-exits 130.
+preparation included on every row. Each scene × axis is one run on the Dask layer
+(netsushisen/cluster.py): a LocalCluster of --workers processes (default 1, so that no two
+timed runs share the cores), or the cluster at --scheduler ADDRESS; each worker warms its
+engine before its first timed row. Rows are written in input order, whatever order they finish
+in. A finished scene × axis is kept in DIR/runs/ by content key and reused by a rerun with the
+same inputs (--fresh: measure again). Ctrl-C writes every row that had finished (also those of
+a scene × axis still running) and exits 130.
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ import sys
 import time
 from pathlib import Path
 
+from netsushisen.cluster import add_cluster_options, check_cluster_options
 from netsushisen.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
 from netsushisen.options import (add_config_options, add_engine, add_output, add_quiet,
@@ -50,6 +57,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=1992, help="seed of the sampled tiles (default 1992)")
     parser.add_argument("--repeats", type=int, default=3, metavar="N",
                         help="runs each row is timed over: its seconds are their median (default 3)")
+    add_cluster_options(parser, "one scene × axis each at a time",
+                        default="1: rows are timed, and runs side by side share the cores")
+    parser.add_argument("--fresh", action="store_true",
+                        help="measure every scene × axis again (default: one already in DIR/runs/ is reused)")
     add_quiet(parser, "no progress, no tables")
 
 
@@ -80,6 +91,7 @@ def _machine() -> str:
 
 def run(args: argparse.Namespace) -> int:
     check_resolution(args.res)
+    check_cluster_options(args)
     if args.repeats < 1:
         raise NetsushisenError(f"--repeats {args.repeats}: at least 1 run per row")
     args.axes_text = args.axes
@@ -94,53 +106,19 @@ def run(args: argparse.Namespace) -> int:
         raise NetsushisenError(Diagnostic("the output folder is a file", file=str(out)))
     out.mkdir(parents=True, exist_ok=True)
 
-    from netsushisen.accuracy import AXIS_RUNNERS, fidelity_rows, warm_up
+    from netsushisen.accuracy import run_study
     from netsushisen.host.nff import format_nff
     from netsushisen.reports.accuracy_report import tables_text, write_all
 
     start = time.perf_counter()
-    rows: dict[str, list] = {a: [] for a in axes}
-    progress = None
-    if not args.quiet:
-        from rich.console import Console
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-        progress = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                            TimeElapsedColumn(), console=Console(stderr=True), transient=True)
-        progress.start()
-        task = progress.add_task("accuracy", total=len(scenes) * len(axes))
-
-    def show(description: str) -> None:
-        if progress is not None:
-            progress.update(task, description=description)
-
-    interrupted = False
-    warm: dict[str, float] = {}
-    try:
-        warm = warm_up(scenes[0], config, engine, progress=show)
-        for scene in scenes:
-            for axis in axes:
-                if axis == "fidelity":
-                    found = fidelity_rows(scene, args.res, config, engine, show, seed=args.seed,
-                                          repeats=args.repeats)
-                else:
-                    found = AXIS_RUNNERS[axis](scene, args.res, config, engine, show, repeats=args.repeats)
-                rows[axis] += found
-                if progress is not None:
-                    progress.advance(task)
-                    if not progress.console.is_terminal:  # a log: one line per scene and axis
-                        progress.console.print(f"{scene.name} {axis}: done at "
-                                               f"{time.perf_counter() - start:.0f} s")
-    except KeyboardInterrupt:
-        interrupted = True
-    finally:
-        if progress is not None:
-            progress.stop()
-    rows = {a: r for a, r in rows.items() if r}
+    study = run_study(scenes, axes, args.res, config, engine, args.seed, args.repeats,
+                      args.scheduler, args.workers or 1, show=not args.quiet, cache_dir=out / "runs",
+                      fresh=args.fresh)
+    rows, warm, interrupted = study.rows, study.warm, study.interrupted
     meta = {"command": _command(args, specs), "res": args.res, "engine": engine,
             "machine": _machine(), "seconds": time.perf_counter() - start,
             "config": config.to_dict(), "interrupted": interrupted,
-            "repeats": args.repeats, "warm_up_seconds": warm,
+            "repeats": args.repeats, "warm_up_seconds": warm, "ran_on": study.where,
             "scenes": {s.name: {"source": s.source,
                                 "sha256": hashlib.sha256(format_nff(s).encode()).hexdigest()}
                        for s in scenes}}
@@ -150,12 +128,13 @@ def run(args: argparse.Namespace) -> int:
         print("warm-up (compile and first run, charged to no row): "
               + ", ".join(f"{k} {v:.1f} s" for k, v in warm.items()))
     if interrupted:
-        done = ", ".join(f"{axis} ({len({r.scene for r in r_})} scenes)" for axis, r_ in rows.items())
+        done = ", ".join(f"{axis} ({len(r_)} rows)" for axis, r_ in rows.items())
         print("netsushisen accuracy: interrupted; " + (
-            f"wrote the finished scene × axis rows to {out}/: {done}" if paths else
-            "no scene × axis had finished: nothing written"), file=sys.stderr)
+            f"wrote the finished rows to {out}/: {done}" if paths else
+            "no row had finished: nothing written"), file=sys.stderr)
         return 130
     if not args.quiet:
         print(f"{len(scenes)} scenes, axes {', '.join(axes)} at {args.res}x{args.res} in "
-              f"{meta['seconds']:.0f} s; wrote {', '.join(str(p) for p in paths)}")
+              f"{meta['seconds']:.0f} s; wrote {', '.join(str(p) for p in paths)}"
+              + (f" ({study.cached} scene × axis units from {out}/runs/)" if study.cached else ""))
     return 0

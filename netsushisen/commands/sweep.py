@@ -22,23 +22,13 @@ unless interrupted, when the rest are counted as not run).
 from __future__ import annotations
 
 import argparse
-import csv
-import hashlib
-import json
-import logging
-import os
-import re
-import signal
 import sys
-import time
 from pathlib import Path
 
-from netsushisen.outputs import write_all, write_text
+from netsushisen.cluster import add_cluster_options, check_cluster_options
 from netsushisen.errors import NetsushisenError
 from netsushisen.options import add_output, add_quiet
-from netsushisen.sweep import Point, Spec, load_spec, point_config, points, run_point, tidy_row, with_keys
-
-FAILED = ("error", "fault", "deadlock", "max_cycles", "interrupted", "lost")
+from netsushisen.sweep import check_sweep_footprint, engine_of, load_spec, run_sweep
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -46,10 +36,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="the sweep spec; or `plot RESULTS` to draw a results table")
     parser.add_argument("results", nargs="?", metavar="RESULTS",
                         help="(plot) results.csv or results.parquet of a sweep")
-    parser.add_argument("--scheduler", metavar="ADDRESS",
-                        help="a running Dask scheduler (tcp://host:8786); default: a LocalCluster")
-    parser.add_argument("--workers", type=int, metavar="N",
-                        help="LocalCluster worker processes (default: one per core)")
+    add_cluster_options(parser, "one point each at a time")
     add_output(parser, "output folder (default sweep/); with plot: the image file (default next "
                        "to RESULTS)", metavar="PATH", aliases=("--output",))
     parser.add_argument("--engine", help="engine of every point (default: the spec's, else compiled)")
@@ -74,13 +61,10 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if args.results:
         raise NetsushisenError(f"sweep: unexpected argument {args.results!r} (only `sweep plot` takes RESULTS)")
-    if args.workers is not None and args.workers < 1:
-        raise NetsushisenError(f"--workers {args.workers}: give at least 1")
-    if args.scheduler is not None:
-        check_scheduler(args.scheduler)
+    check_cluster_options(args)
     spec = load_spec(args.spec)
-    engine = _engine(args.engine or spec.engine)
-    _check_footprint(spec, engine, args.quiet)
+    engine = engine_of(args.engine or spec.engine)
+    check_sweep_footprint(spec, engine, args.quiet)
     summary = run_sweep(spec, Path(args.out or "sweep"), engine, scheduler=args.scheduler,
                         workers=args.workers, show=not args.quiet and sys.stderr.isatty(),
                         retry=args.retry)
@@ -88,249 +72,3 @@ def run(args: argparse.Namespace) -> int:
     if summary.interrupted:
         return 130
     return 1 if summary.failed else 0
-
-
-def _check_footprint(spec: Spec, engine: str, quiet: bool) -> None:
-    """Before the cluster starts: the largest point must fit a worker's host (and the machine's
-    frame); a large one is announced (netsushisen/limits.py)."""
-    from netsushisen.limits import machine_bytes
-    from netsushisen.options import check_footprint
-
-    configs = [point_config(spec, p) for p in points(spec)]
-    if configs:
-        largest = max(configs, key=lambda c: machine_bytes(c, engine))
-        check_footprint(f"sweep point of {spec.path.name}", largest, spec.res, engine, quiet=quiet)
-
-
-def _engine(name: str | None) -> str:
-    from netsushisen.emulator.engine import check_engine, default_engine
-    return check_engine(name) if name else default_engine()
-
-
-class Summary:
-    def __init__(self, total: int, duplicates: int = 0) -> None:
-        self.total, self.computed, self.cached, self.failed = total, 0, 0, 0
-        self.duplicates = duplicates
-        self.interrupted = False
-
-    def line(self) -> str:
-        dup = f" ({self.duplicates} more repeat one)" if self.duplicates else ""
-        rest = self.total - self.computed - self.cached
-        return (f"sweep: {self.total} points{dup}, {self.computed} computed, {self.cached} cached, "
-                f"{self.failed} failed" + (f", {rest} not run" if rest else "")
-                + (" (interrupted)" if self.interrupted else ""))
-
-
-def _task(spec: Spec, p: Point, engine: str) -> dict:
-    return {"key": p.key, "scene": p.scene, "values": list(p.values), "sets": list(p.sets),
-            "config_file": spec.config_file, "res": spec.res, "engine": engine}
-
-
-def _checksum(result: dict) -> str:
-    body = {k: v for k, v in result.items() if k != "checksum"}
-    return hashlib.sha256(json.dumps(body, sort_keys=True, default=str).encode()).hexdigest()
-
-
-def _write_point(folder: Path, result: dict, spec_hash: str = "") -> None:
-    """Atomically (a killed sweep leaves whole files only), with the spec's hash and a
-    checksum of the content (`_load` verifies it)."""
-    result = json.loads(json.dumps(result, default=str))  # as it will read back
-    result["spec"] = spec_hash
-    result["checksum"] = _checksum(result)
-    write_text(folder / f"{result['key']}.json", json.dumps(result))
-
-
-def _spec_hash(spec: Spec) -> str:
-    try:
-        return hashlib.sha256(spec.path.read_bytes()).hexdigest()[:16]
-    except OSError:
-        return ""
-
-
-def _warm(spec: Spec, pts: list[Point], engine: str) -> None:
-    """Compile (or load) the compiled engine once here, so workers load it from the disk cache
-    instead of each compiling it."""
-    if engine not in ("compiled", "tandem"):
-        return
-    from netsushisen.emulator.compiled.build import load
-    for precision in sorted({point_config(spec, p).precision for p in pts}):
-        load(precision)
-
-
-_ADDRESS = re.compile(r"(tcp|tls)://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):(\d{1,5})\Z")
-
-
-def check_scheduler(address: str) -> None:
-    """A Dask scheduler address, `tcp://HOST:PORT` (or tls://), refused in one line before
-    anything starts otherwise."""
-    m = _ADDRESS.match(address)
-    if m is None or not 1 <= int(m.group(3)) <= 65535:
-        raise NetsushisenError(f"--scheduler {address!r}: expected tcp://HOST:PORT (a Dask "
-                               "scheduler's address, port 1..65535)")
-
-
-def _client(scheduler: str | None, workers: int | None):
-    from dask.distributed import Client, LocalCluster
-    if scheduler:
-        try:
-            return Client(scheduler, timeout="10s"), None
-        except (OSError, TimeoutError, ValueError, TypeError, MemoryError) as err:
-            # MemoryError: a server that is not Dask's (its reply read as a frame length)
-            raise NetsushisenError(f"--scheduler {scheduler}: cannot connect "
-                                   f"({type(err).__name__}: {str(err)[:200]})") from None
-    n = workers or os.cpu_count() or 1
-    # the workers ignore SIGINT (inherited; Python keeps an ignored SIGINT ignored): Ctrl-C at
-    # a terminal reaches the whole process group, and only this process should answer it
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.ERROR)
-    finally:
-        signal.signal(signal.SIGINT, previous)
-    return Client(cluster), cluster
-
-
-def run_sweep(spec: Spec, out: Path, engine: str, scheduler: str | None = None,
-              workers: int | None = None, show: bool = False, retry: bool = True) -> Summary:
-    """Run every point not already in out/points (a corrupt point file again, and a failed
-    point again unless `retry` is False); write the results tables (also on Ctrl-C)."""
-    pts = with_keys(spec, points(spec), engine)
-    folder = out / "points"
-    folder.mkdir(parents=True, exist_ok=True)
-    distinct: dict[str, Point] = {}
-    for p in pts:
-        distinct.setdefault(p.key, p)  # the first point of each key
-    summary = Summary(len(distinct), len(pts) - len(distinct))
-    spec_hash = _spec_hash(spec)
-    todo: dict[str, Point] = {}
-    for key, p in distinct.items():
-        found = _load(folder, key) if (folder / f"{key}.json").exists() else None
-        if isinstance(found, str):
-            print(f"sweep: point {key} ({p.scene}, {_shown(p)}) {found}: computing it again",
-                  file=sys.stderr)
-        elif found is not None and (found["status"] not in FAILED or not retry):
-            summary.cached += 1
-            summary.failed += found["status"] in FAILED
-            continue
-        todo[key] = p
-    client = cluster = None
-    progress = None
-    try:
-        if todo:
-            _warm(spec, list(todo.values()), engine)
-            client, cluster = _client(scheduler, workers)
-            from dask.distributed import as_completed
-            futures = [client.submit(run_point, _task(spec, p, engine), key=f"point-{p.key}",
-                                     pure=False) for p in todo.values()]
-            progress = _progress(show, summary)
-            for fut in as_completed(futures):
-                try:
-                    result = fut.result()
-                except Exception as err:  # a worker lost too often (KilledWorker) or the like
-                    p = todo[fut.key.removeprefix("point-")]
-                    result = {"key": p.key, "scene": p.scene, "values": list(p.values),
-                              "status": "lost", "error": f"{type(err).__name__}: {err}",
-                              "stats": None, "seconds": 0.0, "engine": engine}
-                _write_point(folder, result, spec_hash)
-                summary.computed += 1
-                summary.failed += result["status"] in FAILED
-                if progress:
-                    progress.update(summary)
-    except KeyboardInterrupt:
-        summary.interrupted = True
-    finally:
-        if progress:
-            progress.stop()
-        if client is not None:
-            client.close()
-        if cluster is not None:
-            cluster.close()
-        write_tables(spec, pts, folder, out)
-    return summary
-
-
-def _shown(p: Point) -> str:
-    return ", ".join(f"{k} = {v!r}" for k, v in p.values) or "base configuration"
-
-
-def _load(folder: Path, key: str) -> dict | str:
-    """A point's result, or what is wrong with its file: not readable JSON (truncated), no
-    checksum or one that does not match (edited), or written for another key."""
-    try:
-        result = json.loads((folder / f"{key}.json").read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError, RecursionError):
-        return "is not whole JSON (truncated?)"
-    if not isinstance(result, dict) or "checksum" not in result:
-        return "has no checksum"
-    if result["checksum"] != _checksum(result):
-        return "does not match its checksum (edited or damaged)"
-    if result.get("key") != key or "status" not in result:
-        return "was written for another point"
-    return result
-
-
-def write_tables(spec: Spec, pts: list[Point], folder: Path, out: Path) -> list[dict]:
-    """results.csv and results.parquet: one row per finished point of this spec, in spec order."""
-    rows, seen = [], set()
-    for p in pts:
-        if p.key in seen or not (folder / f"{p.key}.json").exists():
-            continue
-        seen.add(p.key)
-        result = _load(folder, p.key)
-        if isinstance(result, dict):
-            rows.append(tidy_row(spec.fields, result))
-    head = ["scene", *spec.fields, "status", "cycles"]
-    tail = ["seconds", "error", "key"]
-    middle = sorted({k for r in rows for k in r} - set(head) - set(tail))
-    columns = head + middle + tail
-    def write_csv(path: Path) -> None:
-        with open(path, "w", newline="", encoding="utf-8") as f:
-            w = csv.writer(f)
-            w.writerow(columns)
-            for r in rows:
-                w.writerow(["" if r.get(c) is None else r.get(c) for c in columns])
-    # one set: a failure leaves the earlier results.csv and results.parquet as they were
-    write_all([(out / "results.csv", write_csv),
-               (out / "results.parquet", lambda p: _write_parquet(p, columns, rows))])
-    return rows
-
-
-def _write_parquet(path: Path, columns: list[str], rows: list[dict]) -> None:
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-    arrays = {}
-    for c in columns:
-        vals = [r.get(c) for r in rows]
-        kinds = {type(v) for v in vals if v is not None}
-        if kinds <= {int} and kinds:
-            arrays[c] = pa.array(vals, pa.int64())
-        elif kinds <= {int, float} and kinds:
-            arrays[c] = pa.array([None if v is None else float(v) for v in vals], pa.float64())
-        else:
-            arrays[c] = pa.array([None if v is None else str(v) for v in vals], pa.string())
-    pq.write_table(pa.table(arrays), path)
-
-
-class _Bar:
-    def __init__(self, summary: Summary) -> None:
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-        self.p = Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
-                          TextColumn("{task.description}"), TimeRemainingColumn(),
-                          transient=True, redirect_stdout=False, redirect_stderr=False)
-        self.p.start()
-        self.task = self.p.add_task(self._text(summary), total=summary.total,
-                                    completed=summary.cached)
-
-    @staticmethod
-    def _text(s: Summary) -> str:
-        return f"{s.computed} computed, {s.cached} cached, {s.failed} failed"
-
-    def update(self, s: Summary) -> None:
-        self.p.update(self.task, completed=s.cached + s.computed, description=self._text(s))
-
-    def stop(self) -> None:
-        self.p.stop()
-
-
-def _progress(show: bool, summary: Summary):
-    return _Bar(summary) if show else None

@@ -1,0 +1,420 @@
+"""The paper pipeline: everything `netsushisen paper` computes, from scenes to report.md.
+
+Per scene (`analyse_scene`): the golden model renders with its IC reference trace
+(`host/golden.py`), the pre-pass (`host/prepass.py`) gives the priorities, and the trace — in the
+machine's serial order (`tracesim.machine_order`) and as the IC access protocol's load stream
+(`host/ic_access.py`) — is replayed once through every memory configuration of Figures 4 and 5
+(`tracesim.SweepStream`): no cycle-accurate emulation. Each configuration is laid out by
+`host.databases.plan_layout` with the pre-pass priorities, so resident vs cache and every ICGM
+address are the ones the machine would get for that split. The records it fills
+(`SceneData`, `PaperOptions`) and everything that reads them (tables, findings, figures,
+report.md) are in `reports/paper*.py`.
+
+`machine_check` (`--on-machine`) renders a scene on the emulated machine in the serial ray-tree
+mode and compares IC's counters with the trace-driven path's (`compare_counters`): accesses by
+memory and by region, loads per primitive, hence ρ and μ; they must be equal.
+
+`run_paper` runs a whole reproduction — every scene's analysis and machine check, each an
+independent run on the cluster layer (netsushisen/cluster.py) — and writes the figures, the CSV
+files and report.md; the command only parses, calls it and prints.
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from netsushisen.cluster import (ResultCache, Task, content_key, kernel_digest,
+                                 run_cached, scene_digest, unplain)
+from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.host.catalog import load_scene
+from netsushisen.host.databases import plan_layout
+from netsushisen.host.golden import render as render_golden
+from netsushisen.host.grid import build_grid
+from netsushisen.host.prepass import run_prepass
+from netsushisen.isa.config import MachineConfig, dump_toml
+from netsushisen.outputs import write_text
+from netsushisen.reports.paper import findings
+from netsushisen.reports.paper_data import (CACHE_SHARES, LOCAL_SHARES,
+                                            RESIDENT_SPLITS, PaperOptions, Progress, SceneData)
+from netsushisen.reports.paper_plots import write_csvs, write_figures
+from netsushisen.reports.paper_report import report_markdown
+from netsushisen.reports.tracesim import (SweepPoint, SweepStream, TraceMemory, machine_order,
+                                          ordered_stream_chunks)
+
+
+def scene_counts(scene) -> dict:
+    from netsushisen.host.scenes import Kind
+    return {"primitives": scene.n_primitives, "polygons": scene.count(Kind.POLYGON),
+            "spheres": scene.count(Kind.SPHERE), "cones": scene.count(Kind.CONE),
+            "cylinders": scene.count(Kind.CYLINDER), "lights": int(len(scene.light_position)),
+            "reflective": scene.reflective, "transparent": scene.transparent}
+
+
+def _sized(config: MachineConfig, base_words: int, resident: float, cache: float) -> MachineConfig:
+    """`config` with IC's resident and cache sizes set to shares of `base_words` (the sized
+    database), rounded as the machine rounds shares (resident: whole words, cache: whole blocks)."""
+    c = copy.deepcopy(config)
+    mc = c.ic_memory
+    wb = config.word_bytes
+    mc.resident_share = mc.cache_share = None
+    mc.resident_bytes = int(resident * base_words) * wb
+    size = int(cache * base_words * wb)
+    mc.cache_bytes = size - size % mc.block_bytes
+    return c
+
+
+def sweep_points(config: MachineConfig) -> list[tuple[str, float, float]]:
+    """(figure, local or cache share, resident split) of every configuration swept."""
+    out = [("fig4", c, 0.0) for c in CACHE_SHARES]
+    out += [("fig5", local, r) for local in LOCAL_SHARES for r in RESIDENT_SPLITS]
+    return out
+
+
+def trace_experiments(golden) -> dict[str, np.ndarray]:
+    """Tests per primitive under variants of the main pass that the reference trace alone can
+    answer (no new render): the experiments report.md's explanations cite."""
+    from netsushisen.host.golden import EYE, SHADOW
+
+    n = len(golden.references)
+    off = golden.trace_ray_offsets
+    ray = np.repeat(np.arange(len(off) - 1), np.diff(off))
+    prims = golden.trace_prims.astype(np.int64)
+    kind = golden.trace_kind[ray]
+    depth = golden.trace_depth[ray]
+    pairs = np.sort(ray * n + prims)  # np.sort + neighbours: np.unique hashes, slower on 10⁸ keys
+    pairs = pairs[np.concatenate([[True], pairs[1:] != pairs[:-1]])] if len(pairs) else pairs
+    return {
+        "as rendered": golden.references.astype(np.int64),
+        "mailboxing (each primitive tested once per ray)": np.bincount(pairs % n, minlength=n),
+        "eye rays only": np.bincount(prims[kind == EYE], minlength=n),
+        "no shadow rays": np.bincount(prims[kind != SHADOW], minlength=n),
+        "ray-tree depth 1 (eye rays and their shadow rays)": np.bincount(prims[depth <= 1], minlength=n),
+    }
+
+
+CANDIDATES = ("sizing records+lists", "lists in the cache", "32-byte blocks", "128-byte blocks")
+"""The trace-driven readings every "partly" or "differs" of Figures 4–5 is rerun under
+(`candidate_readings`); ray order and PE count need the machine (`--on-machine`)."""
+
+
+def candidate_readings(config: MachineConfig, options: PaperOptions
+                       ) -> dict[str, tuple[MachineConfig, PaperOptions]]:
+    """Each candidate explanation as a (config, options) that differs from the run's in one
+    choice; a candidate equal to the run's own reading is skipped."""
+    out = {}
+    other_sizing = "records+lists" if options.sizing == "records" else "records"
+    other_lists = "cache" if options.lists == "local" else "local"
+    out[f"sizing {other_sizing}"] = (config, PaperOptions(other_sizing, options.lists))
+    out[f"lists in {'the cache' if other_lists == 'cache' else 'local memory'}"] = (
+        config, PaperOptions(options.sizing, other_lists))
+    for block in (32, 128):
+        if block != config.ic_memory.block_bytes:
+            c = copy.deepcopy(config)
+            c.ic_memory.block_bytes = block
+            out[f"{block}-byte blocks"] = (c, options)
+    return out
+
+
+def _sweep(scene, golden, pre, grid, config: MachineConfig, options: PaperOptions, label: str,
+           progress: Progress, rays_per_chunk: int) -> tuple[dict, list[dict], list[dict], int]:
+    """Replay the trace through every memory configuration of Figures 4–5 under one reading:
+    (database sizes, fig4 rows, fig5 rows, loads replayed)."""
+    reference = plan_layout(scene, _sized(config, 1, 0.0, 0.0), pre.priorities, grid)
+    base = (reference.shape_words if options.sizing == "records"
+            else reference.primitive_database_words)
+    wb = config.word_bytes
+    points: dict[tuple[int, int], SweepPoint] = {}
+    chosen = []
+    for fig, share, split in sweep_points(config):
+        if fig == "fig4":
+            cfg = _sized(config, base, 0.0, share)
+        else:
+            cfg = _sized(config, base, share * split, share * (1 - split))
+        lay = plan_layout(scene, cfg, pre.priorities, grid)
+        key = (lay.resident_count, lay.cache_bytes)
+        if key not in points:
+            points[key] = SweepPoint(lay, lay.cache_bytes, config.ic_memory.block_bytes)
+        chosen.append((fig, share, split, lay.resident_capacity * wb, key))
+    sweep = SweepStream(reference, list(points.values()), wb, lists_cached=options.lists == "cache")
+    order = machine_order(golden)
+    n_chunks = max(1, -(-len(order) // rays_per_chunk))
+    loads = 0
+    what = f"{scene.name}: replay {len(points)} memory configurations{label}"
+    for i, (space,
+            address) in enumerate(ordered_stream_chunks(reference, golden, order, rays_per_chunk)):
+        progress(what, i, n_chunks)
+        loads += len(address)
+        sweep.replay(space, address)
+    progress(what, n_chunks, n_chunks)
+    mc = config.ic_memory
+    fig4, fig5 = [], []
+    for fig, share, split, resident_bytes, key in chosen:
+        f = SweepStream.figures(points[key], mc.t_r, mc.t_c, mc.t_g)
+        row = {"resident_bytes": resident_bytes, "resident_count": key[0], "cache_bytes": key[1],
+               "all": f["all"], "shape": f["shape"], "ref": f["ref"]}
+        if fig == "fig4":
+            fig4.append({"cache_share": share} | row)
+        else:
+            fig5.append({"local_share": share, "resident_split": split} | row)
+    sizes = {"database": reference.sizes(), "primitive_database_bytes": base * wb}
+    return sizes, fig4, fig5, loads
+
+
+def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
+                  progress: Progress | None = None, rays_per_chunk: int = 16384,
+                  options: PaperOptions = PaperOptions(), candidates: bool = False) -> SceneData:
+    """Everything the paper's tables and figures need for one scene (`spec`: a name for
+    `load_scene`, or a Scene). `candidates`: also replay under every `candidate_readings`
+    (same golden trace and pre-pass; `SceneData.readings`), for the findings' experiments."""
+    progress = progress or (lambda *a: None)
+    seconds: dict[str, float] = {}
+    t0 = time.perf_counter()
+    scene = load_scene(spec) if isinstance(spec, str) else spec
+    spec = scene.name
+    grid = build_grid(scene, config)
+    progress(f"{spec}: golden render {res}x{res}", 0, 1)
+    golden = render_golden(scene, config, res=res, corners=corners, keep_trace=True, grid=grid)
+    seconds["golden"] = time.perf_counter() - t0
+    progress(f"{spec}: pre-pass", 0, 1)
+    t1 = time.perf_counter()
+    pre = run_prepass(scene, config, res=res, corners=corners, grid=grid)
+    seconds["prepass"] = time.perf_counter() - t1
+    t2 = time.perf_counter()
+    sizes, fig4, fig5, loads = _sweep(scene, golden, pre, grid, config, options, "",
+                                      progress, rays_per_chunk)
+    seconds["replay"] = time.perf_counter() - t2
+    mc = config.ic_memory
+    data = SceneData(name=scene.name, res=res, corners=corners, precision=config.precision,
+                     counts=scene_counts(scene), database_bytes=sizes["database"],
+                     primitive_database_bytes=sizes["primitive_database_bytes"],
+                     rays=dict(golden.rays), references=golden.references.copy(),
+                     visible=np.unique(golden.hit_ids[golden.hit_ids >= 0]).astype(np.int64),
+                     prepass=pre.summary(), fig4=fig4, fig5=fig5, loads=loads, t_r=mc.t_r,
+                     block_bytes=mc.block_bytes, seconds=seconds, options=options,
+                     experiments=trace_experiments(golden))
+    if candidates:
+        t3 = time.perf_counter()
+        for label, (cfg, opts) in candidate_readings(config, options).items():
+            sizes, fig4, fig5, loads = _sweep(scene, golden, pre, grid, cfg, opts,
+                                              f" ({label})", progress, rays_per_chunk)
+            v = copy.copy(data)
+            v.database_bytes = sizes["database"]
+            v.primitive_database_bytes = sizes["primitive_database_bytes"]
+            v.fig4, v.fig5, v.loads, v.options = fig4, fig5, loads, opts
+            v.block_bytes, v.readings, v.experiments = cfg.ic_memory.block_bytes, {}, {}
+            data.readings[label] = v
+        seconds["candidates"] = time.perf_counter() - t3
+    seconds["total"] = time.perf_counter() - t0
+    return data
+
+
+
+# -- the on-machine check ----------------------------------------------------------------------
+
+COMPARED = ("resident", "cache", "global", "regions", "primitives")
+"""IC's counters the two paths must agree on (`MemorySystem.stats()` keys)."""
+
+
+def _first_difference(got: dict, want: dict, path: str = "") -> str:
+    """Where two counter dictionaries first differ, as `key.key: trace X, machine Y`."""
+    for k in sorted(set(got) | set(want), key=str):
+        a, b = got.get(k), want.get(k)
+        if isinstance(a, dict) and isinstance(b, dict):
+            d = _first_difference(a, b, f"{path}{k}.")
+            if d:
+                return d
+        elif a != b:
+            return f"{path}{k}: trace-driven {a}, machine {b}"
+    return ""
+
+
+def compare_counters(trace: dict, machine: dict) -> str:
+    """'' when IC's counters agree on every COMPARED key, else the first difference."""
+    return _first_difference({k: trace[k] for k in COMPARED if k in trace},
+                             {k: machine[k] for k in COMPARED if k in machine})
+
+
+def machine_check(scene, res: int, config, engine: str, corners: bool = False) -> dict:
+    """Render `scene` (a name, a file or a Scene) on the machine in the serial ray-tree mode
+    (SLOTS=1, SERIAL_TREES=1: one ray tree in flight, so IC sees the golden trace's rays in
+    `tracesim.machine_order`) and compare IC's counters with the trace-driven path's for the
+    same images. Runs in a worker process: module-level, picklable arguments."""
+    from netsushisen.pipeline import render  # noqa: PLC0415 (the machine side is heavy to import)
+
+    t0 = time.perf_counter()
+    r = render(scene, config, res=res, corners=corners, slots=1,
+               defines={"SERIAL_TREES": 1}, engine=engine)
+    t_machine = time.perf_counter() - t0
+    setup = r.setup
+    machine = r.stats["memory"]["pe0.ic"]
+    out = {"scene": setup.scene.name, "cycles": int(r.run.cycles), "status": r.run.status,
+           "machine_seconds": t_machine}
+    if r.run.status not in ("halted", "finished"):
+        out.update(equal=False, difference=f"the machine stopped: {r.run.status}"
+                   + (f" ({r.run.error})" if r.run.error else ""), rho="–", mu="–",
+                   seconds=time.perf_counter() - t0)
+        return out
+    golden = render_golden(setup.scene, setup.config, res=res, corners=corners, keep_trace=True,
+                           grid=setup.images.layout.grid)
+    model = TraceMemory.for_images(setup.images)
+    for space, address in ordered_stream_chunks(setup.images.layout, golden, machine_order(golden)):
+        model.replay(space, address)
+    trace = model.stats()
+    diff = compare_counters(trace, machine)
+    res_acc, cache = machine["resident"]["accesses"], machine["cache"]
+    total = res_acc + cache["accesses"]
+    out.update(equal=not diff, difference=diff,
+               rho=f"{res_acc / total:.4f}" if total else "–",
+               mu=f"{cache['hits'] / cache['accesses']:.4f}" if cache["accesses"] else "–",
+               loads=total, seconds=time.perf_counter() - t0)
+    return out
+
+
+# -- a whole reproduction -----------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PaperRequest:
+    """What `netsushisen paper` was asked for (the command's options, checked)."""
+
+    scenes: list[str]
+    res: int
+    config: MachineConfig
+    out: Path
+    options: PaperOptions = PaperOptions()
+    corners: bool = False
+    on_machine: bool = False
+    engine: str = "compiled"
+    command: str = "netsushisen paper"
+    workers: int | None = None
+    fresh: bool = False  # compute every run again (else a run cached in out/runs/ is reused)
+    candidates: bool = True  # rerun Figures 4–5 under every `candidate_readings`
+
+
+@dataclass
+class PaperRun:
+    """What a reproduction made: the scenes evaluated (input order), the machine checks, the
+    findings in both countings, the files written, and whether Ctrl-C cut it short."""
+
+    scenes: list[SceneData]
+    missing: list[str]
+    checks: list[dict]
+    items: list = field(default_factory=list)
+    word_items: list = field(default_factory=list)
+    report: Path | None = None
+    files: list[Path] = field(default_factory=list)
+    seconds: float = 0.0
+    interrupted: bool = False
+    cached: int = 0  # runs taken from out/runs/
+
+    @property
+    def differing(self) -> list[dict]:
+        """The machine checks whose counters differ from the trace-driven path's."""
+        return [c for c in self.checks if not c["equal"]]
+
+
+def output_folder(out: Path) -> Path:
+    """The output folder, made; a file in its place is an error."""
+    if out.exists() and not out.is_dir():
+        raise NetsushisenError(Diagnostic("the output folder is a file", file=str(out)))
+    out.mkdir(parents=True, exist_ok=True)
+    return out
+
+
+def run_paper(request: PaperRequest, scheduler: str | None = None, show: bool = False) -> PaperRun:
+    """Every scene's analysis (and with `on_machine` its machine check) as independent runs on
+    the cluster (netsushisen/cluster.py: a LocalCluster, or the scheduler at `scheduler`), then
+    the figures, the CSV files and report.md in `request.out`, scenes in the order given.
+    `show`: progress on standard error (a bar on a terminal, else one line per finished run).
+    Ctrl-C stops the work; what finished is written and the run says it was interrupted."""
+    r = request
+    scenes = [load_scene(s) for s in r.scenes]  # every bad name is reported before any work
+    out = output_folder(r.out)
+    start = time.perf_counter()
+    results: dict[int, SceneData] = {}
+    checks: dict[int, dict] = {}
+    n = len(scenes)
+    # the scenes as read here travel with the tasks: a worker on another machine has no .nff file
+    tasks = [Task(analyse_scene,
+                  (scene, r.res, r.config, r.corners, None, 16384, r.options, r.candidates),
+                  f"{scene.name}-trace") for scene in scenes]
+    if r.on_machine:
+        tasks += [Task(machine_check, (scene, r.res, r.config, r.engine, r.corners),
+                       f"{scene.name}-machine")
+                  for scene in scenes]
+    log = _log if show and not sys.stderr.isatty() else (lambda text: None)
+
+    def done(i: int, result) -> None:
+        if i < n:
+            results[i] = result
+            log(f"{result.name}: trace-driven path done in {result.seconds['total']:.0f} s")
+        else:
+            checks[i - n] = result
+            log(f"{result['scene']}: machine {result['cycles']:,} cycles, counters "
+                + ("equal" if result["equal"] else "differ") + f", {result['seconds']:.0f} s")
+
+    config = dump_toml(r.config)
+    digests = [(scene.name, scene_digest(scene)) for scene in scenes]
+    keys = [content_key("paper scene", *d, r.res, r.corners, config, r.options.sizing,
+                        r.options.lists,
+                        "candidates" if r.candidates else "")
+            for d in digests]
+    if r.on_machine:
+        kernels = kernel_digest()
+        keys += [content_key("paper machine check", *d, r.res, r.corners, config, r.engine, kernels)
+                 for d in digests]
+
+    def decode(i: int, data):
+        return SceneData.from_plain(unplain(data)) if i < n else unplain(data)
+
+    outcome, cached = run_cached(tasks, keys, ResultCache(out / "runs"), done,
+                                 decode=decode, fresh=r.fresh,
+                                 scheduler=scheduler, workers=r.workers, title="paper", show=show,
+                                 status=lambda: f"{len(results)} of {n} scenes"
+                                 + (f", {len(checks)} machine checks" if r.on_machine else ""))
+    run = PaperRun([results[i] for i in sorted(results)],
+                   [s.name for i, s in enumerate(scenes) if i not in results],
+                   [checks[i] for i in sorted(checks)],
+                   interrupted=outcome.interrupted, cached=cached)
+    _write(r, run, out, start, r.workers or min(os.cpu_count() or 1, len(tasks)), scheduler)
+    return run
+
+
+def _log(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
+
+
+def _write(r: PaperRequest, run: PaperRun, out: Path, start: float, workers: int,
+           scheduler: str | None = None) -> None:
+    """Figures, CSV files and report.md of what finished."""
+    if run.scenes:
+        run.files += write_figures(run.scenes, out)
+        run.files += write_csvs(run.scenes, out)
+        run.items = findings(run.scenes, "ref")
+        run.word_items = findings(run.scenes, "all")
+    run.seconds = time.perf_counter() - start
+    machine = None
+    if r.on_machine and run.checks:
+        mc = r.config.ic_memory
+        where = (f"on the Dask cluster at {scheduler}" if scheduler
+                 else f"{workers} runs at a time on a LocalCluster")
+        machine = {"engine": r.engine, "res": r.res, "workers": where, "seconds": run.seconds,
+                   "memory": f"IC cache {mc.cache_bytes} B, resident {mc.resident_bytes} B"
+                   if mc.cache_share is None
+                   else f"IC cache share {mc.cache_share}, resident share {mc.resident_share}",
+                   "scenes": run.checks}
+    settings = {"res": r.res, "command": r.command, "max_depth": r.config.render.max_depth,
+                "engine": r.engine, "seconds": run.seconds}
+    run.report = out / "report.md"
+    names = [p.name for p in run.files]
+    write_text(run.report,
+               report_markdown(run.scenes, run.items, settings, [run.report.name] + names,
+                                           run.missing if run.interrupted else None,
+                                           run.word_items, machine))

@@ -250,3 +250,18 @@ def test_a_differing_finding_reports_every_candidate_and_which_explains_it():
     assert beats.why.startswith("unexplained after the candidates 32-byte blocks")
     # agreeing findings and scenes without readings are left alone
     assert all(f.why == "" for f in findings(world()))
+
+
+def test_candidate_readings_survive_the_run_cache():
+    """A cached paper run (DIR/runs/, plain JSON) must bring its candidate readings back, or a
+    rerun from the cache would lose every finding's experiments."""
+    import json
+
+    from netsushisen.cluster import plain, unplain
+
+    d = scene("tetra")
+    d.readings = {"32-byte blocks": scene("tetra", t=lambda L, s: 2.0 + s)}
+    back = SceneData.from_plain(unplain(json.loads(json.dumps(plain(d)))))
+    assert list(back.readings) == ["32-byte blocks"]
+    assert back.readings["32-byte blocks"].fig5 == d.readings["32-byte blocks"].fig5
+    assert np.array_equal(back.references, d.references)

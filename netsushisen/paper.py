@@ -37,10 +37,10 @@ from netsushisen.host.catalog import load_scene
 from netsushisen.host.databases import plan_layout
 from netsushisen.host.golden import render as render_golden
 from netsushisen.host.grid import build_grid
-from netsushisen.host.prepass import run_prepass
+from netsushisen.host.prepass import coarse_resolution, run_prepass
 from netsushisen.isa.config import MachineConfig, dump_toml
 from netsushisen.outputs import write_text
-from netsushisen.reports.paper import findings
+from netsushisen.reports.paper import findings, machine_findings
 from netsushisen.reports.paper_data import (CACHE_SHARES, LOCAL_SHARES,
                                             RESIDENT_SPLITS, PaperOptions, Progress, SceneData)
 from netsushisen.reports.paper_plots import write_csvs, write_figures
@@ -241,11 +241,33 @@ def compare_counters(trace: dict, machine: dict) -> str:
                              {k: machine[k] for k in COMPARED if k in machine})
 
 
-def machine_check(scene, res: int, config, engine: str, corners: bool = False) -> dict:
+MACHINE_POINTS = (
+    ("cache-only 10 %", 0.1, 0.0),
+    ("cache-only 100 %", 1.0, 0.0),
+    ("30 % local, 70 % resident", 0.09, 0.21),
+    ("50 % local, all resident", 0.0, 0.5),
+)
+"""Sweep points `--on-machine` also renders (label, cache share, resident share of the machine's
+primitive database — lists + records, `--sizing records+lists --lists cache`, the machine's own
+reading): Figure 4's extremes, the paper's 70 % split at 30 % local, and a resident-only one."""
+
+
+def point_config(config: MachineConfig, cache: float, resident: float) -> MachineConfig:
+    """`config` with IC's cache and resident memory as shares of the scene's database."""
+    c = copy.deepcopy(config)
+    c.ic_memory.cache_share, c.ic_memory.resident_share = cache, resident
+    return c
+
+
+def machine_check(scene, res: int, config, engine: str, corners: bool = False, point: str = "",
+                  prepass: bool = False) -> dict:
     """Render `scene` (a name, a file or a Scene) on the machine in the serial ray-tree mode
     (SLOTS=1, SERIAL_TREES=1: one ray tree in flight, so IC sees the golden trace's rays in
     `tracesim.machine_order`) and compare IC's counters with the trace-driven path's for the
-    same images. Runs in a worker process: module-level, picklable arguments."""
+    same images. `point`: the sweep point's label (`MACHINE_POINTS`; "" for the configuration
+    as given). `prepass`: also run the pre-pass's coarse render on the machine (same mode) and
+    report its cycles (§4.3: about 1 % of the main pass). Runs in a worker process:
+    module-level, picklable arguments."""
     from netsushisen.pipeline import render  # noqa: PLC0415 (the machine side is heavy to import)
 
     t0 = time.perf_counter()
@@ -254,8 +276,14 @@ def machine_check(scene, res: int, config, engine: str, corners: bool = False) -
     t_machine = time.perf_counter() - t0
     setup = r.setup
     machine = r.stats["memory"]["pe0.ic"]
-    out = {"scene": setup.scene.name, "cycles": int(r.run.cycles), "status": r.run.status,
-           "machine_seconds": t_machine}
+    out = {"scene": setup.scene.name, "point": point, "cycles": int(r.run.cycles),
+           "status": r.run.status, "machine_seconds": t_machine}
+    if prepass:
+        side = coarse_resolution(res, config.prepass.share)
+        coarse = render(setup.scene, config, res=side, corners=corners, slots=1,
+                        defines={"SERIAL_TREES": 1}, engine=engine)
+        out["prepass"] = {"resolution": side, "cycles": int(coarse.run.cycles),
+                          "status": coarse.run.status}
     if r.run.status not in ("halted", "finished"):
         out.update(equal=False, difference=f"the machine stopped: {r.run.status}"
                    + (f" ({r.run.error})" if r.run.error else ""), rho="–", mu="–",
@@ -345,10 +373,14 @@ def run_paper(request: PaperRequest, scheduler: str | None = None, show: bool = 
     tasks = [Task(analyse_scene,
                   (scene, r.res, r.config, r.corners, None, 16384, r.options, r.candidates),
                   f"{scene.name}-trace") for scene in scenes]
+    machine_runs = []  # (scene, label, config, with the pre-pass)
     if r.on_machine:
-        tasks += [Task(machine_check, (scene, r.res, r.config, r.engine, r.corners),
-                       f"{scene.name}-machine")
-                  for scene in scenes]
+        machine_runs = [(scene, "", r.config, True) for scene in scenes]
+        machine_runs += [(scene, label, point_config(r.config, cache, resident), False)
+                         for scene in scenes for label, cache, resident in MACHINE_POINTS]
+        tasks += [Task(machine_check, (scene, r.res, cfg, r.engine, r.corners, label, pre),
+                       f"{scene.name}-machine" + (f" ({label})" if label else ""))
+                  for scene, label, cfg, pre in machine_runs]
     log = _log if show and not sys.stderr.isatty() else (lambda text: None)
 
     def done(i: int, result) -> None:
@@ -357,7 +389,8 @@ def run_paper(request: PaperRequest, scheduler: str | None = None, show: bool = 
             log(f"{result.name}: trace-driven path done in {result.seconds['total']:.0f} s")
         else:
             checks[i - n] = result
-            log(f"{result['scene']}: machine {result['cycles']:,} cycles, counters "
+            at = f" ({result['point']})" if result.get("point") else ""
+            log(f"{result['scene']}{at}: machine {result['cycles']:,} cycles, counters "
                 + ("equal" if result["equal"] else "differ") + f", {result['seconds']:.0f} s")
 
     config = dump_toml(r.config)
@@ -368,8 +401,9 @@ def run_paper(request: PaperRequest, scheduler: str | None = None, show: bool = 
             for d in digests]
     if r.on_machine:
         kernels = kernel_digest()
-        keys += [content_key("paper machine check", *d, r.res, r.corners, config, r.engine, kernels)
-                 for d in digests]
+        keys += [content_key("paper machine check", scene.name, scene_digest(scene),
+                             r.res, r.corners, dump_toml(cfg), r.engine, kernels, label, pre)
+                 for scene, label, cfg, pre in machine_runs]
 
     def decode(i: int, data):
         return SceneData.from_plain(unplain(data)) if i < n else unplain(data)
@@ -397,7 +431,7 @@ def _write(r: PaperRequest, run: PaperRun, out: Path, start: float, workers: int
     if run.scenes:
         run.files += write_figures(run.scenes, out)
         run.files += write_csvs(run.scenes, out)
-        run.items = findings(run.scenes, "ref")
+        run.items = findings(run.scenes, "ref") + machine_findings(run.checks)
         run.word_items = findings(run.scenes, "all")
     run.seconds = time.perf_counter() - start
     machine = None

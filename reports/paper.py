@@ -438,6 +438,27 @@ def _findings(scenes: list[SceneData], counting: str) -> list[Finding]:
     return out
 
 
+def machine_findings(checks: list[dict]) -> list[Finding]:
+    """The claims only the machine can test, from `--on-machine`'s checks: §4.3's pre-pass cost
+    (the coarse render's machine cycles as a share of the main pass's, same serial mode)."""
+    main = [c for c in checks if not c.get("point") and c.get("prepass")
+            and c.get("status") in ("halted", "finished")]
+    if not main:
+        return []
+    share = {c["scene"]: c["prepass"]["cycles"] / c["cycles"] for c in main}
+    lo, hi = PREPASS_BAND
+    ok = {n: lo <= v <= hi for n, v in share.items()}
+    return [Finding("§4.3", f"the pre-pass costs about {_pct(PREPASS_SHARE)} of the main pass",
+                    f"the pre-pass's machine cycles are {_pct(lo, 1)}..{_pct(hi)} of the main "
+                    "pass's",
+                    ", ".join(f"{c['scene']} {_pct(share[c['scene']], 2)} "
+                              f"({c['prepass']['resolution']}² pre-pass: "
+                              f"{c['prepass']['cycles']:,} of {c['cycles']:,} "
+                              "cycles)" for c in main),
+                    _verdict(ok), "machine cycles, serial ray-tree mode",
+                    "" if all(ok.values()) else "unexplained")]
+
+
 def _fig4_why(scenes: list[SceneData], counting: str) -> str:
     """What the misses past 30 % are: the 100 % cache holds the whole database, so its misses
     are cold misses plus direct-mapped conflicts; a 30 % cache adds capacity misses."""

@@ -87,16 +87,30 @@ def _on_machine(check: dict) -> list[str]:
              f"`--on-machine`: each scene rendered by the emulated machine ({check['engine']} "
              "engine, serial ray-tree mode SERIAL_TREES=1, one slot) at "
              f"{check['res']}×{check['res']} with the default memory configuration "
-             f"({check['memory']}), {check['workers']}; IC's per-word counters (loads by memory "
-             "and by region, loads per primitive, and the per-word ρ and μ) compared with the "
-             "trace-driven path's for the same images.", ""]
-    rows = [[r["scene"], f"{r['cycles']:,}", f"{r['seconds']:.0f}", r["rho"], r["mu"],
-             "equal" if r["equal"] else "DIFFERENT: " + r["difference"]] for r in check["scenes"]]
-    lines += _md_table(["scene", "machine cycles", "wall s", "ρ (per word)", "μ (per word)",
-                        "counters"], rows)
+             f"({check['memory']}) and at the sweep points below, {check['workers']}; IC's "
+             "per-word counters (loads by memory and by region, loads per primitive, and the "
+             "per-word ρ and μ) compared with the trace-driven path's for the same images. The "
+             "points size IC's memories as shares of the machine's own database (list cells + "
+             "shape records, list cells through the cache: `--sizing records+lists --lists cache`).",
+             ""]
+    rows = [[r["scene"], r.get("point") or "default", f"{r['cycles']:,}", f"{r['seconds']:.0f}",
+             r["rho"], r["mu"], "equal" if r["equal"] else "DIFFERENT: " + r["difference"]]
+            for r in check["scenes"]]
+    lines += _md_table(["scene", "memory", "machine cycles", "wall s", "ρ (per word)",
+                        "μ (per word)", "counters"], rows)
     same = all(r["equal"] for r in check["scenes"])
+    scenes = sorted({r["scene"] for r in check["scenes"]})
     lines += ["", f"**{'All counters equal' if same else 'Counters differ'}** "
-              f"({len(check['scenes'])} scenes; wall time {check['seconds']:.0f} s).", ""]
+              f"({len(check['scenes'])} runs of {len(scenes)} scenes; wall time "
+              f"{check['seconds']:.0f} s).", ""]
+    pre = [r for r in check["scenes"] if r.get("prepass")]
+    if pre:
+        lines += ["The pre-pass on the machine (§4.3: about 1 % of the main pass), same mode:", ""]
+        lines += _md_table(["scene", "pre-pass", "its cycles", "main pass cycles", "share"],
+                           [[r["scene"],
+                             f"{r['prepass']['resolution']}×{r['prepass']['resolution']}",
+                             f"{r['prepass']['cycles']:,}", f"{r['cycles']:,}",
+                             f"{100 * r['prepass']['cycles'] / r['cycles']:.2f} %"] for r in pre]) + [""]
     return lines
 
 

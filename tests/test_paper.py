@@ -220,7 +220,11 @@ def test_paper_on_machine_checks_the_counters(tmp_path, cli, engine_name):
     assert "counters equal the trace-driven path's for mount" in stdout
     md = (out / "report.md").read_text()
     assert "## On the machine" in md and "**All counters equal**" in md and f"{engine_name} engine" in md
-    assert md.count("| equal |") == 1
+    from netsushisen.paper import MACHINE_POINTS
+
+    assert md.count("| equal |") == 1 + len(MACHINE_POINTS)  # the default memory and each point
+    assert all(f"| mount | {label} |" in md for label, *_ in MACHINE_POINTS)
+    assert "The pre-pass on the machine" in md and "§4.3: the pre-pass costs about 1 %" in md
 
 
 def test_counter_comparison_names_the_first_difference():

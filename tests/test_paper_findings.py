@@ -265,3 +265,23 @@ def test_candidate_readings_survive_the_run_cache():
     assert list(back.readings) == ["32-byte blocks"]
     assert back.readings["32-byte blocks"].fig5 == d.readings["32-byte blocks"].fig5
     assert np.array_equal(back.references, d.references)
+
+
+def _check(scene_name: str, cycles: int, prepass_cycles: int, point: str = "") -> dict:
+    return {"scene": scene_name, "point": point, "cycles": cycles, "status": "finished",
+            "prepass": {"resolution": 51, "cycles": prepass_cycles} if not point else None}
+
+
+def test_the_prepass_cost_finding_flips_when_the_prepass_is_dear():
+    """§4.3: the pre-pass costs about 1 % of the main pass, measured in machine cycles; a
+    pre-pass at 5 % of the main pass's cycles makes it differ, and sweep points (no pre-pass)
+    never count."""
+    from netsushisen.reports.paper import machine_findings
+
+    cheap = [_check(n, 1_000_000, 10_000) for n in N] + [_check("tetra", 9, 9, "cache-only 10 %")]
+    (f,) = machine_findings(cheap)
+    assert f.figure == "§4.3" and f.verdict == "agree"
+    dear = [_check(n, 1_000_000, 50_000 if n == "rings" else 10_000) for n in N]
+    assert machine_findings(dear)[0].verdict == "partly"
+    assert machine_findings([_check(n, 1_000_000, 50_000) for n in N])[0].verdict == "differ"
+    assert machine_findings([]) == []

@@ -16,7 +16,9 @@ It answers from the fastest exact path: the golden model's IC reference trace, i
 serial ray order, replayed through a trace-driven resident memory + direct-mapped cache for every
 memory configuration of the figures. `--on-machine` also renders every scene on the emulated
 machine (serial ray-tree mode, `--engine`, default compiled) with the default memory
-configuration and checks IC's counters equal the trace-driven path's. Each scene's analysis
+configuration and at four sweep points (`paper.MACHINE_POINTS`), and checks IC's counters equal
+the trace-driven path's; it also runs the pre-pass on the machine (its share of the main pass's
+cycles is §4.3's finding). Each scene's analysis
 and each machine check is one run on the Dask layer (netsushisen/cluster.py): a LocalCluster of
 `--workers` processes (default one per core; `--jobs` is the old name), or the cluster whose
 scheduler listens at `--scheduler ADDRESS`. Each finished run is kept in DIR/runs/ by content
@@ -118,10 +120,13 @@ def run(args: argparse.Namespace) -> int:
     if done.differing:
         print("netsushisen paper: on the machine, IC's counters differ from the trace-driven "
               "path's: "
-              + "; ".join(f"{c['scene']}: {c['difference']}" for c in done.differing),
+              + "; ".join(f"{c['scene']}" + (f" ({c['point']})" if c.get("point") else "")
+                         + f": {c['difference']}" for c in done.differing),
               file=sys.stderr)
         return 1
     if done.checks and not args.quiet:
+        scenes = list(dict.fromkeys(c["scene"] for c in done.checks))
         print(f"on the machine: IC's counters equal the trace-driven path's for "
-              f"{', '.join(c['scene'] for c in done.checks)}")
+              f"{', '.join(scenes)} ({len(done.checks)} runs: the default memory and "
+              f"{len(done.checks) // max(len(scenes), 1) - 1} sweep points each)")
     return 0

@@ -163,17 +163,168 @@ class State:
         return tuple(a[k] for k in ARG_ORDER)
 
 
-ARG_ORDER = ("g", "until", "cs", "regs", "ready", "prod", "wbn", "wbr", "wbw", "busy", "occ",
-             "unitn", "stpc", "bpc", "ops", "opk", "opf", "bun", "recvq", "sendq", "fq",
-             "fbt", "fbw", "mem", "seg", "ctags", "rg", "rmap", "rdense", "rcnt", "pcnt", "cm", "cin",
-             "cout", "route", "rem", "lown", "linkw", "pes", "dis", "dcur", "doff", "dup",
-             "dasg", "moff", "mwords", "col", "cpart", "cplen", "frame", "ids", "cflags", "pw",
-             "finfo")
+@dataclass(frozen=True)
+class Array:
+    """One array the loop takes: its element type, its shape (in the sizes flatten finds: P
+    processors, NB bundles, W write-back slots, F FIFOs, K = 3·PEs CMUs, ...) and whether the
+    loop only reads it (the decoded program, the layouts, the messages to send)."""
+
+    dtype: str
+    shape: str
+    read_only: bool = False
 
 
-READ_ONLY = frozenset(("unitn", "ops", "opk", "opf", "bun", "recvq", "sendq", "seg", "rg", "rmap",
-                       "rdense", "cin", "cout", "moff", "mwords", "cflags"))
-"""The arrays the loop only reads (the decoded program, the layouts, the messages to send)."""
+ARRAYS: dict[str, Array] = {
+    "g": Array("int64", "(8,) G_*"), "until": Array("int", "scalar: the chunk's last cycle + 1"),
+    "cs": Array("int64", "(P, N_C) C_*"), "regs": Array("int64", "(P, 64)"),
+    "ready": Array("int64", "(P, 64)"), "prod": Array("int64", "(P, 64)"),
+    "wbn": Array("int64", "(P, W)"), "wbr": Array("int64", "(P, W, 4)"),
+    "wbw": Array("int64", "(P, W, 4)"), "busy": Array("int64", "(P, 2, 4)"),
+    "occ": Array("int64", "(P, 2, 4)"), "unitn": Array("int64", "(P, 2)", True),
+    "stpc": Array("int64", "(P, NB, causes)"), "bpc": Array("int64", "(P, NB)"),
+    "ops": Array("int32", "(P, NB, slots, N_O) O_*", True),
+    "opk": Array("int64", "(P, NB, slots, 2)", True), "opf": Array("float64", "(P, NB, slots)", True),
+    "bun": Array("int32", "(P, NB, N_B) B_*", True), "recvq": Array("int64", "(P, 3)", True),
+    "sendq": Array("int64", "(P, 3)", True), "fq": Array("int64", "(F, 14) Q_*"),
+    "fbt": Array("int64", "(F, capacity)"), "fbw": Array("int64", "(F, capacity)"),
+    "mem": Array("uint32|int64", "(words of every segment,)"),
+    "seg": Array("int64", "(segments, 2)", True),
+    "ctags": Array("int64", "(lines of every cache,) sets × ways, a set's ways MRU first"),
+    "rg": Array("int32", "(regions, 2)", True), "rmap": Array("int64", "(P, 3, 2)", True),
+    "rdense": Array("int32", "(mapped words,)", True),
+    "rcnt": Array("int64", "(P, 3, region names, 3)"), "pcnt": Array("int64", "(P, 3, primitives)"),
+    "cm": Array("int64", "(K, 8) M_*"), "cin": Array("int64", "(K, inputs)", True),
+    "cout": Array("int64", "(K, inputs)", True), "route": Array("int64", "(K, inputs)"),
+    "rem": Array("int64", "(K, inputs)"), "lown": Array("int64", "(K, inputs)"),
+    "linkw": Array("int64", "(K,)"), "pes": Array("int64", "(PEs, 6) P_*"),
+    "dis": Array("int64", "(4,) D_*"), "dcur": Array("int64", "(PEs,)"),
+    "doff": Array("int64", "(PEs,)"), "dup": Array("int64", "(PEs,)"),
+    "dasg": Array("int64", "(PEs,)"), "moff": Array("int64", "(messages + 1,)", True),
+    "mwords": Array("int64", "(host words,)", True), "col": Array("int64", "(4,) L_*"),
+    "cpart": Array("int64", "(PEs, 8)"), "cplen": Array("int64", "(PEs,)"),
+    "frame": Array("float64", "(height, width, 3)"), "ids": Array("int32", "(height, width)"),
+    "cflags": Array("int64", "(causes,)", True), "pw": Array("int64", "(PEs, W_WAKE + 3) W_*"),
+    "finfo": Array("int64", "(8,) fault kind and where"),
+}
+"""Every array the loop takes, in its argument order (loop.py unpacks them in this order)."""
+
+ARG_ORDER = tuple(ARRAYS)
+READ_ONLY = frozenset(k for k, v in ARRAYS.items() if v.read_only)
+"""The arrays the loop only reads (a chunk rerun restores only the others)."""
+
+
+# -- The layout table: each component's scalar state, declared once ------------------------------
+# flatten reads these fields from the reference objects, write_back writes them back, and the
+# tandem engine's comparison (tandem.canonical) names and compares them — one declaration each.
+
+
+@dataclass(frozen=True)
+class Field:
+    """One column of a component's array ↔ one attribute of its reference object."""
+
+    column: int
+    attr: str
+    """Attribute of the component's object (also the field's name in a tandem mismatch)."""
+    kind: str = "int"
+    """How a value converts: "int", "bool", or "cause" (a stall-cause string ↔ its CAUSES id)."""
+    compare: bool = True
+    """Compared by the tandem engine as it stands (False: canonical compares it otherwise, or
+    it is bookkeeping whose stale values the engines need not agree on)."""
+
+
+@dataclass(frozen=True)
+class Component:
+    """A kind of machine part: its array, its fields, and its objects (one a row, in row order,
+    each with the name tandem reports it by; None where a row has no such part)."""
+
+    array: str
+    fields: tuple[Field, ...]
+    objects: object  # Callable[[Machine], list[tuple[str, object | None]]]
+
+    def rows(self, machine: Machine):
+        return self.objects(machine)
+
+    def read(self, machine: Machine, arrays: dict) -> None:
+        arr = arrays[self.array]
+        for i, (_name, obj) in enumerate(self.rows(machine)):
+            if obj is None:
+                continue
+            row = arr if arr.ndim == 1 else arr[i]
+            for f in self.fields:
+                v = getattr(obj, f.attr)
+                row[f.column] = CAUSE_ID[v] if f.kind == "cause" else int(v)
+
+    def write(self, arrays: dict, machine: Machine) -> None:
+        arr = arrays[self.array]
+        for i, (_name, obj) in enumerate(self.rows(machine)):
+            if obj is None:
+                continue
+            row = arr if arr.ndim == 1 else arr[i]
+            for f in self.fields:
+                v = row[f.column]
+                setattr(obj, f.attr, CAUSES[v] if f.kind == "cause" else
+                        bool(v) if f.kind == "bool" else int(v))
+
+    def values(self, machine: Machine):
+        """(name.attr, value) of every compared field, for the tandem comparison."""
+        for name, obj in self.rows(machine):
+            if obj is not None:
+                for f in self.fields:
+                    if f.compare:
+                        yield f"{name}.{f.attr}", getattr(obj, f.attr)
+
+
+def _cores(machine):
+    return [(c.name, c) for c in machine.cores]
+
+
+def _part(attr: str, label: str):
+    """A memory part of each processor (local, resident, cache, or the memory system)."""
+    def rows(machine):
+        out = []
+        for c in machine.cores:
+            obj = c.memory if attr == "memory" else getattr(c.memory, attr)
+            out.append((f"{c.name}.{label}", obj))
+        return out
+    return rows
+
+
+def _fifos(machine):
+    return [(f.name, f) for pe in machine.pes for f in pe.ring.fifos()]
+
+
+def _cmus(machine):
+    return [(f"{pe.name}.cmu.{cmu.stage}", cmu) for pe in machine.pes for cmu in pe.ring.cmus]
+
+
+LAYOUT: tuple[Component, ...] = (
+    Component("cs", (Field(C_PC, "pc"), Field(C_HALTED, "halted", "bool"),
+                     Field(C_HOLD_UNTIL, "hold_until"), Field(C_HOLD_MEM_UNTIL, "hold_mem_until"),
+                     Field(C_HOLD_CAUSE, "hold_cause", "cause"), Field(C_HOLD_PC, "hold_pc"),
+                     Field(C_CYCLES, "cycles"), Field(C_BUNDLES, "bundles_issued"),
+                     Field(C_LAST_PC, "last_pc"), Field(C_LAST_ISSUED, "last_issued", "bool"),
+                     Field(C_CAUSE, "cause", "cause")), _cores),
+    Component("cs", (Field(C_LOCAL_READS, "reads"), Field(C_LOCAL_WRITES, "writes")),
+              _part("local", "local")),
+    Component("cs", (Field(C_RES_READS, "reads"),), _part("resident", "resident")),
+    Component("cs", (Field(C_GLOBAL_ACC, "global_accesses"),), _part("memory", "memory")),
+    Component("cs", (Field(C_CACHE_ACC, "accesses"), Field(C_CACHE_HITS, "hits"),
+                     Field(C_CACHE_MISSES, "misses")), _part("cache", "cache")),
+    Component("fq", (Field(Q_POPC, "pop_cycle", compare=False), Field(Q_POPS, "pops", compare=False),
+                     Field(Q_PEAK, "peak"), Field(Q_TOTAL, "total")), _fifos),
+    Component("cm", (Field(M_RECV_OWNER, "recv_owner"), Field(M_MOVED, "moved")), _cmus),
+    Component("pes", (Field(P_MOVED, "ring_moved", "bool", False),
+                      Field(P_DIS_MOVED, "dis_moved", "bool", False),
+                      Field(P_COL_MOVED, "col_moved", "bool", False)),
+              lambda m: [(pe.name, pe) for pe in m.pes]),
+    Component("dis", (Field(D_NEXT, "next_msg"), Field(D_WORDS_SENT, "words_sent")),
+              lambda m: [("dis", m.dis)]),
+    Component("col", (Field(L_MESSAGES, "messages"), Field(L_WORDS, "words")),
+              lambda m: [("col", m.col)]),
+)
+"""The scalar state of every component (the arrays' other contents — registers, results in
+flight, queues, memories, counters by region and PC — are structures flatten and write_back
+convert explicitly, and canonical compares whole)."""
 
 
 def _words(a: np.ndarray) -> np.ndarray:
@@ -245,7 +396,7 @@ def flatten(machine: Machine) -> State:
         pe = machine.pes[i // per_pe]
         ring = f is not pe.ring.host and f is not pe.ring.col
         stage, k = cmu_input.get(id(f), (-1, -1))
-        fq[i] = (f.capacity, f.delay, 0, len(f.q), f.pop_cycle, f.pops, f.peak, f.total,
+        fq[i] = (f.capacity, f.delay, 0, len(f.q), 0, 0, 0, 0,  # Q_POPC..Q_TOTAL: LAYOUT
                  i // per_pe, ring, stage, k, -1, -1)
         if stage >= 0 and len(f.q):
             pw[i // per_pe, W_MASK + stage] |= 1 << k
@@ -327,17 +478,6 @@ def flatten(machine: Machine) -> State:
                 occ[p, u, i] = MN_ID.get(core.occupant[name][i], -1)
         cs[p, C_BUSYMAX] = busy[p].max()
 
-        cs[p, C_PC] = core.pc
-        cs[p, C_HALTED] = core.halted
-        cs[p, C_HOLD_UNTIL] = core.hold_until
-        cs[p, C_HOLD_MEM_UNTIL] = core.hold_mem_until
-        cs[p, C_HOLD_CAUSE] = CAUSE_ID[core.hold_cause]
-        cs[p, C_HOLD_PC] = core.hold_pc
-        cs[p, C_CYCLES] = core.cycles
-        cs[p, C_BUNDLES] = core.bundles_issued
-        cs[p, C_LAST_PC] = core.last_pc
-        cs[p, C_LAST_ISSUED] = core.last_issued
-        cs[p, C_CAUSE] = CAUSE_ID[core.cause]
         cs[p, C_PRESENT] = core.present
         cs[p, C_NB] = len(core.bundles)
         cs[p, C_WPORTS] = core.write_ports
@@ -349,18 +489,12 @@ def flatten(machine: Machine) -> State:
         cs[p, C_SEG_RES] = add_seg(mem.resident.words) if mem.resident is not None else -1
         cs[p, C_SEG_GLOBAL] = gseg[core.proc.name] if mem.global_memory is not None \
             and core.proc.name in gseg else -1
-        cs[p, C_LOCAL_READS] = mem.local.reads
-        cs[p, C_LOCAL_WRITES] = mem.local.writes
-        cs[p, C_RES_READS] = mem.resident.reads if mem.resident is not None else 0
-        cs[p, C_GLOBAL_ACC] = mem.global_accesses
         if mem.cache is not None:
             c = mem.cache
             cs[p, C_CACHE_SETS] = c.sets
             cs[p, C_CACHE_OFF] = tag_off
             cs[p, C_BLOCK_BYTES] = c.block_bytes
             cs[p, C_WORD_BYTES] = c.word_bytes
-            cs[p, C_CACHE_ACC], cs[p, C_CACHE_HITS], cs[p, C_CACHE_MISSES] = \
-                c.accesses, c.hits, c.misses
             tags.append(c.tags.astype(np.int64))
             tag_off += c.sets
             per_block = c.block_bytes // c.word_bytes
@@ -415,7 +549,7 @@ def flatten(machine: Machine) -> State:
             m = 3 * i + s
             cmu = pe.ring.cmus[s]
             linkw[m] = pe.ring.link_words[stage][0]
-            cm[m] = (len(cmu.inputs), cmu.recv_owner, cmu.moved, fid[id(cmu.recv)], cmu.dest_id,
+            cm[m] = (len(cmu.inputs), 0, 0, fid[id(cmu.recv)], cmu.dest_id,  # 0, 0: LAYOUT
                      3 * i + STAGES.index(PREV[stage]), m, len(cmu.out_link))
             for k, f in enumerate(cmu.inputs):
                 cin[m, k] = fid[id(f)]
@@ -424,7 +558,7 @@ def flatten(machine: Machine) -> State:
             for k, f in enumerate(cmu.out_link):
                 cout[m, k] = fid[id(f)]
                 lown[m, k] = cmu.link_owner[k]
-        pes[i] = (pe._moved, pe.dis_moved, pe.col_moved, machine.no_progress[i],
+        pes[i] = (0, 0, 0, machine.no_progress[i],  # 0, 0, 0: LAYOUT
                   fid[id(pe.ring.host)], fid[id(pe.ring.col)])
 
     d = machine.dis
@@ -458,13 +592,15 @@ def flatten(machine: Machine) -> State:
         rdense=rdense,
         rcnt=rcnt, pcnt=pcnt, cm=cm, cin=cin, cout=cout, route=route, rem=rem, lown=lown,
         linkw=linkw, pes=pes,
-        dis=np.array([d.dynamic, d.next_msg, len(d.messages), d.words_sent], np.int64),
+        dis=np.array([d.dynamic, 0, len(d.messages), 0], np.int64),  # 0: LAYOUT
         dcur=np.array(d.current, np.int64), doff=np.array(d.offset, np.int64),
         dup=np.array(d.upcoming, np.int64), dasg=np.array(d.assigned, np.int64),
         moff=moff, mwords=mwords,
-        col=np.array([col.messages, col.words, col.width, col.height], np.int64),
+        col=np.array([0, 0, col.width, col.height], np.int64),  # 0: LAYOUT
         cpart=cpart, cplen=cplen, frame=col.frame, ids=col.ids, cflags=CAUSE_FLAGS, pw=pw,
         finfo=np.zeros(8, np.int64))
+    for component in LAYOUT:
+        component.read(machine, a)
     return State(a, fifos, region_names, mask)
 
 
@@ -552,6 +688,8 @@ def write_back(st: State, machine: Machine) -> None:
     W = int(a["g"][G_W])
     cycle = int(a["g"][G_CYCLE])
     machine.cycle = cycle
+    for component in LAYOUT:
+        component.write(a, machine)
     seg = a["seg"]
     mem_all = a["mem"]
     names = st.region_names
@@ -559,17 +697,6 @@ def write_back(st: State, machine: Machine) -> None:
         cs = a["cs"][p]
         mem = core.memory
         units = list(core.proc.units)
-        core.pc = int(cs[C_PC])
-        core.halted = bool(cs[C_HALTED])
-        core.hold_until = int(cs[C_HOLD_UNTIL])
-        core.hold_mem_until = int(cs[C_HOLD_MEM_UNTIL])
-        core.hold_cause = CAUSES[cs[C_HOLD_CAUSE]]
-        core.hold_pc = int(cs[C_HOLD_PC])
-        core.cycles = int(cs[C_CYCLES])
-        core.bundles_issued = int(cs[C_BUNDLES])
-        core.last_pc = int(cs[C_LAST_PC])
-        core.last_issued = bool(cs[C_LAST_ISSUED])
-        core.cause = CAUSES[cs[C_CAUSE]]
         core.regs = [int(w) & mask for w in a["regs"][p]]
         core.ready_at = [int(t) for t in a["ready"][p]]
         core.producer = [MNEMONICS[i] if i >= 0 else "" for i in a["prod"][p]]
@@ -613,15 +740,8 @@ def write_back(st: State, machine: Machine) -> None:
         words = mem_all[sl[0]:sl[0] + sl[1]]
         dt = mem.local.words.dtype
         mem.local.words[:] = words.view(np.uint64) if dt == np.uint64 else words.astype(dt)
-        mem.local.reads = int(cs[C_LOCAL_READS])
-        mem.local.writes = int(cs[C_LOCAL_WRITES])
-        if mem.resident is not None:
-            mem.resident.reads = int(cs[C_RES_READS])
-        mem.global_accesses = int(cs[C_GLOBAL_ACC])
         if mem.cache is not None:
             c = mem.cache
-            c.accesses, c.hits, c.misses = (int(cs[C_CACHE_ACC]), int(cs[C_CACHE_HITS]),
-                                            int(cs[C_CACHE_MISSES]))
             o = int(cs[C_CACHE_OFF])
             c.tags[:] = a["ctags"][o:o + c.sets]
         for sp, counts in enumerate(_counters(mem)):
@@ -638,30 +758,22 @@ def write_back(st: State, machine: Machine) -> None:
         h, n = int(fq[i, Q_HEAD]), int(fq[i, Q_CNT])
         f.q = deque((int(fbt[i, (h + k) % cap]), int(fbw[i, (h + k) % cap]) & mask)
                     for k in range(n))
-        f.pop_cycle, f.pops, f.peak, f.total = (int(fq[i, Q_POPC]), int(fq[i, Q_POPS]),
-                                                int(fq[i, Q_PEAK]), int(fq[i, Q_TOTAL]))
     for i, pe in enumerate(machine.pes):
         for s, stage in enumerate(STAGES):
             m = 3 * i + s
             cmu = pe.ring.cmus[s]
             pe.ring.link_words[stage][0] = int(a["linkw"][m])
-            cmu.recv_owner = int(a["cm"][m, M_RECV_OWNER])
-            cmu.moved = int(a["cm"][m, M_MOVED])
             n = len(cmu.inputs)
             cmu.route = [None if r == _ROUTE_NONE else int(r) for r in a["route"][m, :n]]
             cmu.remaining = [int(r) for r in a["rem"][m, :n]]
             cmu.link_owner = [int(o) for o in a["lown"][m, :len(cmu.out_link)]]
         pr = a["pes"][i]
-        pe._moved, pe.dis_moved, pe.col_moved = (bool(pr[P_MOVED]), bool(pr[P_DIS_MOVED]),
-                                                 bool(pr[P_COL_MOVED]))
         machine.no_progress[i] = int(pr[P_NO_PROGRESS])
     d = machine.dis
-    d.next_msg, d.words_sent = int(a["dis"][D_NEXT]), int(a["dis"][D_WORDS_SENT])
     d.current = [int(x) for x in a["dcur"]]
     d.offset = [int(x) for x in a["doff"]]
     d.upcoming = [int(x) for x in a["dup"]]
     d.assigned = [int(x) for x in a["dasg"]]
     col = machine.col
-    col.messages, col.words = int(a["col"][L_MESSAGES]), int(a["col"][L_WORDS])
     col.partial = [[int(w) & mask for w in a["cpart"][i, :a["cplen"][i]]]
                    for i in range(len(machine.pes))]

@@ -56,11 +56,12 @@ class RegionMap:
 
 
 def cache_bytes(mc: MemoryConfig, global_words: int, word_bytes: int) -> int:
-    """The cache capacity in bytes: `cache_bytes`, or `cache_share` of the global image."""
+    """The cache capacity in bytes: `cache_bytes`, or `cache_share` of the global image rounded
+    down to whole sets (block_bytes × cache_ways)."""
     if mc.cache_share is None:
         return mc.cache_bytes
     size = int(mc.cache_share * global_words * word_bytes)
-    return size - size % mc.block_bytes
+    return size - size % (mc.block_bytes * mc.cache_ways)
 
 
 def resident_words(mc: MemoryConfig, global_words: int, word_bytes: int) -> int:

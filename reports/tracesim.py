@@ -1,17 +1,14 @@
-"""Trace-driven model of IC's memory: resident memory + direct-mapped cache + global memory.
+"""Trace-driven model of IC's memory: resident memory + cache + global memory.
 
 It replays a stream of (space, word address) loads — the IC access protocol's stream from the
-golden model's reference trace (`host/ic_access.py`) — with the emulator's exact rules
-(`emulator/memories.py`): word bytes from the precision, byte address = word × word_bytes,
-block = byte // block_bytes, set = block % sets, tag = block // sets, a miss fills its line, a
-cache of 0 bytes misses every time; and it keeps the same counters in the same dictionary shape
-as `MemorySystem.stats()` (resident, cache, global, per-region and per-primitive counts; there is
+golden model's reference trace (`host/ic_access.py`) — with the emulator's own cache rule
+(`emulator/cacherule.py`, compiled here by numba: the functions the reference engine's
+`memories.Cache` calls): word bytes from the precision, byte address = word × word_bytes,
+block = byte // block_bytes, set = block % sets, tag = block // sets, hit when the tag is in its
+set, LRU over the set's ways (one way: direct-mapped, a miss replaces the line), a cache of 0
+bytes misses every time; and it keeps the same counters in the same dictionary shape as
+`MemorySystem.stats()` (resident, cache, global, per-region and per-primitive counts; there is
 no local memory in a trace).
-
-Vectorised: a direct-mapped cache needs no loop over accesses. Sort the accesses by set (a
-stable sort keeps each set's accesses in time order); an access hits iff the access before it in
-its set was to the same block (the first access of a set in a chunk compares with the line's
-tag left by the previous chunk).
 
 `machine_order` gives the order in which the machine's serial mode (`SLOTS=1`,
 `SERIAL_TREES=1`) visits the golden trace's rays, `ordered_stream_chunks` the IC stream in that
@@ -31,13 +28,16 @@ from netsushisen.host.databases import GLOBAL, RESIDENT, DatabaseLayout
 from netsushisen.host.golden import SHADOW
 from netsushisen.host.ic_access import ic_address_stream
 from netsushisen.host.records import ranges
+from netsushisen.emulator import cacherule
 from netsushisen.isa.regions import Region
 
 SPACES = {GLOBAL: "global", RESIDENT: "resident"}
 
 
 # ------------------------------------------------------------------------------------------------
-# The direct-mapped cache, vectorised
+# The cache: the emulator's rule, compiled
+
+_touch = njit(nogil=True, inline="always")(cacherule.touch)
 
 
 def block_numbers(addresses: np.ndarray, word_bytes: int, block_bytes: int) -> np.ndarray:
@@ -45,47 +45,41 @@ def block_numbers(addresses: np.ndarray, word_bytes: int, block_bytes: int) -> n
     return (np.asarray(addresses, np.int64) * word_bytes) // block_bytes
 
 
-def replay_blocks(blocks: np.ndarray, tags: np.ndarray) -> np.ndarray:
-    """Hit (True) or miss of each access to `blocks`, in order, through a direct-mapped cache
-    whose line tags are `tags` (one per set, -1 = invalid; updated in place, so consecutive
-    chunks of one stream replay as one). No sets: every access misses."""
+@njit(nogil=True)
+def _replay(blocks, tags, sets, ways, hits):  # pragma: no cover - compiled
+    for i in range(len(blocks)):
+        b = blocks[i]
+        hits[i] = _touch(tags, (b % sets) * ways, ways, b // sets)
+
+
+def replay_blocks(blocks: np.ndarray, tags: np.ndarray, ways: int = 1) -> np.ndarray:
+    """Hit (True) or miss of each access to `blocks`, in order, through a cache whose line tags
+    are `tags` (sets × ways, a set's ways most recent first, -1 = invalid; updated in place, so
+    consecutive chunks of one stream replay as one). No sets: every access misses."""
     blocks = np.asarray(blocks, np.int64)
-    n, sets = len(blocks), len(tags)
-    if n == 0 or sets == 0:
-        return np.zeros(n, bool)
-    s = blocks % sets
-    tag = blocks // sets
-    key = s.astype(np.uint16) if sets <= 1 << 16 else s  # 16-bit keys sort by radix: O(n)
-    order = np.argsort(key, kind="stable")
-    ss, tt = s[order], tag[order]
-    first = np.empty(n, bool)
-    first[0] = True
-    np.not_equal(ss[1:], ss[:-1], out=first[1:])
-    prev = np.empty(n, np.int64)
-    prev[1:] = tt[:-1]
-    prev[first] = tags[ss[first]]
-    last = np.empty(n, bool)
-    last[-1] = True
-    last[:-1] = first[1:]
-    tags[ss[last]] = tt[last]
-    hits = np.empty(n, bool)
-    hits[order] = prev == tt
+    hits = np.zeros(len(blocks), np.bool_)
+    sets = len(tags) // ways
+    if len(blocks) and sets:
+        _replay(blocks, tags, sets, ways, hits)
     return hits
 
 
-class DirectMappedCache:
-    """The vectorised twin of `emulator.memories.Cache` (tags only, counters)."""
+class TraceCache:
+    """The trace-driven twin of `emulator.memories.Cache` (tags only, counters)."""
 
-    def __init__(self, cache_bytes: int, block_bytes: int, word_bytes: int):
+    def __init__(self, cache_bytes: int, block_bytes: int, word_bytes: int, ways: int = 1):
+        self.geometry = cacherule.geometry(cache_bytes, block_bytes, ways, word_bytes)
         self.block_bytes = block_bytes
         self.word_bytes = word_bytes
-        self.sets = cache_bytes // block_bytes
-        self.tags = np.full(self.sets, -1, np.int64)
+        self.ways = ways
+        self.sets = self.geometry.sets
+        self.tags = np.full(self.geometry.lines, -1, np.int64)
         self.accesses = self.hits = self.misses = 0
 
     def replay(self, addresses: np.ndarray) -> np.ndarray:
         """Replay word addresses in order; hit per access."""
-        hits = replay_blocks(block_numbers(addresses, self.word_bytes, self.block_bytes), self.tags)
+        hits = replay_blocks(block_numbers(addresses, self.word_bytes, self.block_bytes),
+                             self.tags, self.ways)
         h = int(np.count_nonzero(hits))
         self.accesses += len(hits)
         self.hits += h
@@ -129,8 +123,9 @@ class TraceMemory:
     outside raises ValueError naming it); None = unbounded."""
 
     def __init__(self, cache_bytes: int, block_bytes: int, word_bytes: int, resident_words: int = 0,
-                 regions: dict[str, list[Region]] | None = None, global_words: int | None = None):
-        self.cache = DirectMappedCache(cache_bytes, block_bytes, word_bytes)
+                 regions: dict[str, list[Region]] | None = None, global_words: int | None = None,
+                 ways: int = 1):
+        self.cache = TraceCache(cache_bytes, block_bytes, word_bytes, ways)
         self.resident_words = resident_words
         self.global_words = global_words
         self.resident_accesses = 0
@@ -149,7 +144,8 @@ class TraceMemory:
         glob = images.icgm if proc == "ic" else images.scgm
         return cls(mc.cache_bytes, mc.block_bytes, wb, mc.resident_bytes // wb,
                    {"resident": images.regions.get(f"{proc}.resident", []),
-                    "global": images.regions.get(f"{proc}.global", [])}, global_words=len(glob))
+                    "global": images.regions.get(f"{proc}.global", [])}, global_words=len(glob),
+                   ways=mc.cache_ways)
 
     def _count(self, space: str, address: np.ndarray, hits: np.ndarray | None) -> None:
         name, prim = self.maps[space].lookup(address)
@@ -191,7 +187,7 @@ class TraceMemory:
         c = self.cache
         out: dict = {"resident": {"accesses": self.resident_accesses, "words": self.resident_words},
                      "cache": {"accesses": c.accesses, "hits": c.hits, "misses": c.misses,
-                               "sets": c.sets, "block_bytes": c.block_bytes},
+                               "sets": c.sets, "ways": c.ways, "block_bytes": c.block_bytes},
                      "global": {"accesses": c.misses}}
         regions = {}
         for key, (a, h, m) in self.region_counts.items():
@@ -256,14 +252,14 @@ def ordered_stream_chunks(layout: DatabaseLayout, result, order: np.ndarray | No
 # Many configurations at once: the run-collapsed stream
 
 
-@njit(cache=True, nogil=True)
+@njit(nogil=True)
 def _replay_point(first, span, loads, prim, segment, fetch_is_reference, fetch_prim, resident, shift,
-                  tags, word_bytes, block_bytes, lists_cached):  # pragma: no cover - compiled
+                  tags, ways, word_bytes, block_bytes, lists_cached):  # pragma: no cover - compiled
     """One configuration's cache over one chunk of runs, in stream order: (hits of record
     loads, hits of list loads, references through the cache whose every block hit). A run's
-    first load of each block is a real access; its other loads of that block hit. A direct-mapped
-    cache is one tag per set: a loop is exact and linear (the vectorised `replay_blocks` sorts)."""
-    sets = len(tags)
+    first load of each block is a real access; its other loads of that block hit (the block is
+    the set's most recent line then, so LRU order is unchanged)."""
+    sets = len(tags) // ways
     missed = np.zeros(len(fetch_is_reference), np.bool_)
     h_shape = 0
     h_list = 0
@@ -282,12 +278,9 @@ def _replay_point(first, span, loads, prim, segment, fetch_is_reference, fetch_p
         hits = loads[i] - (b2 - b1 + 1)
         miss = False
         for b in range(b1, b2 + 1):
-            st = b % sets
-            tag = b // sets
-            if tags[st] == tag:
+            if _touch(tags, (b % sets) * ways, ways, b // sets):
                 hits += 1
             else:
-                tags[st] = tag
                 miss = True
         if p < 0:
             h_list += hits
@@ -315,13 +308,15 @@ class SweepPoint:
     layout: DatabaseLayout
     cache_bytes: int
     block_bytes: int
+    ways: int = 1
     tags: np.ndarray = field(init=False)
     resident: np.ndarray = field(init=False)  # (N,) bool
     shift: np.ndarray = field(init=False)  # (N,) ICGM address − reference ICGM address
     counts: dict[str, int] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        self.tags = np.full(self.cache_bytes // self.block_bytes, -1, np.int64)
+        self.tags = np.full(self.cache_bytes // (self.block_bytes * self.ways) * self.ways, -1,
+                            np.int64)
         self.resident = self.layout.record_space == RESIDENT
         for k in COUNT_KEYS:
             self.counts[k] = 0
@@ -436,7 +431,7 @@ class SweepStream:
                 continue
             h_shape, h_list, ref_hits = _replay_point(
                 first, span, loads, prim, seg, refs, fetch_prim, pt.resident, pt.shift, pt.tags,
-                self.wb, pt.block_bytes, self.lists_cached)
+                pt.ways, self.wb, pt.block_bytes, self.lists_cached)
             c["hits.shape_data"] += int(h_shape)
             c["hits.primitive_list"] += int(h_list)
             c["ref.hits"] += int(ref_hits)

@@ -32,14 +32,14 @@ _C = _enum("PC HALTED HOLD_UNTIL HOLD_MEM_UNTIL HOLD_CAUSE HOLD_PC CYCLES BUNDLE
            "LAST_ISSUED CAUSE PRESENT NB WPORTS PENALTY PE T_LOCAL T_R T_C T_G SEG_LOCAL "
            "SEG_RES SEG_GLOBAL CACHE_SETS CACHE_OFF BLOCK_BYTES WORD_BYTES LOCAL_READS "
            "LOCAL_WRITES RES_READS CACHE_ACC CACHE_HITS CACHE_MISSES GLOBAL_ACC WAKE WAKE_CAUSE NPEND "
-           "FIFOWAIT BSHIFT SSHIFT BUSYMAX SLEEP RUN_N RUN_PC RUN_CAUSE AHEAD AHEAD_ISSUED AHEAD_CAUSE")
+           "FIFOWAIT BSHIFT SSHIFT BUSYMAX SLEEP RUN_N RUN_PC RUN_CAUSE AHEAD AHEAD_ISSUED AHEAD_CAUSE CACHE_WAYS")
 (C_PC, C_HALTED, C_HOLD_UNTIL, C_HOLD_MEM_UNTIL, C_HOLD_CAUSE, C_HOLD_PC, C_CYCLES, C_BUNDLES,
  C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY, C_PE,
  C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL, C_CACHE_SETS,
  C_CACHE_OFF, C_BLOCK_BYTES, C_WORD_BYTES, C_LOCAL_READS, C_LOCAL_WRITES, C_RES_READS,
  C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE,
  C_NPEND, C_FIFOWAIT, C_BSHIFT, C_SSHIFT, C_BUSYMAX, C_SLEEP, C_RUN_N, C_RUN_PC,
- C_RUN_CAUSE, C_AHEAD, C_AHEAD_ISSUED, C_AHEAD_CAUSE) = range(len(_C))
+ C_RUN_CAUSE, C_AHEAD, C_AHEAD_ISSUED, C_AHEAD_CAUSE, C_CACHE_WAYS) = range(len(_C))
 """C_WAKE, C_WAKE_CAUSE: derived, not written back — a processor stalled on an operand, a
 destination or a busy unit stalls for that same cause until the cycle C_WAKE (nothing but its
 own issue changes what those checks read), so the loop charges those cycles without checking.
@@ -492,11 +492,12 @@ def flatten(machine: Machine) -> State:
         if mem.cache is not None:
             c = mem.cache
             cs[p, C_CACHE_SETS] = c.sets
+            cs[p, C_CACHE_WAYS] = c.ways
             cs[p, C_CACHE_OFF] = tag_off
             cs[p, C_BLOCK_BYTES] = c.block_bytes
             cs[p, C_WORD_BYTES] = c.word_bytes
             tags.append(c.tags.astype(np.int64))
-            tag_off += c.sets
+            tag_off += len(c.tags)
             per_block = c.block_bytes // c.word_bytes
             cs[p, C_BSHIFT] = per_block.bit_length() - 1 if c.block_bytes % c.word_bytes == 0 \
                 and per_block & (per_block - 1) == 0 else -1
@@ -743,7 +744,7 @@ def write_back(st: State, machine: Machine) -> None:
         if mem.cache is not None:
             c = mem.cache
             o = int(cs[C_CACHE_OFF])
-            c.tags[:] = a["ctags"][o:o + c.sets]
+            c.tags[:] = a["ctags"][o:o + len(c.tags)]
         for sp, counts in enumerate(_counters(mem)):
             if counts is _EMPTY:
                 continue

@@ -2,9 +2,9 @@
 
 Per scene: the golden model renders with its IC reference trace (`host/golden.py`), the
 pre-pass (`host/prepass.py`) gives the priorities, and the trace — in the machine's serial
-order (`tracesim.machine_order`) and as the IC access protocol's load stream
+order (`host.ic_access.machine_order`) and as the IC access protocol's load stream
 (`host/ic_access.py`) — is replayed once through every memory configuration of the sweeps
-(`tracesim.SweepStream`): no cycle-accurate emulation. Each configuration is laid out by
+(`emulator.tracesim.SweepStream`): no cycle-accurate emulation. Each configuration is laid out by
 `host.databases.plan_layout` with the pre-pass priorities, so resident vs cache and every ICGM
 address are the ones the machine would get for that split.
 
@@ -37,7 +37,8 @@ from netsushisen.host.golden import render
 from netsushisen.host.grid import build_grid
 from netsushisen.host.prepass import run_prepass
 from netsushisen.isa.config import MachineConfig
-from netsushisen.reports.tracesim import SweepPoint, SweepStream, machine_order, ordered_stream_chunks
+from netsushisen.emulator.tracesim import SweepPoint, SweepStream
+from netsushisen.host.ic_access import machine_order, ordered_stream_chunks
 
 PAPER_SCENES = ("tetra", "balls", "mount", "rings")
 CACHE_SHARES = tuple(round(0.1 * i, 2) for i in range(1, 11))  # Figure 4

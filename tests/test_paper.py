@@ -22,7 +22,8 @@ from netsushisen.reports import paper as paper_mod
 from netsushisen.reports.paper import table2
 from netsushisen.reports.paper_data import PaperOptions, analyse_scene
 from netsushisen.reports.paper_machine import compare_counters
-from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
+from netsushisen.emulator.tracesim import TraceMemory
+from netsushisen.host.ic_access import machine_order, ordered_stream_chunks
 
 # ------------------------------------------------------------------------------------------------
 # End to end: the trace-driven path equals the emulator's counters (needs the stage kernels)

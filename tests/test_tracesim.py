@@ -1,4 +1,4 @@
-"""The trace-driven memory model (reports/tracesim.py) against the emulator's own memory system
+"""The trace-driven memory model (emulator/tracesim.py) against the emulator's own memory system
 (emulator/memories.py) driven access by access with the same stream: counters must be equal,
 for several cache and block sizes, fp32 and fp64; the run-collapsed sweep must equal the full
 model; the machine's ray order is level order per pixel."""
@@ -17,8 +17,8 @@ from netsushisen.host.golden import SHADOW, render
 from netsushisen.host.grid import build_grid
 from netsushisen.host.prepass import priorities_from_counts
 from netsushisen.isa.config import load_config
-from netsushisen.reports.tracesim import (SweepPoint, SweepStream, TraceMemory, machine_order,
-                                          ordered_stream_chunks, replay_blocks)
+from netsushisen.emulator.tracesim import SweepPoint, SweepStream, TraceMemory, replay_blocks
+from netsushisen.host.ic_access import machine_order, ordered_stream_chunks
 
 GLOBAL_WORDS, RESIDENT_WORDS = 4096, 512
 
@@ -282,3 +282,39 @@ def test_sweep_counts_per_reference_like_a_plain_replay(small_render, lists_cach
         assert f["ref"]["loads"] == int(g.references.sum())
     assert points[0].counts["ref.hits"] < points[0].counts["ref.cache"]  # some reference misses
     assert points[1].counts["ref.resident"] > 0 and points[2].counts["ref.hits"] == 0
+
+
+# ------------------------------------------------------------------------------------------------
+# One address-to-region rule, one cache rule
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 400), st.integers(1, 9)), max_size=30),
+       st.lists(st.integers(-5, 500), min_size=1, max_size=200))
+def test_region_indices_are_lookup_for_many_addresses(spans, addresses):
+    """RegionMap.indices (the trace-driven model, per chunk) is RegionMap.lookup (the
+    reference engine, per load) for every address."""
+    regs, end = [], 0
+    for k, (gap, size) in enumerate(spans):
+        regs.append(Region(end + gap, end + gap + size, f"r{k % 3}", k if k % 2 else None))
+        end += gap + size
+    rmap = RegionMap(regs)
+    got = rmap.indices(np.array(addresses))
+    want = [rmap.regions.index(r) if (r := rmap.lookup(a)) is not None else -1 for a in addresses]
+    assert got.tolist() == want
+
+
+def test_the_models_import_nothing_above_the_machine():
+    """emulator/tracesim.py and emulator/cacherule.py read the host's layouts without importing
+    host/ (or reports/): the machine's side imports only isa/ and itself."""
+    import ast
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1] / "emulator"
+    for name in ("tracesim.py", "cacherule.py", "memories.py"):
+        tree = ast.parse((root / name).read_text())
+        mods = [n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.module]
+        mods += [a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names]
+        ours = [m for m in mods if m.startswith("netsushisen")]
+        assert all(m.startswith(("netsushisen.emulator", "netsushisen.isa")) for m in ours), \
+            (name, ours)

@@ -45,12 +45,13 @@ from netsushisen.reports.paper_plots import write_csvs, write_figures
 
 def machine_check(scene: str, res: int, config, engine: str, corners: bool = False) -> dict:
     """Render `scene` on the machine in the serial ray-tree mode (SLOTS=1, SERIAL_TREES=1: one
-    ray tree in flight, so IC sees the golden trace's rays in `tracesim.machine_order`) and
+    ray tree in flight, so IC sees the golden trace's rays in `ic_access.machine_order`) and
     compare IC's counters with the trace-driven path's for the same images. Runs in a worker
     process: module-level, picklable arguments."""
     from netsushisen.host.golden import render as golden_render
     from netsushisen.pipeline import render
-    from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
+    from netsushisen.emulator.tracesim import TraceMemory
+    from netsushisen.host.ic_access import machine_order, ordered_stream_chunks
 
     t0 = time.perf_counter()
     r = render(scene, config, res=res, corners=corners, slots=1, defines={"SERIAL_TREES": 1}, engine=engine)

@@ -10,26 +10,32 @@ bytes misses every time; and it keeps the same counters in the same dictionary s
 `MemorySystem.stats()` (resident, cache, global, per-region and per-primitive counts; there is
 no local memory in a trace).
 
-`machine_order` gives the order in which the machine's serial mode (`SLOTS=1`,
-`SERIAL_TREES=1`) visits the golden trace's rays, `ordered_stream_chunks` the IC stream in that
-order, and `SweepStream` replays one trace under many memory configurations at once (the paper's
-Figures 4 and 5) from a run-collapsed form of the stream.
+The stream in the machine's ray order comes from the host (`host/ic_access.py`:
+`machine_order`, `ordered_stream_chunks`); `SweepStream` replays one trace under many memory
+configurations at once (the paper's Figures 4 and 5) from a run-collapsed form of the stream.
+
+It lives beside the machine's memories and shares their definitions: the cache rule
+(`emulator/cacherule.py`), the sizes (`memories.memory_levels`) and the address-to-region rule
+(`isa.regions.RegionMap`, whose `lookup` the reference engine calls per load and whose
+`indices` this model calls per chunk). It imports nothing from the host: a layout is anything
+with the `record_space`, `record_address` and `list_words` of `host.databases.DatabaseLayout`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Iterable, Iterator
+from typing import Any, Iterable
 
 import numpy as np
 from numba import njit
 
-from netsushisen.host.databases import GLOBAL, RESIDENT, DatabaseLayout
-from netsushisen.host.golden import SHADOW
-from netsushisen.host.ic_access import ic_address_stream
-from netsushisen.host.records import ranges
 from netsushisen.emulator import cacherule
-from netsushisen.isa.regions import Region
+from netsushisen.emulator.memories import memory_levels
+from netsushisen.isa.regions import GLOBAL, RESIDENT, Region, RegionMap
+
+DatabaseLayout = Any
+"""A host.databases.DatabaseLayout (record_space, record_address, list_words): read, not typed
+here, so the machine's side imports nothing from the host."""
 
 SPACES = {GLOBAL: "global", RESIDENT: "resident"}
 
@@ -88,27 +94,26 @@ class TraceCache:
 
 
 class VectorRegions:
-    """A region map (`isa.regions.RegionMap`'s ranges) looked up for many addresses at once."""
+    """A region map looked up for many addresses at once (`RegionMap.indices`: the rule the
+    reference engine's `RegionMap.lookup` applies per load), with region names numbered in a
+    list shared by the maps of one memory system."""
 
     def __init__(self, regions: Iterable[Region], names: list[str]):
-        regs = sorted(regions, key=lambda r: r.start)
-        self.starts = np.array([r.start for r in regs], np.int64)
-        self.ends = np.array([r.end for r in regs], np.int64)
-        for r in regs:
+        self.map = RegionMap(regions)
+        for r in self.map.regions:
             if r.name not in names:
                 names.append(r.name)
-        self.name = np.array([names.index(r.name) for r in regs], np.int64)
-        self.primitive = np.array([-1 if r.primitive is None else r.primitive for r in regs], np.int64)
+        self.name = np.array([names.index(r.name) for r in self.map.regions], np.int64)
+        self.primitive = np.array([-1 if r.primitive is None else r.primitive
+                                   for r in self.map.regions], np.int64)
 
     def lookup(self, addresses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(name index or -1, primitive id or -1) of each address."""
-        a = np.asarray(addresses, np.int64)
-        if not len(self.starts):
-            return np.full(len(a), -1, np.int64), np.full(len(a), -1, np.int64)
-        i = np.searchsorted(self.starts, a, side="right") - 1
+        i = self.map.indices(addresses)
         j = np.maximum(i, 0)
-        inside = (i >= 0) & (a < self.ends[j])
-        return np.where(inside, self.name[j], -1), np.where(inside, self.primitive[j], -1)
+        if not len(self.name):
+            return i, i.copy()
+        return np.where(i >= 0, self.name[j], -1), np.where(i >= 0, self.primitive[j], -1)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -142,10 +147,11 @@ class TraceMemory:
         mc = images.config.ic_memory if proc == "ic" else images.config.sc_memory
         wb = images.config.word_bytes
         glob = images.icgm if proc == "ic" else images.scgm
-        return cls(mc.cache_bytes, mc.block_bytes, wb, mc.resident_bytes // wb,
+        cache = memory_levels(mc, len(glob), wb)[1].cache
+        return cls(cache.capacity, cache.block_bytes, wb, mc.resident_bytes // wb,
                    {"resident": images.regions.get(f"{proc}.resident", []),
                     "global": images.regions.get(f"{proc}.global", [])}, global_words=len(glob),
-                   ways=mc.cache_ways)
+                   ways=cache.ways)
 
     def _count(self, space: str, address: np.ndarray, hits: np.ndarray | None) -> None:
         name, prim = self.maps[space].lookup(address)
@@ -200,52 +206,6 @@ class TraceMemory:
         if prims:
             out["primitives"] = prims
         return out
-
-
-# ------------------------------------------------------------------------------------------------
-# The machine's ray order and the IC stream in that order
-
-
-def ray_generation(result) -> np.ndarray:
-    """Generation of each traced ray in its pixel's ray tree: the eye ray 0; a surface ray of
-    depth k: k − 1; a shadow ray of a depth-k hit (it carries depth k): k."""
-    depth = result.trace_depth.astype(np.int64)
-    return np.where(result.trace_kind == SHADOW, depth, depth - 1)
-
-
-def machine_order(result) -> np.ndarray:
-    """The golden trace's ray indices in the order the machine's serial mode visits them: pixel
-    by pixel, each pixel's ray tree in level order (the eye ray; its children in spawn order —
-    shadow rays by light, reflection, refraction; then their children in the same order, ...).
-
-    The trace is depth-first (rays sorted by their tree path); within one generation of one
-    pixel, depth-first order and level order are the same order (both sort the equal-length
-    paths lexicographically), so a stable sort by (pixel, generation) gives level order."""
-    if result.trace_kind is None:
-        raise ValueError("render with keep_trace=True to get the IC reference trace")
-    return np.lexsort((ray_generation(result), result.trace_pixel)).astype(np.int64)
-
-
-def ordered_stream_chunks(layout: DatabaseLayout, result, order: np.ndarray | None = None,
-                          rays_per_chunk: int = 32768, hits: bool = True
-                          ) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """The IC access stream (`ic_address_stream`) of the golden trace's rays taken in `order`
-    (default: the trace's depth-first order), in chunks of rays."""
-    if result.trace_prims is None:
-        raise ValueError("render with keep_trace=True to get the IC reference trace")
-    off = result.trace_ray_offsets
-    n = len(off) - 1
-    order = np.arange(n) if order is None else np.asarray(order, np.int64)
-    for c0 in range(0, len(order), rays_per_chunk):
-        rays = order[c0:c0 + rays_per_chunk]
-        length = off[rays + 1] - off[rays]
-        idx = ranges(off[rays], length)
-        new_off = np.concatenate([[0], np.cumsum(length)])
-        if hits:
-            yield ic_address_stream(layout, result.trace_prims[idx], result.trace_leaves[idx], new_off,
-                                    result.trace_hit[rays], result.trace_hit_fan[rays])
-        else:
-            yield ic_address_stream(layout, result.trace_prims[idx], result.trace_leaves[idx])
 
 
 # ------------------------------------------------------------------------------------------------

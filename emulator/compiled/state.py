@@ -327,6 +327,11 @@ flight, queues, memories, counters by region and PC — are structures flatten a
 convert explicitly, and canonical compares whole)."""
 
 
+def _new(name: str, shape, fill: int = 0) -> np.ndarray:
+    """Array `name` of ARRAYS, of its declared dtype, filled with `fill`."""
+    return np.full(shape, fill, ARRAYS[name].dtype)
+
+
 def _words(a: np.ndarray) -> np.ndarray:
     """Raw words: uint32 kept (fp32 words; half the bytes of the scene's databases in the
     cache, and read into an int64 register they widen exactly), uint64 reinterpreted as int64."""
@@ -361,34 +366,34 @@ def flatten(machine: Machine) -> State:
         W *= 2
 
     a: dict = {}
-    cs = np.zeros((P, N_C), np.int64)
-    regs = np.zeros((P, 64), np.int64)
-    ready = np.zeros((P, 64), np.int64)
-    prod = np.full((P, 64), -1, np.int64)
-    wbn = np.zeros((P, W), np.int64)
-    wbr = np.zeros((P, W, 4), np.int64)
-    wbw = np.zeros((P, W, 4), np.int64)
-    busy = np.zeros((P, 2, 4), np.int64)
-    occ = np.full((P, 2, 4), -1, np.int64)
-    unitn = np.zeros((P, 2), np.int64)
-    stpc = np.zeros((P, NB, len(CAUSES)), np.int64)
-    bpc = np.zeros((P, NB), np.int64)
-    ops = np.zeros((P, NB, MAXOPS, N_O), np.int32)  # small fields: half the cache footprint
-    opk = np.zeros((P, NB, MAXOPS, 2), np.int64)  # the integer immediate and memory offset
-    opf = np.zeros((P, NB, MAXOPS), np.float64)  # the float immediate
-    bun = np.zeros((P, NB, N_B), np.int32)
-    recvq = np.full((P, 3), -1, np.int64)
-    sendq = np.full((P, 3), -1, np.int64)
+    cs = _new("cs", (P, N_C))
+    regs = _new("regs", (P, 64))
+    ready = _new("ready", (P, 64))
+    prod = _new("prod", (P, 64), -1)
+    wbn = _new("wbn", (P, W))
+    wbr = _new("wbr", (P, W, 4))
+    wbw = _new("wbw", (P, W, 4))
+    busy = _new("busy", (P, 2, 4))
+    occ = _new("occ", (P, 2, 4), -1)
+    unitn = _new("unitn", (P, 2))
+    stpc = _new("stpc", (P, NB, len(CAUSES)))
+    bpc = _new("bpc", (P, NB))
+    ops = _new("ops", (P, NB, MAXOPS, N_O))  # small fields: half the cache footprint
+    opk = _new("opk", (P, NB, MAXOPS, 2))  # the integer immediate and memory offset
+    opf = _new("opf", (P, NB, MAXOPS))  # the float immediate
+    bun = _new("bun", (P, NB, N_B))
+    recvq = _new("recvq", (P, 3), -1)
+    sendq = _new("sendq", (P, 3), -1)
 
     # FIFOs, in each PE's fixed order
     fifos = [f for pe in machine.pes for f in pe.ring.fifos()]
     fid = {id(f): i for i, f in enumerate(fifos)}
     # each FIFO a ring buffer of a power-of-two size (loop.py wraps its indices with a mask)
     cap = 1 << (max(f.capacity for f in fifos) - 1).bit_length()
-    fq = np.zeros((len(fifos), 14), np.int64)
-    fbt = np.zeros((len(fifos), cap), np.int64)
-    fbw = np.zeros((len(fifos), cap), np.int64)
-    pw = np.zeros((npes, W_WAKE + 3), np.int64)
+    fq = _new("fq", (len(fifos), 14))
+    fbt = _new("fbt", (len(fifos), cap))
+    fbw = _new("fbw", (len(fifos), cap))
+    pw = _new("pw", (npes, W_WAKE + 3))
     cmu_input = {id(f): (s, k) for pe in machine.pes for s, cmu in enumerate(pe.ring.cmus)
                  for k, f in enumerate(cmu.inputs)}
     per_pe = len(fifos) // npes
@@ -418,7 +423,7 @@ def flatten(machine: Machine) -> State:
     gseg = {stage: add_seg(g.words) for stage, g in machine.globals.items()}
     region_names: list[str] = []
     rg_parts: list[tuple[int, int]] = []  # per region: (name id, primitive or -1)
-    rmap = np.zeros((P, 3, 2), np.int64)
+    rmap = _new("rmap", (P, 3, 2))
     rmap[:, :, 1] = -1
     max_prim = 0
     tags: list[np.ndarray] = []
@@ -464,8 +469,8 @@ def flatten(machine: Machine) -> State:
     # side by side (one cache line per counted access)
     rg = np.array(rg_parts, np.int32) if rg_parts else np.zeros((1, 2), np.int32)
     rdense = np.concatenate(dense_parts) if dense_parts else np.zeros(1, np.int32)
-    rcnt = np.zeros((P, 3, max(len(region_names), 1), 3), np.int64)
-    pcnt = np.zeros((P, 3, max(max_prim, 1)), np.int64)
+    rcnt = _new("rcnt", (P, 3, max(len(region_names), 1), 3))
+    pcnt = _new("pcnt", (P, 3, max(max_prim, 1)))
 
     for p, core in enumerate(cores):
         mem = core.memory
@@ -537,14 +542,14 @@ def flatten(machine: Machine) -> State:
     # CMUs and links
     K = 3 * npes
     nin = max(len(cmu.inputs) for pe in machine.pes for cmu in pe.ring.cmus)
-    cm = np.zeros((K, 8), np.int64)
-    cin = np.zeros((K, nin), np.int64)
-    cout = np.zeros((K, nin), np.int64)
-    route = np.full((K, nin), _ROUTE_NONE, np.int64)
-    rem = np.zeros((K, nin), np.int64)
-    lown = np.full((K, nin), -1, np.int64)
-    linkw = np.zeros(K, np.int64)
-    pes = np.zeros((npes, 6), np.int64)
+    cm = _new("cm", (K, 8))
+    cin = _new("cin", (K, nin))
+    cout = _new("cout", (K, nin))
+    route = _new("route", (K, nin), _ROUTE_NONE)
+    rem = _new("rem", (K, nin))
+    lown = _new("lown", (K, nin), -1)
+    linkw = _new("linkw", K)
+    pes = _new("pes", (npes, 6))
     for i, pe in enumerate(machine.pes):
         for s, stage in enumerate(STAGES):
             m = 3 * i + s
@@ -563,20 +568,20 @@ def flatten(machine: Machine) -> State:
                   fid[id(pe.ring.host)], fid[id(pe.ring.col)])
 
     d = machine.dis
-    moff = np.zeros(len(d.messages) + 1, np.int64)
+    moff = _new("moff", len(d.messages) + 1)
     for k, msg in enumerate(d.messages):
         moff[k + 1] = moff[k] + len(msg)
     mwords = np.array([_as_signed(int(w) & mask) for msg in d.messages for w in msg] or [0],
                       np.int64)
     col = machine.col
-    cpart = np.zeros((npes, 8), np.int64)
-    cplen = np.zeros(npes, np.int64)
+    cpart = _new("cpart", (npes, 8))
+    cplen = _new("cplen", npes)
     for i, part in enumerate(col.partial):
         cplen[i] = len(part)
         for k, w in enumerate(part):
             cpart[i, k] = _as_signed(int(w) & mask)
 
-    seg = np.zeros((len(segs), 2), np.int64)
+    seg = _new("seg", (len(segs), 2))
     off = 0
     for i, s in enumerate(segs):
         seg[i] = (off, len(s))

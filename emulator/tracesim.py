@@ -136,7 +136,8 @@ class TraceMemory:
         self.resident_accesses = 0
         self.names: list[str] = []
         regions = regions or {}
-        self.maps = {space: VectorRegions(regions.get(space, ()), self.names) for space in ("resident", "global")}
+        self.maps = {space: VectorRegions(regions.get(space, ()), self.names)
+                     for space in ("resident", "global")}
         self.region_counts: dict[str, np.ndarray] = {}  # "space.name" -> [accesses, hits, misses]
         self.primitive_counts = np.zeros(0, np.int64)
 
@@ -179,7 +180,8 @@ class TraceMemory:
         address = np.asarray(address, np.int64)
         res = space == RESIDENT
         ra, ga = address[res], address[~res]
-        for what, a, bound in (("resident", ra, self.resident_words), ("global", ga, self.global_words)):
+        for what, a, bound in (("resident", ra, self.resident_words),
+                               ("global", ga, self.global_words)):
             if bound is not None and len(a) and (a.min() < 0 or a.max() >= bound):
                 bad = int(a[(a < 0) | (a >= bound)][0])
                 raise ValueError(f"{what} memory address {bad} is outside 0..{bound - 1}")
@@ -213,8 +215,8 @@ class TraceMemory:
 
 
 @njit(nogil=True)
-def _replay_point(first, span, loads, prim, segment, fetch_is_reference, fetch_prim, resident, shift,
-                  tags, ways, word_bytes, block_bytes, lists_cached):  # pragma: no cover - compiled
+def _replay_point(first, span, loads, prim, segment, fetch_is_reference, fetch_prim, resident,
+                  shift, tags, ways, word_bytes, block_bytes, lists_cached):  # pragma: no cover - compiled
     """One configuration's cache over one chunk of runs, in stream order: (hits of record
     loads, hits of list loads, references through the cache whose every block hit). A run's
     first load of each block is a real access; its other loads of that block hit (the block is
@@ -295,8 +297,8 @@ class Runs:
     span: np.ndarray  # last − first
     loads: np.ndarray  # loads in the run
     prim: np.ndarray  # primitive of a record run, -1 for a list-cell run
-    segment: np.ndarray  # record runs: index of their fetch (consecutive runs of one record), else -1
-    fetch_is_reference: np.ndarray  # per fetch: it follows a list cell (a test), not a winner's hit words
+    segment: np.ndarray  # record runs: their fetch (consecutive runs of one record), else -1
+    fetch_is_reference: np.ndarray  # per fetch: after a list cell (a test), not a winner's hit words
 
 
 class SweepStream:

@@ -185,7 +185,7 @@ def ordered_stream_chunks(layout: DatabaseLayout, result, order: np.ndarray | No
         idx = ranges(off[rays], length)
         new_off = np.concatenate([[0], np.cumsum(length)])
         if hits:
-            yield ic_address_stream(layout, result.trace_prims[idx], result.trace_leaves[idx], new_off,
-                                    result.trace_hit[rays], result.trace_hit_fan[rays])
+            yield ic_address_stream(layout, result.trace_prims[idx], result.trace_leaves[idx],
+                                    new_off, result.trace_hit[rays], result.trace_hit_fan[rays])
         else:
             yield ic_address_stream(layout, result.trace_prims[idx], result.trace_leaves[idx])

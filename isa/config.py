@@ -166,7 +166,8 @@ class MachineConfig:
             elif ways in (1, 2, 4, 8) and mem.cache_bytes % max(b * ways, 1):
                 whole = f"block_bytes ({b})" if ways == 1 else \
                     f"block_bytes × cache_ways ({b} × {ways}: whole sets)"
-                problems.append(f"{name}.cache_bytes ({mem.cache_bytes}) must be a multiple of {whole}")
+                problems.append(f"{name}.cache_bytes ({mem.cache_bytes}) must be a multiple of "
+                                f"{whole}")
             for share in ("cache_share", "resident_share"):
                 v = getattr(mem, share)
                 if v is not None and not 0.0 <= v <= 1.0:

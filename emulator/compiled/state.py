@@ -32,7 +32,8 @@ _C = _enum("PC HALTED HOLD_UNTIL HOLD_MEM_UNTIL HOLD_CAUSE HOLD_PC CYCLES BUNDLE
            "LAST_ISSUED CAUSE PRESENT NB WPORTS PENALTY PE T_LOCAL T_R T_C T_G SEG_LOCAL "
            "SEG_RES SEG_GLOBAL CACHE_SETS CACHE_OFF BLOCK_BYTES WORD_BYTES LOCAL_READS "
            "LOCAL_WRITES RES_READS CACHE_ACC CACHE_HITS CACHE_MISSES GLOBAL_ACC WAKE WAKE_CAUSE NPEND "
-           "FIFOWAIT BSHIFT SSHIFT BUSYMAX SLEEP RUN_N RUN_PC RUN_CAUSE AHEAD AHEAD_ISSUED AHEAD_CAUSE CACHE_WAYS")
+           "FIFOWAIT BSHIFT SSHIFT BUSYMAX SLEEP RUN_N RUN_PC RUN_CAUSE AHEAD AHEAD_ISSUED AHEAD_CAUSE "
+           "CACHE_WAYS")
 (C_PC, C_HALTED, C_HOLD_UNTIL, C_HOLD_MEM_UNTIL, C_HOLD_CAUSE, C_HOLD_PC, C_CYCLES, C_BUNDLES,
  C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY, C_PE,
  C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL, C_CACHE_SETS,
@@ -183,7 +184,8 @@ ARRAYS: dict[str, Array] = {
     "occ": Array("int64", "(P, 2, 4)"), "unitn": Array("int64", "(P, 2)", True),
     "stpc": Array("int64", "(P, NB, causes)"), "bpc": Array("int64", "(P, NB)"),
     "ops": Array("int32", "(P, NB, slots, N_O) O_*", True),
-    "opk": Array("int64", "(P, NB, slots, 2)", True), "opf": Array("float64", "(P, NB, slots)", True),
+    "opk": Array("int64", "(P, NB, slots, 2)", True),
+    "opf": Array("float64", "(P, NB, slots)", True),
     "bun": Array("int32", "(P, NB, N_B) B_*", True), "recvq": Array("int64", "(P, 3)", True),
     "sendq": Array("int64", "(P, 3)", True), "fq": Array("int64", "(F, 14) Q_*"),
     "fbt": Array("int64", "(F, capacity)"), "fbw": Array("int64", "(F, capacity)"),
@@ -310,7 +312,8 @@ LAYOUT: tuple[Component, ...] = (
     Component("cs", (Field(C_GLOBAL_ACC, "global_accesses"),), _part("memory", "memory")),
     Component("cs", (Field(C_CACHE_ACC, "accesses"), Field(C_CACHE_HITS, "hits"),
                      Field(C_CACHE_MISSES, "misses")), _part("cache", "cache")),
-    Component("fq", (Field(Q_POPC, "pop_cycle", compare=False), Field(Q_POPS, "pops", compare=False),
+    Component("fq", (Field(Q_POPC, "pop_cycle", compare=False),
+                     Field(Q_POPS, "pops", compare=False),
                      Field(Q_PEAK, "peak"), Field(Q_TOTAL, "total")), _fifos),
     Component("cm", (Field(M_RECV_OWNER, "recv_owner"), Field(M_MOVED, "moved")), _cmus),
     Component("pes", (Field(P_MOVED, "ring_moved", "bool", False),

@@ -20,6 +20,7 @@ from its progress callback (between cycles or chunks) and ended with `interrupt(
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from typing import Callable
 
 import numpy as np
@@ -36,40 +37,37 @@ Progress = Callable[[int], None]
 """Called now and then during a run with the machine cycle reached."""
 
 
-class Engine:
-    """The interface (and the reference engine's implementation of it).
+class Engine(ABC):
+    """The interface: how a run is made (`run`, `step`: each engine's own) and how it is read
+    (everything else: shared).
 
-    State lives in a reference `Machine`; an engine that computes elsewhere writes its state
-    back into that machine before any read, so the readers below are shared by every engine.
+    State lives in a reference `Machine` (built here: validation, decoding and memory images
+    are one code path for every engine); an engine that computes elsewhere writes its state
+    back into that machine before any read, so the readers below serve every engine. An engine
+    reaches the machine only through its public methods.
     """
 
-    name = "reference"
+    name: str = ""
 
     def __init__(self, config: MachineConfig, programs: dict[str, Program | None],
                  image: MemoryImage | None = None):
         self.machine = Machine(config, programs, image)
         self.config = self.machine.config
 
-    # -- running -------------------------------------------------------------------------------
+    # -- running (each engine's own) -----------------------------------------------------------
 
+    @abstractmethod
     def run(self, max_cycles: int | None = None, progress: Progress | None = None,
             every: int = 20000) -> RunResult:
         """Run until the machine ends (halted, finished, fault, deadlock) or `max_cycles`
-        (default: config.max_cycles; 0 = none) cycles have run."""
-        m = self.machine
-        if progress is None:
-            return m.run(max_cycles)
-        limit = self.config.max_cycles if max_cycles is None else max_cycles
-        every = max(every, 1)
-        with np.errstate(all="ignore"):  # as Machine.step, once for the whole run
-            while m.status is None:
-                if limit and m.cycle >= limit:
-                    return m.run(max_cycles)  # records the cycle-limit end
-                m._step()
-                if m.cycle % every == 0:
-                    progress(m.cycle)  # between cycles: an exception here leaves a whole cycle
-        progress(m.cycle)
-        return self.result()
+        (default: config.max_cycles; 0 = none) cycles have run; `progress(cycle)` is called
+        about every `every` cycles (an exception it raises stops the run with a whole machine
+        behind)."""
+
+    @abstractmethod
+    def step(self, cycles: int = 1) -> str | None:
+        """Run `cycles` cycles (fewer if the run ends); the status once ended, else None.
+        Stepping is not a cycle limit: a run stepped to any cycle goes on."""
 
     def interrupt(self) -> RunResult:
         """End a run stopped from outside — Ctrl-C, as a KeyboardInterrupt out of `run` raised
@@ -81,15 +79,6 @@ class Engine:
         if m.status is None:
             m.status = "interrupted"
         return self.result()
-
-    def step(self, cycles: int = 1) -> str | None:
-        """Run `cycles` cycles (fewer if the run ends); the status once ended, else None."""
-        status = None
-        for _ in range(cycles):
-            status = self.machine.step()
-            if status is not None:
-                break
-        return status
 
     @property
     def host_messages(self) -> int:
@@ -192,7 +181,36 @@ class Engine:
         raise KeyError(f"no memory space {space!r} (local, resident, global)")
 
 
-ReferenceEngine = Engine
+class ReferenceEngine(Engine):
+    """The specification: the reference `Machine` stepped cycle by cycle in plain Python."""
+
+    name = "reference"
+
+    def run(self, max_cycles: int | None = None, progress: Progress | None = None,
+            every: int = 20000) -> RunResult:
+        m = self.machine
+        if progress is None:
+            return m.run(max_cycles)
+        limit = self.config.max_cycles if max_cycles is None else max_cycles
+        every = max(every, 1)
+        with np.errstate(all="ignore"):  # as Machine.step, once for the whole run
+            while m.status is None:
+                if limit and m.cycle >= limit:
+                    return m.run(max_cycles)  # records the cycle-limit end
+                m.step_unguarded()
+                if m.cycle % every == 0:
+                    progress(m.cycle)  # between cycles: an exception here leaves a whole cycle
+        progress(m.cycle)
+        return self.result()
+
+    def step(self, cycles: int = 1) -> str | None:
+        status = None
+        for _ in range(cycles):
+            status = self.machine.step()
+            if status is not None:
+                break
+        return status
+
 
 ENGINES: dict[str, Callable[..., Engine]] = {"reference": ReferenceEngine}
 """Engines by name; the compiled and tandem engines register themselves when importable."""

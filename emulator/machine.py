@@ -237,9 +237,11 @@ class Machine:
     def step(self) -> str | None:
         """Run one cycle; returns the run's status once it has ended (else None)."""
         with np.errstate(all="ignore"):  # IEEE results (±inf, NaN) are the semantics, not errors
-            return self._step()
+            return self.step_unguarded()
 
-    def _step(self) -> str | None:
+    def step_unguarded(self) -> str | None:
+        """`step` without numpy's error-state guard: for a caller that runs many cycles inside
+        one `np.errstate(all="ignore")` (the reference engine's run) and so pays for it once."""
         if self.status is not None:
             return self.status
         c = self.cycle
@@ -275,7 +277,7 @@ class Machine:
                     self.error = CycleLimit(f"cycle limit reached: {limit} cycles (max_cycles); "
                                             "the run did not end")
                     break
-                self._step()
+                self.step_unguarded()
         return RunResult(self.status, self.cycle, self.error)
 
     def _check_end(self) -> str | None:

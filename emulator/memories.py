@@ -1,13 +1,13 @@
 """Memories of a PE (the paper's two-level memory of IC and SC; docs/timing.md §2): local,
-resident, direct-mapped cache, global.
+resident, cache (direct-mapped or set-associative), global.
 
 Every memory is a numpy array of raw machine words (uint32 in fp32 mode, uint64 in fp64 mode);
 addresses count words. What each processor reaches:
 
 | processor | `ld`/`st`        | `ldr`                  | `ldg`                                  |
 | OS        | local (voxel data + kernel data) | —      | —                                      |
-| IC        | local (kernel data) | resident (read-only) | ICGM through IC's direct-mapped cache |
-| SC        | local (kernel data) | resident (read-only) | SCGM through SC's direct-mapped cache |
+| IC        | local (kernel data) | resident (read-only) | ICGM through IC's cache             |
+| SC        | local (kernel data) | resident (read-only) | SCGM through SC's cache             |
 
 A program's `.data` words are loaded at local address 0; a memory image may add more words.
 Resident memory and the global memories are written only by the host (the memory image); the
@@ -23,12 +23,15 @@ for the whole access, see core.py):
     ldg, miss      t_g          (the block is filled at once: a later access to it hits)
     st             writes at issue; no hold
 
-The cache is direct-mapped with `block_bytes` blocks and `cache_bytes` capacity: for word
-address a, byte address b = a × word_bytes, block = b // block_bytes, set = block % sets, tag =
-block // sets. Since every database is read-only, the cache keeps only tags (its data would be
-a copy of global memory). A cache of 0 bytes makes every `ldg` a miss. When `cache_share` /
+The cache has `block_bytes` blocks, `cache_bytes` capacity and `cache_ways` ways per set
+(1, the default: direct-mapped; 2, 4 or 8 with LRU replacement): for word address a, byte
+address b = a × word_bytes, block = b // block_bytes, set = block % sets (sets = cache_bytes //
+(block_bytes × ways)), tag = block // sets. The rule — placement, hit, LRU update — has one
+home, emulator/cacherule.py, which the compiled engine and the trace-driven model compile.
+Since every database is read-only, the cache keeps only tags (its data would be a copy of
+global memory). A cache of 0 bytes makes every `ldg` a miss. When `cache_share` /
 `resident_share` is set, the size is that share of the global memory image (the primitive
-database), rounded down to whole blocks (cache) or words (resident).
+database), rounded down to whole sets (cache) or words (resident).
 
 Counters: local {reads, writes}; resident {accesses}; cache {accesses, hits, misses}; global
 {accesses} (= cache misses). An optional `RegionMap` per memory (isa/regions.py) names address
@@ -47,12 +50,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from netsushisen.emulator import cacherule as rule
 from netsushisen.isa.config import MachineConfig, MemoryConfig
 from netsushisen.isa.opcodes import OPCODES
 from netsushisen.isa.regions import REGION_NAMES, Region, RegionMap, cache_bytes, resident_words
 from netsushisen.isa.stalls import CACHE_HIT, CACHE_MISS, LOCAL, RESIDENT
 
-__all__ = ["Cache", "Memory", "MemoryFault", "MemorySystem", "RegionCounters",
+__all__ = ["Cache", "Level", "Memory", "MemoryFault", "MemorySystem", "RegionCounters",
+           "memory_levels",
            # defined in isa/regions.py (the host reads them there), used here and by pe.py
            "REGION_NAMES", "Region", "RegionMap", "cache_bytes", "resident_words"]
 
@@ -124,41 +129,65 @@ class Memory:
 
 
 class Cache:
-    """Direct-mapped, tags only (the databases are read-only), in front of a global memory."""
+    """Set-associative with LRU replacement (one way: direct-mapped), tags only (the databases
+    are read-only), in front of a global memory; the rule itself is emulator/cacherule.py."""
 
-    def __init__(self, name: str, cache_bytes: int, block_bytes: int, word_bytes: int):
+    def __init__(self, name: str, cache_bytes: int, block_bytes: int, word_bytes: int,
+                 ways: int = 1):
         self.name = name
+        self.geometry = rule.geometry(cache_bytes, block_bytes, ways, word_bytes)
         self.block_bytes = block_bytes
         self.word_bytes = word_bytes
-        self.sets = cache_bytes // block_bytes
-        self.tags = np.full(self.sets, -1, dtype=np.int64)  # -1: invalid line
+        self.ways = ways
+        self.sets = self.geometry.sets
+        self.tags = np.full(self.geometry.lines, -1, dtype=np.int64)  # set by set, MRU first
         self.accesses = 0
         self.hits = 0
         self.misses = 0
 
     def locate(self, address: int) -> tuple[int, int]:
         """(set, tag) of a word address (sets = 0: no cache, every access misses)."""
-        block = (address * self.word_bytes) // self.block_bytes
         if self.sets == 0:
-            return -1, block
-        return block % self.sets, block // self.sets
+            return -1, (address * self.word_bytes) // self.block_bytes
+        return rule.locate(address, self.word_bytes, self.block_bytes, self.sets)
 
     def probe(self, address: int) -> bool:
         """Would this access hit? (No side effects: the core asks before it decides to issue.)"""
         s, tag = self.locate(address)
-        return s >= 0 and int(self.tags[s]) == tag
+        return s >= 0 and rule.find(self.tags, s * self.ways, self.ways, tag) >= 0
 
     def access(self, address: int) -> tuple[bool, int]:
-        """Count one access, fill the line on a miss; (hit, set touched or -1)."""
+        """Count one access (a miss fills a line, LRU); (hit, set touched or -1)."""
         s, tag = self.locate(address)
         self.accesses += 1
-        if s >= 0 and int(self.tags[s]) == tag:
+        hit = s >= 0 and rule.touch(self.tags, s * self.ways, self.ways, tag)
+        if hit:
             self.hits += 1
-            return True, s
-        self.misses += 1
-        if s >= 0:
-            self.tags[s] = tag
-        return False, s
+        else:
+            self.misses += 1
+        return hit, s
+
+
+@dataclass(frozen=True)
+class Level:
+    """One level of IC's or SC's memory hierarchy (nearest first): its access time in cycles
+    (for a cache, a hit's) and, for a cache, its geometry."""
+
+    name: str
+    time: int
+    cache: rule.CacheGeometry | None = None
+
+
+def memory_levels(mc: MemoryConfig, global_words: int, word_bytes: int) -> list[Level]:
+    """IC's or SC's memory as a list of levels — resident, the caches in front of global memory
+    in order, global — sized from the configuration as every model of the memory sizes it: the
+    reference and compiled engines (through `MemorySystem`) and the trace-driven model
+    (`emulator/tracesim.py`). A cache's organisation is one level's geometry here and the rule
+    in emulator/cacherule.py; another cache level would be one more entry."""
+    return [Level("resident", mc.t_r),
+            Level("cache", mc.t_c, rule.geometry(cache_bytes(mc, global_words, word_bytes),
+                                                 mc.block_bytes, mc.cache_ways, word_bytes)),
+            Level("global", mc.t_g)]
 
 
 class MemorySystem:
@@ -183,11 +212,13 @@ class MemorySystem:
             self.t_r = self.t_c = self.t_g = 0
         else:
             mc: MemoryConfig = config.ic_memory if proc == "ic" else config.sc_memory
-            self.t_local = self.t_r = mc.t_r
-            self.t_c, self.t_g = mc.t_c, mc.t_g
             gwords = global_memory.size if global_memory is not None else 0
-            self.cache = Cache(f"{proc} cache", cache_bytes(mc, gwords, config.word_bytes),
-                               mc.block_bytes, config.word_bytes)
+            resident_level, cache_level, global_level = memory_levels(mc, gwords,
+                                                                      config.word_bytes)
+            self.t_local = self.t_r = resident_level.time
+            self.t_c, self.t_g = cache_level.time, global_level.time
+            g = cache_level.cache
+            self.cache = Cache(f"{proc} cache", g.capacity, g.block_bytes, g.word_bytes, g.ways)
 
     # -- timing, without side effects (the core decides whether to issue first) --------------
 
@@ -251,7 +282,7 @@ class MemorySystem:
         if self.cache is not None:
             c = self.cache
             out["cache"] = {"accesses": c.accesses, "hits": c.hits, "misses": c.misses,
-                            "sets": c.sets, "block_bytes": c.block_bytes}
+                            "sets": c.sets, "ways": c.ways, "block_bytes": c.block_bytes}
             out["global"] = {"accesses": self.global_accesses}
             merge(self.global_counts, "global")
         if regions:

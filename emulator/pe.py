@@ -67,14 +67,14 @@ class PE:
             self.cores[stage] = Core(f"{self.name}.{stage}", stage, programs.get(stage), config,
                                      mem, recv, send)
         self.active = [c for c in self.cores.values() if c.present]
-        self._moved = False
+        self.ring_moved = False
         self.dis_moved = False
         self.col_moved = False
 
     def step(self, c: int) -> None:
         for core in self.active:
             core.step(c)
-        self._moved = self.ring.step(c)
+        self.ring_moved = self.ring.step(c)
 
     def issued(self) -> bool:
         """Some processor of this PE issued a bundle in the last cycle."""
@@ -84,7 +84,7 @@ class PE:
         return False
 
     def progressed(self) -> bool:
-        if self._moved or self.dis_moved or self.col_moved:
+        if self.ring_moved or self.dis_moved or self.col_moved:
             return True
         for core in self.cores.values():
             if core.last_issued:

@@ -36,7 +36,8 @@ from netsushisen.host.shapes import ShapeData, build_shape_data
 from netsushisen.host.traversal import OSGrid, _boundary
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.images import MemoryImage, Segment
-from netsushisen.isa.regions import REGION_NAMES, Region, cache_bytes, resident_words
+from netsushisen.isa.regions import (GLOBAL, REGION_NAMES, RESIDENT, Region, cache_bytes,
+                                     resident_words)
 from netsushisen.isa.words import WordFormat, word_format
 
 OS_BASE = 256
@@ -45,8 +46,8 @@ SC_BASE = 256
 """Default SC local address of the scene block; words below it are the SC kernel's own data."""
 LIST_BASE = 1
 """ICGM address of the first list cell: word 0 stays 0, so a cell or list pointer of 0 is null."""
-GLOBAL, RESIDENT = 0, 1
-"""Address spaces of a shape record / an IC access: ICGM through the cache (ldg), resident (ldr)."""
+# GLOBAL, RESIDENT — the address spaces of a shape record / an IC access, ICGM through the cache
+# (ldg) or resident (ldr) — live in isa/regions.py, shared with the machine's trace-driven model.
 DATABASES = ("voxel_data", "primitive_list", "shape_data", "luminance_data")
 
 

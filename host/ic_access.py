@@ -14,15 +14,20 @@ After the last reference of a surface ray that hit something, IC reads the winne
 the hit's fan triangle) from the same memory, in ascending address order, for the HIT message
 to SC (docs/kernels.md). Shadow rays read nothing more.
 
-A trace-driven cache model replays this stream; the IC kernel follows it word for word so that
-the emulator's counters equal the model's.
+A trace-driven cache model (emulator/tracesim.py) replays this stream; the IC kernel follows it
+word for word so that the emulator's counters equal the model's. `machine_order` gives the order
+in which the machine's serial mode (`SLOTS=1`, `SERIAL_TREES=1`) visits the golden trace's rays,
+and `ordered_stream_chunks` the stream in that order.
 """
 
 from __future__ import annotations
 
+from typing import Iterator
+
 import numpy as np
 
 from netsushisen.host.databases import GLOBAL, LIST_BASE, DatabaseLayout, access_tables
+from netsushisen.host.golden import SHADOW
 from netsushisen.host.records import CELL_WORDS, patch_hit_offsets, ranges
 from netsushisen.host.scenes import Kind
 
@@ -138,3 +143,49 @@ def golden_stream_chunks(layout: DatabaseLayout, result, hits: bool = True, rays
     n = len(result.trace_ray_offsets) - 1
     for r0 in range(0, n, rays_per_chunk):
         yield golden_stream(layout, result, hits, slice(r0, min(n, r0 + rays_per_chunk)))
+
+
+# ------------------------------------------------------------------------------------------------
+# The machine's ray order and the IC stream in that order
+
+
+def ray_generation(result) -> np.ndarray:
+    """Generation of each traced ray in its pixel's ray tree: the eye ray 0; a surface ray of
+    depth k: k − 1; a shadow ray of a depth-k hit (it carries depth k): k."""
+    depth = result.trace_depth.astype(np.int64)
+    return np.where(result.trace_kind == SHADOW, depth, depth - 1)
+
+
+def machine_order(result) -> np.ndarray:
+    """The golden trace's ray indices in the order the machine's serial mode visits them: pixel
+    by pixel, each pixel's ray tree in level order (the eye ray; its children in spawn order —
+    shadow rays by light, reflection, refraction; then their children in the same order, ...).
+
+    The trace is depth-first (rays sorted by their tree path); within one generation of one
+    pixel, depth-first order and level order are the same order (both sort the equal-length
+    paths lexicographically), so a stable sort by (pixel, generation) gives level order."""
+    if result.trace_kind is None:
+        raise ValueError("render with keep_trace=True to get the IC reference trace")
+    return np.lexsort((ray_generation(result), result.trace_pixel)).astype(np.int64)
+
+
+def ordered_stream_chunks(layout: DatabaseLayout, result, order: np.ndarray | None = None,
+                          rays_per_chunk: int = 32768, hits: bool = True
+                          ) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """The IC access stream (`ic_address_stream`) of the golden trace's rays taken in `order`
+    (default: the trace's depth-first order), in chunks of rays."""
+    if result.trace_prims is None:
+        raise ValueError("render with keep_trace=True to get the IC reference trace")
+    off = result.trace_ray_offsets
+    n = len(off) - 1
+    order = np.arange(n) if order is None else np.asarray(order, np.int64)
+    for c0 in range(0, len(order), rays_per_chunk):
+        rays = order[c0:c0 + rays_per_chunk]
+        length = off[rays + 1] - off[rays]
+        idx = ranges(off[rays], length)
+        new_off = np.concatenate([[0], np.cumsum(length)])
+        if hits:
+            yield ic_address_stream(layout, result.trace_prims[idx], result.trace_leaves[idx],
+                                    new_off, result.trace_hit[rays], result.trace_hit_fan[rays])
+        else:
+            yield ic_address_stream(layout, result.trace_prims[idx], result.trace_leaves[idx])

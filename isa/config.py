@@ -39,8 +39,8 @@ class CoreConfig:
 @dataclass
 class MemoryConfig:
     """IC's and SC's two-level memory (the paper's memory structure; docs/timing.md §2): resident
-    memory + direct-mapped cache in
-    front of the shared global memory (ICGM for IC, SCGM for SC)."""
+    memory + a cache (direct-mapped as in the paper, or set-associative) in front of the shared
+    global memory (ICGM for IC, SCGM for SC)."""
 
     t_r: int = 1
     """Resident (and local) memory access time, cycles."""
@@ -52,6 +52,9 @@ class MemoryConfig:
     """Cache block size (paper: 64 bytes)."""
     cache_bytes: int = 8192
     """Cache capacity in bytes; ignored when `cache_share` is set and a scene gives a database."""
+    cache_ways: int = 1
+    """Lines per cache set: 1 (the paper's direct-mapped cache), 2, 4 or 8 (LRU replacement);
+    the capacity is split into cache_bytes // (block_bytes × ways) sets."""
     resident_bytes: int = 8192
     """Resident memory capacity in bytes; ignored when `resident_share` is set."""
     cache_share: float | None = None
@@ -158,8 +161,14 @@ class MachineConfig:
             for size in ("cache_bytes", "resident_bytes"):
                 if getattr(mem, size) < 0:
                     problems.append(f"{name}.{size} must not be negative")
-            if mem.cache_bytes % max(b, 1):
-                problems.append(f"{name}.cache_bytes ({mem.cache_bytes}) must be a multiple of block_bytes ({b})")
+            ways = mem.cache_ways
+            if isinstance(ways, int) and 1 < ways < 8 and ways & (ways - 1):  # range: FIELD_LIMITS
+                problems.append(f"{name}.cache_ways must be 1, 2, 4 or 8, got {ways}")
+            elif ways in (1, 2, 4, 8) and mem.cache_bytes % max(b * ways, 1):
+                whole = f"block_bytes ({b})" if ways == 1 else \
+                    f"block_bytes × cache_ways ({b} × {ways}: whole sets)"
+                problems.append(f"{name}.cache_bytes ({mem.cache_bytes}) must be a multiple of "
+                                f"{whole}")
             for share in ("cache_share", "resident_share"):
                 v = getattr(mem, share)
                 if v is not None and not 0.0 <= v <= 1.0:

@@ -77,6 +77,8 @@ FIELD_LIMITS: dict[str, tuple[float, float, str]] = {
     "render.epsilon": (0.0, 1.0, "scene units; unused, kept for older files"),
     **{f"{m}.{t}": (1, MAX_LATENCY, "cycles; the compiled engine's write-back ring")
        for m in ("ic_memory", "sc_memory") for t in ("t_r", "t_c", "t_g")},
+    **{f"{m}.cache_ways": (1, 8, "ways per set; 1, 2, 4 or 8 (LRU over at most 8 tags)")
+       for m in ("ic_memory", "sc_memory")},
     **{f"{c}.taken_branch_penalty": (0, MAX_LATENCY,
                                       "cycles; the compiled engine's write-back ring")
        for c in ("os", "ic", "sc")},

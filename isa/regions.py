@@ -14,7 +14,13 @@ import bisect
 from dataclasses import dataclass
 from typing import Iterable
 
+import numpy as np
+
 from netsushisen.isa.config import MemoryConfig
+
+GLOBAL, RESIDENT = 0, 1
+"""Where an IC load goes, in an access stream (host/ic_access.py → emulator/tracesim.py): `ldg`
+through the cache to ICGM, or `ldr` to resident memory."""
 
 REGION_NAMES = ("voxel_data", "primitive_list", "shape_data", "luminance_data")
 """The databases' names (the paper's four databases; docs/databases.md); a region map may use
@@ -30,7 +36,10 @@ class Region:
 
 
 class RegionMap:
-    """Named, non-overlapping address ranges of one memory, looked up by bisection."""
+    """Named, non-overlapping address ranges of one memory, looked up by bisection: an address
+    is in the last region starting at or before it, if it lies before that region's end — per
+    load (`lookup`, the reference engine) or for a whole stream at once (`indices`, the
+    trace-driven model); the compiled engine expands the same regions into a per-word table."""
 
     def __init__(self, regions: Iterable[Region] = ()):
         regs = sorted(regions, key=lambda r: r.start)
@@ -43,24 +52,35 @@ class RegionMap:
                 raise ValueError(f"region {r.name} [{r.start}, {r.end}) is empty")
         self.regions = regs
         self.starts = [r.start for r in regs]
+        self.ends = [r.end for r in regs]
         self.names = sorted({r.name for r in regs})
 
     def lookup(self, address: int) -> Region | None:
         i = bisect.bisect_right(self.starts, address) - 1
-        if i >= 0 and address < self.regions[i].end:
+        if i >= 0 and address < self.ends[i]:
             return self.regions[i]
         return None
+
+    def indices(self, addresses) -> np.ndarray:
+        """`lookup` for many addresses: the index in `regions` of each one's region, or −1."""
+        a = np.asarray(addresses, np.int64)
+        if not self.regions:
+            return np.full(len(a), -1, np.int64)
+        i = np.searchsorted(np.asarray(self.starts, np.int64), a, side="right") - 1
+        inside = (i >= 0) & (a < np.asarray(self.ends, np.int64)[np.maximum(i, 0)])
+        return np.where(inside, i, -1).astype(np.int64)
 
     def __len__(self) -> int:
         return len(self.regions)
 
 
 def cache_bytes(mc: MemoryConfig, global_words: int, word_bytes: int) -> int:
-    """The cache capacity in bytes: `cache_bytes`, or `cache_share` of the global image."""
+    """The cache capacity in bytes: `cache_bytes`, or `cache_share` of the global image rounded
+    down to whole sets (block_bytes × cache_ways)."""
     if mc.cache_share is None:
         return mc.cache_bytes
     size = int(mc.cache_share * global_words * word_bytes)
-    return size - size % mc.block_bytes
+    return size - size % (mc.block_bytes * mc.cache_ways)
 
 
 def resident_words(mc: MemoryConfig, global_words: int, word_bytes: int) -> int:

@@ -48,7 +48,8 @@ from netsushisen.reports.accuracy import (Row, Timing, fidelity_errors, hit_id_s
                                           ic_regions, image_errors,
                                           memory_point, ray_errors, regression_estimate, relative,
                                           traced_rays)
-from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
+from netsushisen.emulator.tracesim import TraceMemory
+from netsushisen.host.ic_access import machine_order, ordered_stream_chunks
 
 DEPTHS = tuple(range(1, 9))
 TRUTH_DEPTH = 10
@@ -609,10 +610,9 @@ def fidelity_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
          "mu": b_point["mu"], "t": b_point["t"]}
     rows.append(Row("fidelity", name, "(b) trace-driven", False, fidelity_errors(b, truth),
                     b_timing.median, {"cycles": cal.run.cycles, "references": refs},
-                    f"the golden {res}x{res} IC reference trace, in the machine's serial ray "
-                    "order, through the resident + direct-mapped cache model "
-                    f"(reports/tracesim.py); cycles = a {cal_res}x{cal_res} machine run × "
-                    "(intersection tests ratio)", b, timing=b_timing))
+                    f"the golden {res}x{res} IC reference trace, in the machine's serial ray order, "
+                    "through the resident + cache model (emulator/tracesim.py); cycles = "
+                    f"a {cal_res}x{cal_res} machine run × (intersection tests ratio)", b, timing=b_timing))
     # sampled: a stratified random sample of tiles per share (`stratified_tiles`), each scene
     # its own draw (the seed and the scene's name), the tiles shared by shares simulated once
     n_tiles = min(n_tiles, setup.side * setup.side)

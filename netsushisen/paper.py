@@ -45,8 +45,8 @@ from netsushisen.reports.paper_data import (CACHE_SHARES, LOCAL_SHARES,
                                             RESIDENT_SPLITS, PaperOptions, Progress, SceneData)
 from netsushisen.reports.paper_plots import write_csvs, write_figures
 from netsushisen.reports.paper_report import report_markdown
-from netsushisen.reports.tracesim import (SweepPoint, SweepStream, TraceMemory, machine_order,
-                                          ordered_stream_chunks)
+from netsushisen.emulator.tracesim import SweepPoint, SweepStream, TraceMemory
+from netsushisen.host.ic_access import machine_order, ordered_stream_chunks
 
 
 def scene_counts(scene) -> dict:

@@ -66,7 +66,10 @@ STATISTICS: tuple[Quantity, ...] = (
     Quantity(f"{_P}.cache.hits", "cache hits", "accesses"),
     Quantity(f"{_P}.cache.misses", "cache misses (each fills one block from global memory)",
              "accesses"),
-    Quantity(f"{_P}.cache.sets", "sets of the direct-mapped cache", "blocks"),
+    Quantity(f"{_P}.cache.sets", "sets of the cache (cache bytes / (block bytes × ways))",
+             "sets"),
+    Quantity(f"{_P}.cache.ways", "blocks per cache set (1: direct-mapped; LRU replacement)",
+             "blocks"),
     Quantity(f"{_P}.cache.block_bytes", "cache block size", "bytes"),
     Quantity(f"{_P}.global.accesses", "global memory (ICGM / SCGM) accesses: cache misses",
              "accesses"),
@@ -137,7 +140,8 @@ the glossary's) and the configuration (`config.<field>`: isa/config.py)."""
 CONFIG_UNITS: dict[str, str] = {
     "pes": "PEs", "max_cycles": "cycles", "taken_branch_penalty": "cycles",
     "local_words": "words", "latency": "cycles", "t_r": "cycles", "t_c": "cycles",
-    "t_g": "cycles", "block_bytes": "bytes", "cache_bytes": "bytes", "resident_bytes": "bytes",
+    "t_g": "cycles", "block_bytes": "bytes", "cache_bytes": "bytes", "cache_ways": "blocks per set",
+    "resident_bytes": "bytes",
     "cache_share": "share of the primitive database", "resident_share": "share of the "
     "primitive database", "fifo_depth": "words", "link_latency": "cycles",
     "link_buffer_words": "words", "deadlock_cycles": "cycles", "top_resolution": "voxels per axis",

@@ -20,10 +20,10 @@ def memory_sections(stats: dict) -> list[Section]:
                             "t": "f2", "t model": "f2"})
     local = Section("local", "Local memory", ["processor", "region", "reads", "writes"],
                     formats={"reads": "int", "writes": "int"})
-    caches = Section("caches", "Caches", ["processor", "sets", "block bytes", "accesses", "hits", "misses",
-                                          "hit rate"],
-                     formats={"sets": "int", "block bytes": "int", "accesses": "int", "hits": "int",
-                              "misses": "int", "hit rate": "pct"})
+    caches = Section("caches", "Caches", ["processor", "sets", "ways", "block bytes", "accesses",
+                                          "hits", "misses", "hit rate"],
+                     formats={"sets": "int", "ways": "int", "block bytes": "int", "accesses": "int",
+                              "hits": "int", "misses": "int", "hit rate": "pct"})
     for name, mem in stats["memory"].items():
         regions = mem.get("regions") or {}
         names = sorted({k.split(".", 1)[1] for k in regions if not k.startswith("local.")})
@@ -40,8 +40,8 @@ def memory_sections(stats: dict) -> list[Section]:
                     local.rows.append([name, k.split(".", 1)[1], v.get("accesses", 0), None])
         c = mem.get("cache")
         if c and c.get("accesses"):
-            caches.rows.append([name, c["sets"], c["block_bytes"], c["accesses"], c["hits"], c["misses"],
-                                c["hits"] / c["accesses"]])
+            caches.rows.append([name, c["sets"], c.get("ways", 1), c["block_bytes"], c["accesses"],
+                                c["hits"], c["misses"], c["hits"] / c["accesses"]])
     main.caption = ("no loads fell in a named region (the run's memory image had no region maps)"
                     if not main.rows else "")
     return [main, caches, local]

@@ -1,4 +1,4 @@
-"""Tests written to kill mutants that survived tools/mutate.py in reports/tracesim.py
+"""Tests written to kill mutants that survived tools/mutate.py in emulator/tracesim.py
 (docs/mutation.md): every expected number worked out by hand in the comments."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import pytest
 from netsushisen.host.databases import GLOBAL, plan_layout
 from netsushisen.host.catalog import load_scene
 from netsushisen.isa.config import MachineConfig
-from netsushisen.reports.tracesim import SweepStream, TraceMemory
+from netsushisen.emulator.tracesim import SweepStream, TraceMemory
 
 
 def test_sweep_figures_by_hand():

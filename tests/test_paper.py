@@ -20,9 +20,10 @@ from netsushisen.isa.config import load_config
 from netsushisen.kernels import KERNELS
 from netsushisen.reports import paper as paper_mod
 from netsushisen.reports.paper import table2
+from netsushisen.emulator.tracesim import TraceMemory
+from netsushisen.host.ic_access import machine_order, ordered_stream_chunks
 from netsushisen.paper import analyse_scene, compare_counters
 from netsushisen.reports.paper_data import PaperOptions
-from netsushisen.reports.tracesim import TraceMemory, machine_order, ordered_stream_chunks
 
 # ------------------------------------------------------------------------------------------------
 # End to end: the trace-driven path equals the emulator's counters (needs the stage kernels)

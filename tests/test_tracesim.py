@@ -1,4 +1,4 @@
-"""The trace-driven memory model (reports/tracesim.py) against the emulator's own memory system
+"""The trace-driven memory model (emulator/tracesim.py) against the emulator's own memory system
 (emulator/memories.py) driven access by access with the same stream: counters must be equal,
 for several cache and block sizes, fp32 and fp64; the run-collapsed sweep must equal the full
 model; the machine's ray order is level order per pixel."""
@@ -17,8 +17,8 @@ from netsushisen.host.golden import SHADOW, render
 from netsushisen.host.grid import build_grid
 from netsushisen.host.prepass import priorities_from_counts
 from netsushisen.isa.config import load_config
-from netsushisen.reports.tracesim import (SweepPoint, SweepStream, TraceMemory, machine_order,
-                                          ordered_stream_chunks, replay_blocks)
+from netsushisen.emulator.tracesim import SweepPoint, SweepStream, TraceMemory, replay_blocks
+from netsushisen.host.ic_access import machine_order, ordered_stream_chunks
 
 GLOBAL_WORDS, RESIDENT_WORDS = 4096, 512
 
@@ -37,8 +37,8 @@ def regions() -> dict[str, list[Region]]:
     return out
 
 
-def emulator_counts(space, address, cache_bytes, block_bytes, precision) -> dict:
-    config = load_config(None, [f"ic_memory.cache_bytes={cache_bytes}",
+def emulator_counts(space, address, cache_bytes, block_bytes, precision, ways=1) -> dict:
+    config = load_config(None, [f"ic_memory.cache_bytes={cache_bytes}", f"ic_memory.cache_ways={ways}",
                                 f"ic_memory.block_bytes={block_bytes}", f"precision={precision}",
                                 f"ic_memory.resident_bytes={RESIDENT_WORDS * (4 if precision == 'fp32' else 8)}"])
     dt = np.uint32 if precision == "fp32" else np.uint64
@@ -53,9 +53,9 @@ def emulator_counts(space, address, cache_bytes, block_bytes, precision) -> dict
     return out
 
 
-def model_counts(space, address, cache_bytes, block_bytes, precision, chunk=None) -> dict:
+def model_counts(space, address, cache_bytes, block_bytes, precision, chunk=None, ways=1) -> dict:
     wb = 4 if precision == "fp32" else 8
-    m = TraceMemory(cache_bytes, block_bytes, wb, RESIDENT_WORDS, regions(), GLOBAL_WORDS)
+    m = TraceMemory(cache_bytes, block_bytes, wb, RESIDENT_WORDS, regions(), GLOBAL_WORDS, ways)
     step = chunk or max(len(address), 1)
     for i in range(0, len(address), step):
         m.replay(space[i:i + step], address[i:i + step])
@@ -83,11 +83,12 @@ def structured_stream(rng, n: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 @pytest.mark.parametrize("precision", ["fp32", "fp64"])
-@pytest.mark.parametrize("cache_bytes,block_bytes", [(0, 64), (64, 64), (1024, 64), (4096, 32),
-                                                     (2048, 16), (8192, 128), (512, 8)])
+@pytest.mark.parametrize("cache_bytes,block_bytes,ways", [
+    (0, 64, 1), (64, 64, 1), (1024, 64, 1), (4096, 32, 1), (2048, 16, 1), (8192, 128, 1), (512, 8, 1),
+    (1024, 64, 2), (4096, 32, 4), (2048, 16, 8), (128, 64, 2)])
 @pytest.mark.parametrize("kind", ["random", "structured"])
-def test_model_counters_equal_the_emulators(precision, cache_bytes, block_bytes, kind):
-    rng = np.random.default_rng(hash((precision, cache_bytes, block_bytes, kind)) % 2**32)
+def test_model_counters_equal_the_emulators(precision, cache_bytes, block_bytes, ways, kind):
+    rng = np.random.default_rng(hash((precision, cache_bytes, block_bytes, ways, kind)) % 2**32)
     if kind == "random":
         n = 3000
         space = rng.choice([GLOBAL, RESIDENT], size=n, p=[0.8, 0.2]).astype(np.int8)
@@ -95,22 +96,24 @@ def test_model_counters_equal_the_emulators(precision, cache_bytes, block_bytes,
                            rng.integers(0, GLOBAL_WORDS, n))
     else:
         space, address = structured_stream(rng, 3000)
-    want = emulator_counts(space, address, cache_bytes, block_bytes, precision)
-    assert model_counts(space, address, cache_bytes, block_bytes, precision) == want
-    assert model_counts(space, address, cache_bytes, block_bytes, precision, chunk=97) == want
+    want = emulator_counts(space, address, cache_bytes, block_bytes, precision, ways)
+    assert model_counts(space, address, cache_bytes, block_bytes, precision, ways=ways) == want
+    assert model_counts(space, address, cache_bytes, block_bytes, precision, 97, ways) == want
+    assert want["cache"]["ways"] == ways
     assert want["cache"]["accesses"] > 0 and (cache_bytes == 0 or want["cache"]["hits"] > 0)
 
 
 @settings(max_examples=60, deadline=None)
 @given(st.lists(st.integers(0, 300), max_size=200), st.sampled_from([0, 1, 2, 4, 8]),
-       st.sampled_from([4, 8]), st.sampled_from([8, 16, 64]))
-def test_replay_blocks_equals_the_emulators_cache(words, sets, wb, block):
-    c = Cache("t", sets * block, block, wb)
+       st.sampled_from([4, 8]), st.sampled_from([8, 16, 64]), st.sampled_from([1, 2, 4, 8]))
+def test_replay_blocks_equals_the_emulators_cache(words, sets, wb, block, ways):
+    c = Cache("t", sets * block * ways, block, wb, ways)
     want = [c.access(a)[0] for a in words]
-    tags = np.full(sets, -1, np.int64)
+    tags = np.full(sets * ways, -1, np.int64)
     half = len(words) // 2
     blocks = (np.array(words, np.int64) * wb) // block
-    got = np.concatenate([replay_blocks(blocks[:half], tags), replay_blocks(blocks[half:], tags)])
+    got = np.concatenate([replay_blocks(blocks[:half], tags, ways),
+                          replay_blocks(blocks[half:], tags, ways)])
     assert got.tolist() == want
     assert tags.tolist() == c.tags.tolist()
 
@@ -184,14 +187,15 @@ def test_sweep_equals_the_full_model(small_render, precision):
     prio = priorities_from_counts(g.references)
     ref = plan_layout(scene, load_config(None, ["ic_memory.resident_bytes=0", f"precision={precision}"]),
                       prio, grid)
-    settings_ = [("0.0", "0.05"), ("0.02", "0.1"), ("0.2", "0.1"), ("0.5", "0.0"), ("0.1", "0.3")]
+    settings_ = [("0.0", "0.05", 1), ("0.02", "0.1", 1), ("0.2", "0.1", 1), ("0.5", "0.0", 1),
+                 ("0.1", "0.3", 1), ("0.0", "0.1", 2), ("0.02", "0.3", 4)]
     points, images = [], []
-    for res_share, cache_share in settings_:
+    for res_share, cache_share, ways in settings_:
         cfg = load_config(None, [f"precision={precision}", f"ic_memory.resident_share={res_share}",
-                                 f"ic_memory.cache_share={cache_share}"])
+                                 f"ic_memory.cache_share={cache_share}", f"ic_memory.cache_ways={ways}"])
         im = build_images(scene, cfg, priorities=prio, grid=grid)
         images.append(im)
-        points.append(SweepPoint(im.layout, im.config.ic_memory.cache_bytes, 64))
+        points.append(SweepPoint(im.layout, im.config.ic_memory.cache_bytes, 64, ways))
     sweep = SweepStream(ref, points, config.word_bytes)
     order = machine_order(g)
     for s, a in ordered_stream_chunks(ref, g, order, rays_per_chunk=64):
@@ -278,3 +282,39 @@ def test_sweep_counts_per_reference_like_a_plain_replay(small_render, lists_cach
         assert f["ref"]["loads"] == int(g.references.sum())
     assert points[0].counts["ref.hits"] < points[0].counts["ref.cache"]  # some reference misses
     assert points[1].counts["ref.resident"] > 0 and points[2].counts["ref.hits"] == 0
+
+
+# ------------------------------------------------------------------------------------------------
+# One address-to-region rule, one cache rule
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 400), st.integers(1, 9)), max_size=30),
+       st.lists(st.integers(-5, 500), min_size=1, max_size=200))
+def test_region_indices_are_lookup_for_many_addresses(spans, addresses):
+    """RegionMap.indices (the trace-driven model, per chunk) is RegionMap.lookup (the
+    reference engine, per load) for every address."""
+    regs, end = [], 0
+    for k, (gap, size) in enumerate(spans):
+        regs.append(Region(end + gap, end + gap + size, f"r{k % 3}", k if k % 2 else None))
+        end += gap + size
+    rmap = RegionMap(regs)
+    got = rmap.indices(np.array(addresses))
+    want = [rmap.regions.index(r) if (r := rmap.lookup(a)) is not None else -1 for a in addresses]
+    assert got.tolist() == want
+
+
+def test_the_models_import_nothing_above_the_machine():
+    """emulator/tracesim.py and emulator/cacherule.py read the host's layouts without importing
+    host/ (or reports/): the machine's side imports only isa/ and itself."""
+    import ast
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1] / "emulator"
+    for name in ("tracesim.py", "cacherule.py", "memories.py"):
+        tree = ast.parse((root / name).read_text())
+        mods = [n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.module]
+        mods += [a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names]
+        ours = [m for m in mods if m.startswith("netsushisen")]
+        assert all(m.startswith(("netsushisen.emulator", "netsushisen.isa")) for m in ours), \
+            (name, ours)

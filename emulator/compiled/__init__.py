@@ -24,7 +24,7 @@ from netsushisen.isa.jit import register_with_numba
 register_with_numba()  # the ISA's semantics, marked for numba (isa/jit.py), before any compile
 
 from netsushisen.emulator.core import RunFault
-from netsushisen.emulator.engine import Engine, Progress
+from netsushisen.emulator.engine import Engine, Progress, ReferenceEngine
 from netsushisen.emulator.machine import DeadlockError, RunResult
 from netsushisen.emulator.memories import MemoryFault
 from netsushisen.emulator.cmu import col_on_ring
@@ -59,6 +59,9 @@ def _chunk(loop, st: S.State) -> int:
 
 
 class CompiledEngine(Engine):
+    """The machine in numba: flatten the reference machine's state, run the loop in chunks,
+    write the state back (so every reader of `Engine` serves it unchanged)."""
+
     name = "compiled"
 
     def run(self, max_cycles: int | None = None, progress: Progress | None = None,
@@ -67,7 +70,7 @@ class CompiledEngine(Engine):
         if m.status is not None:
             return self.result()
         if m.tracer is not None:  # per-cycle tracing is the reference engine's job
-            return super().run(max_cycles, progress)
+            return ReferenceEngine.run(self, max_cycles, progress)
         limit = self.config.max_cycles if max_cycles is None else max_cycles
         loop = load(self.config.precision)
         st = S.flatten(m)

@@ -5,7 +5,7 @@ Nothing about an opcode is typed here: `exec_alu` and `exec_branch` are generate
 calls, compiled by numba) applied to its source operands read as the table's types, and the
 result turned into a word by its result type. The generated text and loop.py are written into
 one module in a cache folder named by a hash of everything compiled into it (the generated
-text, loop.py, bits.py, state.py, the ISA modules, numba's and numpy's versions), so numba's
+text, loop.py, bits.py, state.py, ../cacherule.py, the ISA modules, numba's and numpy's versions), so numba's
 on-disk cache (`cache=True`) never serves code compiled from an older source: a change anywhere
 makes a new folder. Compilation takes about 45 s the first time, then loads from disk.
 
@@ -196,7 +196,8 @@ def source(precision: str) -> tuple[str, str]:
     ftype = "float32" if precision == "fp32" else "float64"
     text = dispatchers() + f"\nF = np.{ftype}  # the machine's float type, a constant\n\n" + loop
     h = hashlib.sha256(text.encode())
-    for path in (HERE / "bits.py", HERE / "state.py", ISA / "opcodes.py", ISA / "words.py",
+    for path in (HERE / "bits.py", HERE / "state.py", HERE.parent / "cacherule.py",
+                 ISA / "opcodes.py", ISA / "words.py",
                  ISA / "libm.py"):
         h.update(path.read_bytes())
     h.update(f"numba {numba.__version__} numpy {np.__version__} {sys.version}".encode())

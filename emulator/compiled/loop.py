@@ -42,8 +42,9 @@ from netsushisen.emulator.compiled.state import (
     G_DEADLOCK_CYCLES, G_POOLED, G_NPES, G_W, G_STOP_P, G_STOP_PC, S_RUNNING, S_HALTED, S_FINISHED,
     S_DEADLOCK_PE, S_DEADLOCK_COL, S_FAULT, S_STOPPED, F_PC, F_MEMORY, F_RING_COL, F_COL_HEADER,
     F_COL_PIXEL, SP_LOCAL, SP_RESIDENT, S_DEADLOCK_MSG, C_AHEAD, C_AHEAD_ISSUED, C_AHEAD_CAUSE,
-    B_PRIVATE, G_AHEAD,
+    B_PRIVATE, G_AHEAD, C_CACHE_WAYS,
 )
+from netsushisen.emulator import cacherule
 
 _OPTS = dict(cache=True, nogil=True, error_model="numpy", boundscheck=False, _nrt=False)
 _INLINE = dict(_OPTS, inline="always")  # one function: array arguments are costly to pass
@@ -157,12 +158,21 @@ def cache_locate(cs, p, addr):
     return block % sets, block // sets
 
 
+# the cache rule itself (find a tag in a set, an access with its LRU update): compiled from
+# emulator/cacherule.py, the functions the reference engine's memories.Cache calls
+cache_find = njit(nogil=True, error_model="numpy", boundscheck=False, inline="always")(
+    cacherule.find)
+cache_touch = njit(nogil=True, error_model="numpy", boundscheck=False, inline="always")(
+    cacherule.touch)
+
+
 @njit(**_INLINE)
 def cache_probe(cs, ctags, p, addr):
     if cs[p, C_CACHE_SETS] == 0:
         return False
     s, tag = cache_locate(cs, p, addr)
-    return ctags[cs[p, C_CACHE_OFF] + s] == tag
+    w = cs[p, C_CACHE_WAYS]
+    return cache_find(ctags, cs[p, C_CACHE_OFF] + s * w, w, tag) >= 0
 
 
 # -- one processor's cycle (core.Core.step) -------------------------------------------------------
@@ -407,16 +417,14 @@ def issue(c, p, pc, A, W, finfo):
             elif sp == SP_RESIDENT:
                 cs[p, C_RES_READS] += 1
             else:
-                # Cache.access: count, fill on a miss
+                # Cache.access: count, fill on a miss (LRU)
                 cs[p, C_CACHE_ACC] += 1
                 hit = 0
                 if cs[p, C_CACHE_SETS] > 0:
                     sset, tag = cache_locate(cs, p, addr)
-                    ti = cs[p, C_CACHE_OFF] + sset
-                    if ctags[ti] == tag:
+                    w = cs[p, C_CACHE_WAYS]
+                    if cache_touch(ctags, cs[p, C_CACHE_OFF] + sset * w, w, tag):
                         hit = 1
-                    else:
-                        ctags[ti] = tag
                 if hit:
                     cs[p, C_CACHE_HITS] += 1
                 else:

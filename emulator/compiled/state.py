@@ -33,14 +33,15 @@ _C = _enum("PC HALTED HOLD_UNTIL HOLD_MEM_UNTIL HOLD_CAUSE HOLD_PC CYCLES BUNDLE
            "LAST_ISSUED CAUSE PRESENT NB WPORTS PENALTY PE T_LOCAL T_R T_C T_G SEG_LOCAL "
            "SEG_RES SEG_GLOBAL CACHE_SETS CACHE_OFF BLOCK_BYTES WORD_BYTES LOCAL_READS "
            "LOCAL_WRITES RES_READS CACHE_ACC CACHE_HITS CACHE_MISSES GLOBAL_ACC WAKE WAKE_CAUSE NPEND "
-           "FIFOWAIT BSHIFT SSHIFT BUSYMAX SLEEP RUN_N RUN_PC RUN_CAUSE AHEAD AHEAD_ISSUED AHEAD_CAUSE")
+           "FIFOWAIT BSHIFT SSHIFT BUSYMAX SLEEP RUN_N RUN_PC RUN_CAUSE AHEAD AHEAD_ISSUED AHEAD_CAUSE "
+           "CACHE_WAYS")
 (C_PC, C_HALTED, C_HOLD_UNTIL, C_HOLD_MEM_UNTIL, C_HOLD_CAUSE, C_HOLD_PC, C_CYCLES, C_BUNDLES,
  C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY, C_PE,
  C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL, C_CACHE_SETS,
  C_CACHE_OFF, C_BLOCK_BYTES, C_WORD_BYTES, C_LOCAL_READS, C_LOCAL_WRITES, C_RES_READS,
  C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE,
  C_NPEND, C_FIFOWAIT, C_BSHIFT, C_SSHIFT, C_BUSYMAX, C_SLEEP, C_RUN_N, C_RUN_PC,
- C_RUN_CAUSE, C_AHEAD, C_AHEAD_ISSUED, C_AHEAD_CAUSE) = range(len(_C))
+ C_RUN_CAUSE, C_AHEAD, C_AHEAD_ISSUED, C_AHEAD_CAUSE, C_CACHE_WAYS) = range(len(_C))
 """C_WAKE, C_WAKE_CAUSE: derived, not written back — a processor stalled on an operand, a
 destination or a busy unit stalls for that same cause until the cycle C_WAKE (nothing but its
 own issue changes what those checks read), so the loop charges those cycles without checking.
@@ -165,17 +166,175 @@ class State:
         return tuple(a[k] for k in ARG_ORDER)
 
 
-ARG_ORDER = ("g", "until", "cs", "regs", "ready", "prod", "wbn", "wbr", "wbw", "busy", "occ",
-             "unitn", "stpc", "bpc", "ops", "opk", "opf", "bun", "recvq", "sendq", "fq",
-             "fbt", "fbw", "mem", "seg", "ctags", "rg", "rmap", "rdense", "rcnt", "pcnt", "cm", "cin",
-             "cout", "route", "rem", "lown", "linkw", "pes", "dis", "dcur", "doff", "dup",
-             "dasg", "moff", "mwords", "col", "cpart", "cplen", "frame", "ids", "cflags", "pw",
-             "finfo")
+@dataclass(frozen=True)
+class Array:
+    """One array the loop takes: its element type, its shape (in the sizes flatten finds: P
+    processors, NB bundles, W write-back slots, F FIFOs, K = 3·PEs CMUs, ...) and whether the
+    loop only reads it (the decoded program, the layouts, the messages to send)."""
+
+    dtype: str
+    shape: str
+    read_only: bool = False
 
 
-READ_ONLY = frozenset(("unitn", "ops", "opk", "opf", "bun", "recvq", "sendq", "seg", "rg", "rmap",
-                       "rdense", "cin", "cout", "moff", "mwords", "cflags"))
-"""The arrays the loop only reads (the decoded program, the layouts, the messages to send)."""
+ARRAYS: dict[str, Array] = {
+    "g": Array("int64", "(8,) G_*"), "until": Array("int", "scalar: the chunk's last cycle + 1"),
+    "cs": Array("int64", "(P, N_C) C_*"), "regs": Array("int64", "(P, 64)"),
+    "ready": Array("int64", "(P, 64)"), "prod": Array("int64", "(P, 64)"),
+    "wbn": Array("int64", "(P, W)"), "wbr": Array("int64", "(P, W, 4)"),
+    "wbw": Array("int64", "(P, W, 4)"), "busy": Array("int64", "(P, 2, 4)"),
+    "occ": Array("int64", "(P, 2, 4)"), "unitn": Array("int64", "(P, 2)", True),
+    "stpc": Array("int64", "(P, NB, causes)"), "bpc": Array("int64", "(P, NB)"),
+    "ops": Array("int32", "(P, NB, slots, N_O) O_*", True),
+    "opk": Array("int64", "(P, NB, slots, 2)", True),
+    "opf": Array("float64", "(P, NB, slots)", True),
+    "bun": Array("int32", "(P, NB, N_B) B_*", True), "recvq": Array("int64", "(P, 3)", True),
+    "sendq": Array("int64", "(P, 3)", True), "fq": Array("int64", "(F, 14) Q_*"),
+    "fbt": Array("int64", "(F, capacity)"), "fbw": Array("int64", "(F, capacity)"),
+    "mem": Array("uint32|int64", "(words of every segment,)"),
+    "seg": Array("int64", "(segments, 2)", True),
+    "ctags": Array("int64", "(lines of every cache,) sets × ways, a set's ways MRU first"),
+    "rg": Array("int32", "(regions, 2)", True), "rmap": Array("int64", "(P, 3, 2)", True),
+    "rdense": Array("int32", "(mapped words,)", True),
+    "rcnt": Array("int64", "(P, 3, region names, 3)"), "pcnt": Array("int64", "(P, 3, primitives)"),
+    "cm": Array("int64", "(K, 8) M_*"), "cin": Array("int64", "(K, inputs)", True),
+    "cout": Array("int64", "(K, inputs)", True), "route": Array("int64", "(K, inputs)"),
+    "rem": Array("int64", "(K, inputs)"), "lown": Array("int64", "(K, inputs)"),
+    "linkw": Array("int64", "(K,)"), "pes": Array("int64", "(PEs, 6) P_*"),
+    "dis": Array("int64", "(4,) D_*"), "dcur": Array("int64", "(PEs,)"),
+    "doff": Array("int64", "(PEs,)"), "dup": Array("int64", "(PEs,)"),
+    "dasg": Array("int64", "(PEs,)"), "moff": Array("int64", "(messages + 1,)", True),
+    "mwords": Array("int64", "(host words,)", True), "col": Array("int64", "(4,) L_*"),
+    "cpart": Array("int64", "(PEs, 8)"), "cplen": Array("int64", "(PEs,)"),
+    "frame": Array("float64", "(height, width, 3)"), "ids": Array("int32", "(height, width)"),
+    "cflags": Array("int64", "(causes,)", True), "pw": Array("int64", "(PEs, W_WAKE + 3) W_*"),
+    "finfo": Array("int64", "(8,) fault kind and where"),
+}
+"""Every array the loop takes, in its argument order (loop.py unpacks them in this order)."""
+
+ARG_ORDER = tuple(ARRAYS)
+READ_ONLY = frozenset(k for k, v in ARRAYS.items() if v.read_only)
+"""The arrays the loop only reads (a chunk rerun restores only the others)."""
+
+
+# -- The layout table: each component's scalar state, declared once ------------------------------
+# flatten reads these fields from the reference objects, write_back writes them back, and the
+# tandem engine's comparison (tandem.canonical) names and compares them — one declaration each.
+
+
+@dataclass(frozen=True)
+class Field:
+    """One column of a component's array ↔ one attribute of its reference object."""
+
+    column: int
+    attr: str
+    """Attribute of the component's object (also the field's name in a tandem mismatch)."""
+    kind: str = "int"
+    """How a value converts: "int", "bool", or "cause" (a stall-cause string ↔ its CAUSES id)."""
+    compare: bool = True
+    """Compared by the tandem engine as it stands (False: canonical compares it otherwise, or
+    it is bookkeeping whose stale values the engines need not agree on)."""
+
+
+@dataclass(frozen=True)
+class Component:
+    """A kind of machine part: its array, its fields, and its objects (one a row, in row order,
+    each with the name tandem reports it by; None where a row has no such part)."""
+
+    array: str
+    fields: tuple[Field, ...]
+    objects: object  # Callable[[Machine], list[tuple[str, object | None]]]
+
+    def rows(self, machine: Machine):
+        return self.objects(machine)
+
+    def read(self, machine: Machine, arrays: dict) -> None:
+        arr = arrays[self.array]
+        for i, (_name, obj) in enumerate(self.rows(machine)):
+            if obj is None:
+                continue
+            row = arr if arr.ndim == 1 else arr[i]
+            for f in self.fields:
+                v = getattr(obj, f.attr)
+                row[f.column] = CAUSE_ID[v] if f.kind == "cause" else int(v)
+
+    def write(self, arrays: dict, machine: Machine) -> None:
+        arr = arrays[self.array]
+        for i, (_name, obj) in enumerate(self.rows(machine)):
+            if obj is None:
+                continue
+            row = arr if arr.ndim == 1 else arr[i]
+            for f in self.fields:
+                v = row[f.column]
+                setattr(obj, f.attr, CAUSES[v] if f.kind == "cause" else
+                        bool(v) if f.kind == "bool" else int(v))
+
+    def values(self, machine: Machine):
+        """(name.attr, value) of every compared field, for the tandem comparison."""
+        for name, obj in self.rows(machine):
+            if obj is not None:
+                for f in self.fields:
+                    if f.compare:
+                        yield f"{name}.{f.attr}", getattr(obj, f.attr)
+
+
+def _cores(machine):
+    return [(c.name, c) for c in machine.cores]
+
+
+def _part(attr: str, label: str):
+    """A memory part of each processor (local, resident, cache, or the memory system)."""
+    def rows(machine):
+        out = []
+        for c in machine.cores:
+            obj = c.memory if attr == "memory" else getattr(c.memory, attr)
+            out.append((f"{c.name}.{label}", obj))
+        return out
+    return rows
+
+
+def _fifos(machine):
+    return [(f.name, f) for pe in machine.pes for f in pe.ring.fifos()]
+
+
+def _cmus(machine):
+    return [(f"{pe.name}.cmu.{cmu.stage}", cmu) for pe in machine.pes for cmu in pe.ring.cmus]
+
+
+LAYOUT: tuple[Component, ...] = (
+    Component("cs", (Field(C_PC, "pc"), Field(C_HALTED, "halted", "bool"),
+                     Field(C_HOLD_UNTIL, "hold_until"), Field(C_HOLD_MEM_UNTIL, "hold_mem_until"),
+                     Field(C_HOLD_CAUSE, "hold_cause", "cause"), Field(C_HOLD_PC, "hold_pc"),
+                     Field(C_CYCLES, "cycles"), Field(C_BUNDLES, "bundles_issued"),
+                     Field(C_LAST_PC, "last_pc"), Field(C_LAST_ISSUED, "last_issued", "bool"),
+                     Field(C_CAUSE, "cause", "cause")), _cores),
+    Component("cs", (Field(C_LOCAL_READS, "reads"), Field(C_LOCAL_WRITES, "writes")),
+              _part("local", "local")),
+    Component("cs", (Field(C_RES_READS, "reads"),), _part("resident", "resident")),
+    Component("cs", (Field(C_GLOBAL_ACC, "global_accesses"),), _part("memory", "memory")),
+    Component("cs", (Field(C_CACHE_ACC, "accesses"), Field(C_CACHE_HITS, "hits"),
+                     Field(C_CACHE_MISSES, "misses")), _part("cache", "cache")),
+    Component("fq", (Field(Q_POPC, "pop_cycle", compare=False),
+                     Field(Q_POPS, "pops", compare=False),
+                     Field(Q_PEAK, "peak"), Field(Q_TOTAL, "total")), _fifos),
+    Component("cm", (Field(M_RECV_OWNER, "recv_owner"), Field(M_MOVED, "moved")), _cmus),
+    Component("pes", (Field(P_MOVED, "ring_moved", "bool", False),
+                      Field(P_DIS_MOVED, "dis_moved", "bool", False),
+                      Field(P_COL_MOVED, "col_moved", "bool", False)),
+              lambda m: [(pe.name, pe) for pe in m.pes]),
+    Component("dis", (Field(D_NEXT, "next_msg"), Field(D_WORDS_SENT, "words_sent")),
+              lambda m: [("dis", m.dis)]),
+    Component("col", (Field(L_MESSAGES, "messages"), Field(L_WORDS, "words")),
+              lambda m: [("col", m.col)]),
+)
+"""The scalar state of every component (the arrays' other contents — registers, results in
+flight, queues, memories, counters by region and PC — are structures flatten and write_back
+convert explicitly, and canonical compares whole)."""
+
+
+def _new(name: str, shape, fill: int = 0) -> np.ndarray:
+    """Array `name` of ARRAYS, of its declared dtype, filled with `fill`."""
+    return np.full(shape, fill, ARRAYS[name].dtype)
 
 
 def _words(a: np.ndarray) -> np.ndarray:
@@ -212,34 +371,34 @@ def flatten(machine: Machine) -> State:
         W *= 2
 
     a: dict = {}
-    cs = np.zeros((P, N_C), np.int64)
-    regs = np.zeros((P, 64), np.int64)
-    ready = np.zeros((P, 64), np.int64)
-    prod = np.full((P, 64), -1, np.int64)
-    wbn = np.zeros((P, W), np.int64)
-    wbr = np.zeros((P, W, 4), np.int64)
-    wbw = np.zeros((P, W, 4), np.int64)
-    busy = np.zeros((P, 2, 4), np.int64)
-    occ = np.full((P, 2, 4), -1, np.int64)
-    unitn = np.zeros((P, 2), np.int64)
-    stpc = np.zeros((P, NB, len(CAUSES)), np.int64)
-    bpc = np.zeros((P, NB), np.int64)
-    ops = np.zeros((P, NB, MAXOPS, N_O), np.int32)  # small fields: half the cache footprint
-    opk = np.zeros((P, NB, MAXOPS, 2), np.int64)  # the integer immediate and memory offset
-    opf = np.zeros((P, NB, MAXOPS), np.float64)  # the float immediate
-    bun = np.zeros((P, NB, N_B), np.int32)
-    recvq = np.full((P, 3), -1, np.int64)
-    sendq = np.full((P, 3), -1, np.int64)
+    cs = _new("cs", (P, N_C))
+    regs = _new("regs", (P, 64))
+    ready = _new("ready", (P, 64))
+    prod = _new("prod", (P, 64), -1)
+    wbn = _new("wbn", (P, W))
+    wbr = _new("wbr", (P, W, 4))
+    wbw = _new("wbw", (P, W, 4))
+    busy = _new("busy", (P, 2, 4))
+    occ = _new("occ", (P, 2, 4), -1)
+    unitn = _new("unitn", (P, 2))
+    stpc = _new("stpc", (P, NB, len(CAUSES)))
+    bpc = _new("bpc", (P, NB))
+    ops = _new("ops", (P, NB, MAXOPS, N_O))  # small fields: half the cache footprint
+    opk = _new("opk", (P, NB, MAXOPS, 2))  # the integer immediate and memory offset
+    opf = _new("opf", (P, NB, MAXOPS))  # the float immediate
+    bun = _new("bun", (P, NB, N_B))
+    recvq = _new("recvq", (P, 3), -1)
+    sendq = _new("sendq", (P, 3), -1)
 
     # FIFOs, in each PE's fixed order
     fifos = [f for pe in machine.pes for f in pe.ring.fifos()]
     fid = {id(f): i for i, f in enumerate(fifos)}
     # each FIFO a ring buffer of a power-of-two size (loop.py wraps its indices with a mask)
     cap = 1 << (max(f.capacity for f in fifos) - 1).bit_length()
-    fq = np.zeros((len(fifos), 14), np.int64)
-    fbt = np.zeros((len(fifos), cap), np.int64)
-    fbw = np.zeros((len(fifos), cap), np.int64)
-    pw = np.zeros((npes, W_WAKE + 3), np.int64)
+    fq = _new("fq", (len(fifos), 14))
+    fbt = _new("fbt", (len(fifos), cap))
+    fbw = _new("fbw", (len(fifos), cap))
+    pw = _new("pw", (npes, W_WAKE + 3))
     cmu_input = {id(f): (s, k) for pe in machine.pes for s, cmu in enumerate(pe.ring.cmus)
                  for k, f in enumerate(cmu.inputs)}
     per_pe = len(fifos) // npes
@@ -247,7 +406,7 @@ def flatten(machine: Machine) -> State:
         pe = machine.pes[i // per_pe]
         ring = f is not pe.ring.host and f is not pe.ring.col
         stage, k = cmu_input.get(id(f), (-1, -1))
-        fq[i] = (f.capacity, f.delay, 0, len(f.q), f.pop_cycle, f.pops, f.peak, f.total,
+        fq[i] = (f.capacity, f.delay, 0, len(f.q), 0, 0, 0, 0,  # Q_POPC..Q_TOTAL: LAYOUT
                  i // per_pe, ring, stage, k, -1, -1)
         if stage >= 0 and len(f.q):
             pw[i // per_pe, W_MASK + stage] |= 1 << k
@@ -269,7 +428,7 @@ def flatten(machine: Machine) -> State:
     gseg = {stage: add_seg(g.words) for stage, g in machine.globals.items()}
     region_names: list[str] = []
     rg_parts: list[tuple[int, int]] = []  # per region: (name id, primitive or -1)
-    rmap = np.zeros((P, 3, 2), np.int64)
+    rmap = _new("rmap", (P, 3, 2))
     rmap[:, :, 1] = -1
     max_prim = 0
     tags: list[np.ndarray] = []
@@ -315,8 +474,8 @@ def flatten(machine: Machine) -> State:
     # side by side (one cache line per counted access)
     rg = np.array(rg_parts, np.int32) if rg_parts else np.zeros((1, 2), np.int32)
     rdense = np.concatenate(dense_parts) if dense_parts else np.zeros(1, np.int32)
-    rcnt = np.zeros((P, 3, max(len(region_names), 1), 3), np.int64)
-    pcnt = np.zeros((P, 3, max(max_prim, 1)), np.int64)
+    rcnt = _new("rcnt", (P, 3, max(len(region_names), 1), 3))
+    pcnt = _new("pcnt", (P, 3, max(max_prim, 1)))
 
     for p, core in enumerate(cores):
         mem = core.memory
@@ -329,17 +488,6 @@ def flatten(machine: Machine) -> State:
                 occ[p, u, i] = MN_ID.get(core.occupant[name][i], -1)
         cs[p, C_BUSYMAX] = busy[p].max()
 
-        cs[p, C_PC] = core.pc
-        cs[p, C_HALTED] = core.halted
-        cs[p, C_HOLD_UNTIL] = core.hold_until
-        cs[p, C_HOLD_MEM_UNTIL] = core.hold_mem_until
-        cs[p, C_HOLD_CAUSE] = CAUSE_ID[core.hold_cause]
-        cs[p, C_HOLD_PC] = core.hold_pc
-        cs[p, C_CYCLES] = core.cycles
-        cs[p, C_BUNDLES] = core.bundles_issued
-        cs[p, C_LAST_PC] = core.last_pc
-        cs[p, C_LAST_ISSUED] = core.last_issued
-        cs[p, C_CAUSE] = CAUSE_ID[core.cause]
         cs[p, C_PRESENT] = core.present
         cs[p, C_NB] = len(core.bundles)
         cs[p, C_WPORTS] = core.write_ports
@@ -351,20 +499,15 @@ def flatten(machine: Machine) -> State:
         cs[p, C_SEG_RES] = add_seg(mem.resident.words) if mem.resident is not None else -1
         cs[p, C_SEG_GLOBAL] = gseg[core.proc.name] if mem.global_memory is not None \
             and core.proc.name in gseg else -1
-        cs[p, C_LOCAL_READS] = mem.local.reads
-        cs[p, C_LOCAL_WRITES] = mem.local.writes
-        cs[p, C_RES_READS] = mem.resident.reads if mem.resident is not None else 0
-        cs[p, C_GLOBAL_ACC] = mem.global_accesses
         if mem.cache is not None:
             c = mem.cache
             cs[p, C_CACHE_SETS] = c.sets
+            cs[p, C_CACHE_WAYS] = c.ways
             cs[p, C_CACHE_OFF] = tag_off
             cs[p, C_BLOCK_BYTES] = c.block_bytes
             cs[p, C_WORD_BYTES] = c.word_bytes
-            cs[p, C_CACHE_ACC], cs[p, C_CACHE_HITS], cs[p, C_CACHE_MISSES] = \
-                c.accesses, c.hits, c.misses
             tags.append(c.tags.astype(np.int64))
-            tag_off += c.sets
+            tag_off += len(c.tags)
             per_block = c.block_bytes // c.word_bytes
             cs[p, C_BSHIFT] = per_block.bit_length() - 1 if c.block_bytes % c.word_bytes == 0 \
                 and per_block & (per_block - 1) == 0 else -1
@@ -404,20 +547,20 @@ def flatten(machine: Machine) -> State:
     # CMUs and links
     K = 3 * npes
     nin = max(len(cmu.inputs) for pe in machine.pes for cmu in pe.ring.cmus)
-    cm = np.zeros((K, 8), np.int64)
-    cin = np.zeros((K, nin), np.int64)
-    cout = np.zeros((K, nin), np.int64)
-    route = np.full((K, nin), _ROUTE_NONE, np.int64)
-    rem = np.zeros((K, nin), np.int64)
-    lown = np.full((K, nin), -1, np.int64)
-    linkw = np.zeros(K, np.int64)
-    pes = np.zeros((npes, 6), np.int64)
+    cm = _new("cm", (K, 8))
+    cin = _new("cin", (K, nin))
+    cout = _new("cout", (K, nin))
+    route = _new("route", (K, nin), _ROUTE_NONE)
+    rem = _new("rem", (K, nin))
+    lown = _new("lown", (K, nin), -1)
+    linkw = _new("linkw", K)
+    pes = _new("pes", (npes, 6))
     for i, pe in enumerate(machine.pes):
         for s, stage in enumerate(STAGES):
             m = 3 * i + s
             cmu = pe.ring.cmus[s]
             linkw[m] = pe.ring.link_words[stage][0]
-            cm[m] = (len(cmu.inputs), cmu.recv_owner, cmu.moved, fid[id(cmu.recv)], cmu.dest_id,
+            cm[m] = (len(cmu.inputs), 0, 0, fid[id(cmu.recv)], cmu.dest_id,  # 0, 0: LAYOUT
                      3 * i + STAGES.index(PREV[stage]), m, len(cmu.out_link))
             for k, f in enumerate(cmu.inputs):
                 cin[m, k] = fid[id(f)]
@@ -426,24 +569,24 @@ def flatten(machine: Machine) -> State:
             for k, f in enumerate(cmu.out_link):
                 cout[m, k] = fid[id(f)]
                 lown[m, k] = cmu.link_owner[k]
-        pes[i] = (pe._moved, pe.dis_moved, pe.col_moved, machine.no_progress[i],
+        pes[i] = (0, 0, 0, machine.no_progress[i],  # 0, 0, 0: LAYOUT
                   fid[id(pe.ring.host)], fid[id(pe.ring.col)])
 
     d = machine.dis
-    moff = np.zeros(len(d.messages) + 1, np.int64)
+    moff = _new("moff", len(d.messages) + 1)
     for k, msg in enumerate(d.messages):
         moff[k + 1] = moff[k] + len(msg)
     mwords = np.array([_as_signed(int(w) & mask) for msg in d.messages for w in msg] or [0],
                       np.int64)
     col = machine.col
-    cpart = np.zeros((npes, 8), np.int64)
-    cplen = np.zeros(npes, np.int64)
+    cpart = _new("cpart", (npes, 8))
+    cplen = _new("cplen", npes)
     for i, part in enumerate(col.partial):
         cplen[i] = len(part)
         for k, w in enumerate(part):
             cpart[i, k] = _as_signed(int(w) & mask)
 
-    seg = np.zeros((len(segs), 2), np.int64)
+    seg = _new("seg", (len(segs), 2))
     off = 0
     for i, s in enumerate(segs):
         seg[i] = (off, len(s))
@@ -460,13 +603,15 @@ def flatten(machine: Machine) -> State:
         rdense=rdense,
         rcnt=rcnt, pcnt=pcnt, cm=cm, cin=cin, cout=cout, route=route, rem=rem, lown=lown,
         linkw=linkw, pes=pes,
-        dis=np.array([d.dynamic, d.next_msg, len(d.messages), d.words_sent], np.int64),
+        dis=np.array([d.dynamic, 0, len(d.messages), 0], np.int64),  # 0: LAYOUT
         dcur=np.array(d.current, np.int64), doff=np.array(d.offset, np.int64),
         dup=np.array(d.upcoming, np.int64), dasg=np.array(d.assigned, np.int64),
         moff=moff, mwords=mwords,
-        col=np.array([col.messages, col.words, col.width, col.height], np.int64),
+        col=np.array([0, 0, col.width, col.height], np.int64),  # 0: LAYOUT
         cpart=cpart, cplen=cplen, frame=col.frame, ids=col.ids, cflags=CAUSE_FLAGS, pw=pw,
         finfo=np.zeros(8, np.int64))
+    for component in LAYOUT:
+        component.read(machine, a)
     return State(a, fifos, region_names, mask)
 
 
@@ -554,6 +699,8 @@ def write_back(st: State, machine: Machine) -> None:
     W = int(a["g"][G_W])
     cycle = int(a["g"][G_CYCLE])
     machine.cycle = cycle
+    for component in LAYOUT:
+        component.write(a, machine)
     seg = a["seg"]
     mem_all = a["mem"]
     names = st.region_names
@@ -561,17 +708,6 @@ def write_back(st: State, machine: Machine) -> None:
         cs = a["cs"][p]
         mem = core.memory
         units = list(core.proc.units)
-        core.pc = int(cs[C_PC])
-        core.halted = bool(cs[C_HALTED])
-        core.hold_until = int(cs[C_HOLD_UNTIL])
-        core.hold_mem_until = int(cs[C_HOLD_MEM_UNTIL])
-        core.hold_cause = CAUSES[cs[C_HOLD_CAUSE]]
-        core.hold_pc = int(cs[C_HOLD_PC])
-        core.cycles = int(cs[C_CYCLES])
-        core.bundles_issued = int(cs[C_BUNDLES])
-        core.last_pc = int(cs[C_LAST_PC])
-        core.last_issued = bool(cs[C_LAST_ISSUED])
-        core.cause = CAUSES[cs[C_CAUSE]]
         core.regs = [int(w) & mask for w in a["regs"][p]]
         core.ready_at = [int(t) for t in a["ready"][p]]
         core.producer = [MNEMONICS[i] if i >= 0 else "" for i in a["prod"][p]]
@@ -615,17 +751,10 @@ def write_back(st: State, machine: Machine) -> None:
         words = mem_all[sl[0]:sl[0] + sl[1]]
         dt = mem.local.words.dtype
         mem.local.words[:] = words.view(np.uint64) if dt == np.uint64 else words.astype(dt)
-        mem.local.reads = int(cs[C_LOCAL_READS])
-        mem.local.writes = int(cs[C_LOCAL_WRITES])
-        if mem.resident is not None:
-            mem.resident.reads = int(cs[C_RES_READS])
-        mem.global_accesses = int(cs[C_GLOBAL_ACC])
         if mem.cache is not None:
             c = mem.cache
-            c.accesses, c.hits, c.misses = (int(cs[C_CACHE_ACC]), int(cs[C_CACHE_HITS]),
-                                            int(cs[C_CACHE_MISSES]))
             o = int(cs[C_CACHE_OFF])
-            c.tags[:] = a["ctags"][o:o + c.sets]
+            c.tags[:] = a["ctags"][o:o + len(c.tags)]
         for sp, counts in enumerate(_counters(mem)):
             if counts is _EMPTY:
                 continue
@@ -640,30 +769,22 @@ def write_back(st: State, machine: Machine) -> None:
         h, n = int(fq[i, Q_HEAD]), int(fq[i, Q_CNT])
         f.q = deque((int(fbt[i, (h + k) % cap]), int(fbw[i, (h + k) % cap]) & mask)
                     for k in range(n))
-        f.pop_cycle, f.pops, f.peak, f.total = (int(fq[i, Q_POPC]), int(fq[i, Q_POPS]),
-                                                int(fq[i, Q_PEAK]), int(fq[i, Q_TOTAL]))
     for i, pe in enumerate(machine.pes):
         for s, stage in enumerate(STAGES):
             m = 3 * i + s
             cmu = pe.ring.cmus[s]
             pe.ring.link_words[stage][0] = int(a["linkw"][m])
-            cmu.recv_owner = int(a["cm"][m, M_RECV_OWNER])
-            cmu.moved = int(a["cm"][m, M_MOVED])
             n = len(cmu.inputs)
             cmu.route = [None if r == _ROUTE_NONE else int(r) for r in a["route"][m, :n]]
             cmu.remaining = [int(r) for r in a["rem"][m, :n]]
             cmu.link_owner = [int(o) for o in a["lown"][m, :len(cmu.out_link)]]
         pr = a["pes"][i]
-        pe._moved, pe.dis_moved, pe.col_moved = (bool(pr[P_MOVED]), bool(pr[P_DIS_MOVED]),
-                                                 bool(pr[P_COL_MOVED]))
         machine.no_progress[i] = int(pr[P_NO_PROGRESS])
     d = machine.dis
-    d.next_msg, d.words_sent = int(a["dis"][D_NEXT]), int(a["dis"][D_WORDS_SENT])
     d.current = [int(x) for x in a["dcur"]]
     d.offset = [int(x) for x in a["doff"]]
     d.upcoming = [int(x) for x in a["dup"]]
     d.assigned = [int(x) for x in a["dasg"]]
     col = machine.col
-    col.messages, col.words = int(a["col"][L_MESSAGES]), int(a["col"][L_WORDS])
     col.partial = [[int(w) & mask for w in a["cpart"][i, :a["cplen"][i]]]
                    for i in range(len(machine.pes))]

@@ -19,6 +19,7 @@ import numpy as np
 
 from netsushisen.errors import Diagnostic, NetsushisenError
 
+from netsushisen.emulator.compiled.state import LAYOUT
 from netsushisen.emulator.engine import Engine, Progress
 from netsushisen.emulator.machine import Machine, RunResult
 
@@ -32,14 +33,15 @@ class TandemMismatch(NetsushisenError):
 
 
 def canonical(machine: Machine) -> dict[str, object]:
-    """Every piece of state both engines must agree on, by a readable field name."""
+    """Every piece of state both engines must agree on, by a readable field name: the scalar
+    fields of the compiled engine's layout table (state.LAYOUT), then the structures."""
     out: dict[str, object] = {"cycle": machine.cycle, "status": machine.status,
                               "no_progress": list(machine.no_progress)}
+    for component in LAYOUT:
+        out.update(component.values(machine))
     for core in machine.cores:
         n = core.name
-        for f in ("pc", "halted", "hold_until", "hold_mem_until", "hold_cause", "hold_pc",
-                  "cycles", "bundles_issued", "ops", "last_pc", "last_issued", "cause"):
-            out[f"{n}.{f}"] = getattr(core, f)
+        out[f"{n}.ops"] = core.ops
         out[f"{n}.regs"] = np.array(core.regs, dtype=object)
         out[f"{n}.ready_at"] = np.array(core.ready_at, dtype=object)
         out[f"{n}.producer"] = list(core.producer)
@@ -52,31 +54,25 @@ def canonical(machine: Machine) -> dict[str, object]:
                                           for pc, c in core.stalls_by_pc.items())
         mem = core.memory
         out[f"{n}.local"] = mem.local.words
-        out[f"{n}.local.counts"] = (mem.local.reads, mem.local.writes,
-                                    sorted(mem.local.region_counts.regions.items()),
+        out[f"{n}.local.counts"] = (sorted(mem.local.region_counts.regions.items()),
                                     sorted(mem.local.region_counts.primitives.items()))
         if mem.resident is not None:
-            out[f"{n}.resident.counts"] = (mem.resident.reads,
-                                           sorted(mem.resident.region_counts.regions.items()),
+            out[f"{n}.resident.counts"] = (sorted(mem.resident.region_counts.regions.items()),
                                            sorted(mem.resident.region_counts.primitives.items()))
         if mem.cache is not None:
-            c = mem.cache
-            out[f"{n}.cache"] = (c.accesses, c.hits, c.misses, mem.global_accesses)
-            out[f"{n}.cache.tags"] = c.tags
+            out[f"{n}.cache.tags"] = mem.cache.tags
             out[f"{n}.global.counts"] = (sorted(mem.global_counts.regions.items()),
                                          sorted(mem.global_counts.primitives.items()))
     for pe in machine.pes:
         for f in pe.ring.fifos():
-            out[f"{f.name}"] = (list(f.q), f.pops if f.pop_cycle == machine.cycle - 1 else 0,
-                                f.peak, f.total)
+            out[f"{f.name}"] = (list(f.q), f.pops if f.pop_cycle == machine.cycle - 1 else 0)
         for cmu in pe.ring.cmus:
             out[f"{pe.name}.cmu.{cmu.stage}"] = (list(cmu.route), list(cmu.remaining),
-                                                 cmu.recv_owner, list(cmu.link_owner), cmu.moved)
+                                                 list(cmu.link_owner))
     d = machine.dis
-    out["dis"] = (d.next_msg, list(d.current), list(d.offset), list(d.upcoming),
-                  list(d.assigned), d.words_sent)
+    out["dis"] = (list(d.current), list(d.offset), list(d.upcoming), list(d.assigned))
     col = machine.col
-    out["col"] = (col.messages, col.words, [list(p) for p in col.partial])
+    out["col"] = [list(p) for p in col.partial]
     out["col.frame"] = col.frame
     out["col.ids"] = col.ids
     return out

@@ -1,43 +1,61 @@
-"""Trace-driven model of IC's memory: resident memory + direct-mapped cache + global memory.
+"""Trace-driven model of IC's memory: resident memory + cache + global memory.
 
 It replays a stream of (space, word address) loads — the IC access protocol's stream from the
-golden model's reference trace (`host/ic_access.py`) — with the emulator's exact rules
-(`emulator/memories.py`): word bytes from the precision, byte address = word × word_bytes,
-block = byte // block_bytes, set = block % sets, tag = block // sets, a miss fills its line, a
-cache of 0 bytes misses every time; and it keeps the same counters in the same dictionary shape
-as `MemorySystem.stats()` (resident, cache, global, per-region and per-primitive counts; there is
+golden model's reference trace (`host/ic_access.py`) — with the emulator's own cache rule
+(`emulator/cacherule.py`, compiled here by numba: the functions the reference engine's
+`memories.Cache` calls): word bytes from the precision, byte address = word × word_bytes,
+block = byte // block_bytes, set = block % sets, tag = block // sets, hit when the tag is in its
+set, LRU over the set's ways (one way: direct-mapped, a miss replaces the line), a cache of 0
+bytes misses every time; and it keeps the same counters in the same dictionary shape as
+`MemorySystem.stats()` (resident, cache, global, per-region and per-primitive counts; there is
 no local memory in a trace).
 
-Vectorised: a direct-mapped cache needs no loop over accesses. Sort the accesses by set (a
-stable sort keeps each set's accesses in time order); an access hits iff the access before it in
-its set was to the same block (the first access of a set in a chunk compares with the line's
-tag left by the previous chunk).
+The stream in the machine's ray order comes from the host (`host/ic_access.py`:
+`machine_order`, `ordered_stream_chunks`); `SweepStream` replays one trace under many memory
+configurations at once (the paper's Figures 4 and 5) from a run-collapsed form of the stream.
 
-`machine_order` gives the order in which the machine's serial mode (`SLOTS=1`,
-`SERIAL_TREES=1`) visits the golden trace's rays, `ordered_stream_chunks` the IC stream in that
-order, and `SweepStream` replays one trace under many memory configurations at once (the paper's
-Figures 4 and 5) from a run-collapsed form of the stream.
+It lives beside the machine's memories and shares their definitions: the cache rule
+(`emulator/cacherule.py`), the sizes (`memories.memory_levels`) and the address-to-region rule
+(`isa.regions.RegionMap`, whose `lookup` the reference engine calls per load and whose
+`indices` this model calls per chunk). It imports nothing from the host: a layout is anything
+with the `record_space`, `record_address` and `list_words` of `host.databases.DatabaseLayout`.
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
-from typing import Iterable, Iterator
+from types import SimpleNamespace
+from typing import Any, Iterable
 
 import numpy as np
-from numba import njit
 
-from netsushisen.host.databases import GLOBAL, RESIDENT, DatabaseLayout
-from netsushisen.host.golden import SHADOW
-from netsushisen.host.ic_access import ic_address_stream
-from netsushisen.host.records import ranges
-from netsushisen.isa.regions import Region
+from netsushisen.emulator import cacherule
+from netsushisen.emulator.memories import memory_levels
+from netsushisen.isa.regions import GLOBAL, RESIDENT, Region, RegionMap
+
+DatabaseLayout = Any
+"""A host.databases.DatabaseLayout (record_space, record_address, list_words): read, not typed
+here, so the machine's side imports nothing from the host."""
 
 SPACES = {GLOBAL: "global", RESIDENT: "resident"}
 
 
 # ------------------------------------------------------------------------------------------------
-# The direct-mapped cache, vectorised
+# The cache: the emulator's rule, compiled on first use (numba is imported then, not when this
+# module is: a command that never replays a trace starts without it)
+
+_touch = cacherule.touch  # replaced by its compiled form in `_compiled()`
+
+
+@functools.cache
+def _compiled() -> SimpleNamespace:
+    """The replay loops compiled by numba (once per process; its own cache on disk)."""
+    from numba import njit  # noqa: PLC0415 (numba only where a compiled function is needed)
+
+    global _touch
+    _touch = njit(nogil=True, inline="always")(cacherule.touch)
+    return SimpleNamespace(replay=njit(nogil=True)(_replay), replay_point=njit(nogil=True)(_replay_point))
 
 
 def block_numbers(addresses: np.ndarray, word_bytes: int, block_bytes: int) -> np.ndarray:
@@ -45,47 +63,40 @@ def block_numbers(addresses: np.ndarray, word_bytes: int, block_bytes: int) -> n
     return (np.asarray(addresses, np.int64) * word_bytes) // block_bytes
 
 
-def replay_blocks(blocks: np.ndarray, tags: np.ndarray) -> np.ndarray:
-    """Hit (True) or miss of each access to `blocks`, in order, through a direct-mapped cache
-    whose line tags are `tags` (one per set, -1 = invalid; updated in place, so consecutive
-    chunks of one stream replay as one). No sets: every access misses."""
+def _replay(blocks, tags, sets, ways, hits):  # pragma: no cover - compiled
+    for i in range(len(blocks)):
+        b = blocks[i]
+        hits[i] = _touch(tags, (b % sets) * ways, ways, b // sets)
+
+
+def replay_blocks(blocks: np.ndarray, tags: np.ndarray, ways: int = 1) -> np.ndarray:
+    """Hit (True) or miss of each access to `blocks`, in order, through a cache whose line tags
+    are `tags` (sets × ways, a set's ways most recent first, -1 = invalid; updated in place, so
+    consecutive chunks of one stream replay as one). No sets: every access misses."""
     blocks = np.asarray(blocks, np.int64)
-    n, sets = len(blocks), len(tags)
-    if n == 0 or sets == 0:
-        return np.zeros(n, bool)
-    s = blocks % sets
-    tag = blocks // sets
-    key = s.astype(np.uint16) if sets <= 1 << 16 else s  # 16-bit keys sort by radix: O(n)
-    order = np.argsort(key, kind="stable")
-    ss, tt = s[order], tag[order]
-    first = np.empty(n, bool)
-    first[0] = True
-    np.not_equal(ss[1:], ss[:-1], out=first[1:])
-    prev = np.empty(n, np.int64)
-    prev[1:] = tt[:-1]
-    prev[first] = tags[ss[first]]
-    last = np.empty(n, bool)
-    last[-1] = True
-    last[:-1] = first[1:]
-    tags[ss[last]] = tt[last]
-    hits = np.empty(n, bool)
-    hits[order] = prev == tt
+    hits = np.zeros(len(blocks), np.bool_)
+    sets = len(tags) // ways
+    if len(blocks) and sets:
+        _compiled().replay(blocks, tags, sets, ways, hits)
     return hits
 
 
-class DirectMappedCache:
-    """The vectorised twin of `emulator.memories.Cache` (tags only, counters)."""
+class TraceCache:
+    """The trace-driven twin of `emulator.memories.Cache` (tags only, counters)."""
 
-    def __init__(self, cache_bytes: int, block_bytes: int, word_bytes: int):
+    def __init__(self, cache_bytes: int, block_bytes: int, word_bytes: int, ways: int = 1):
+        self.geometry = cacherule.geometry(cache_bytes, block_bytes, ways, word_bytes)
         self.block_bytes = block_bytes
         self.word_bytes = word_bytes
-        self.sets = cache_bytes // block_bytes
-        self.tags = np.full(self.sets, -1, np.int64)
+        self.ways = ways
+        self.sets = self.geometry.sets
+        self.tags = np.full(self.geometry.lines, -1, np.int64)
         self.accesses = self.hits = self.misses = 0
 
     def replay(self, addresses: np.ndarray) -> np.ndarray:
         """Replay word addresses in order; hit per access."""
-        hits = replay_blocks(block_numbers(addresses, self.word_bytes, self.block_bytes), self.tags)
+        hits = replay_blocks(block_numbers(addresses, self.word_bytes, self.block_bytes),
+                             self.tags, self.ways)
         h = int(np.count_nonzero(hits))
         self.accesses += len(hits)
         self.hits += h
@@ -94,27 +105,26 @@ class DirectMappedCache:
 
 
 class VectorRegions:
-    """A region map (`isa.regions.RegionMap`'s ranges) looked up for many addresses at once."""
+    """A region map looked up for many addresses at once (`RegionMap.indices`: the rule the
+    reference engine's `RegionMap.lookup` applies per load), with region names numbered in a
+    list shared by the maps of one memory system."""
 
     def __init__(self, regions: Iterable[Region], names: list[str]):
-        regs = sorted(regions, key=lambda r: r.start)
-        self.starts = np.array([r.start for r in regs], np.int64)
-        self.ends = np.array([r.end for r in regs], np.int64)
-        for r in regs:
+        self.map = RegionMap(regions)
+        for r in self.map.regions:
             if r.name not in names:
                 names.append(r.name)
-        self.name = np.array([names.index(r.name) for r in regs], np.int64)
-        self.primitive = np.array([-1 if r.primitive is None else r.primitive for r in regs], np.int64)
+        self.name = np.array([names.index(r.name) for r in self.map.regions], np.int64)
+        self.primitive = np.array([-1 if r.primitive is None else r.primitive
+                                   for r in self.map.regions], np.int64)
 
     def lookup(self, addresses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(name index or -1, primitive id or -1) of each address."""
-        a = np.asarray(addresses, np.int64)
-        if not len(self.starts):
-            return np.full(len(a), -1, np.int64), np.full(len(a), -1, np.int64)
-        i = np.searchsorted(self.starts, a, side="right") - 1
+        i = self.map.indices(addresses)
         j = np.maximum(i, 0)
-        inside = (i >= 0) & (a < self.ends[j])
-        return np.where(inside, self.name[j], -1), np.where(inside, self.primitive[j], -1)
+        if not len(self.name):
+            return i, i.copy()
+        return np.where(i >= 0, self.name[j], -1), np.where(i >= 0, self.primitive[j], -1)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -129,14 +139,16 @@ class TraceMemory:
     outside raises ValueError naming it); None = unbounded."""
 
     def __init__(self, cache_bytes: int, block_bytes: int, word_bytes: int, resident_words: int = 0,
-                 regions: dict[str, list[Region]] | None = None, global_words: int | None = None):
-        self.cache = DirectMappedCache(cache_bytes, block_bytes, word_bytes)
+                 regions: dict[str, list[Region]] | None = None, global_words: int | None = None,
+                 ways: int = 1):
+        self.cache = TraceCache(cache_bytes, block_bytes, word_bytes, ways)
         self.resident_words = resident_words
         self.global_words = global_words
         self.resident_accesses = 0
         self.names: list[str] = []
         regions = regions or {}
-        self.maps = {space: VectorRegions(regions.get(space, ()), self.names) for space in ("resident", "global")}
+        self.maps = {space: VectorRegions(regions.get(space, ()), self.names)
+                     for space in ("resident", "global")}
         self.region_counts: dict[str, np.ndarray] = {}  # "space.name" -> [accesses, hits, misses]
         self.primitive_counts = np.zeros(0, np.int64)
 
@@ -147,9 +159,11 @@ class TraceMemory:
         mc = images.config.ic_memory if proc == "ic" else images.config.sc_memory
         wb = images.config.word_bytes
         glob = images.icgm if proc == "ic" else images.scgm
-        return cls(mc.cache_bytes, mc.block_bytes, wb, mc.resident_bytes // wb,
+        cache = memory_levels(mc, len(glob), wb)[1].cache
+        return cls(cache.capacity, cache.block_bytes, wb, mc.resident_bytes // wb,
                    {"resident": images.regions.get(f"{proc}.resident", []),
-                    "global": images.regions.get(f"{proc}.global", [])}, global_words=len(glob))
+                    "global": images.regions.get(f"{proc}.global", [])}, global_words=len(glob),
+                   ways=cache.ways)
 
     def _count(self, space: str, address: np.ndarray, hits: np.ndarray | None) -> None:
         name, prim = self.maps[space].lookup(address)
@@ -177,7 +191,8 @@ class TraceMemory:
         address = np.asarray(address, np.int64)
         res = space == RESIDENT
         ra, ga = address[res], address[~res]
-        for what, a, bound in (("resident", ra, self.resident_words), ("global", ga, self.global_words)):
+        for what, a, bound in (("resident", ra, self.resident_words),
+                               ("global", ga, self.global_words)):
             if bound is not None and len(a) and (a.min() < 0 or a.max() >= bound):
                 bad = int(a[(a < 0) | (a >= bound)][0])
                 raise ValueError(f"{what} memory address {bad} is outside 0..{bound - 1}")
@@ -191,7 +206,7 @@ class TraceMemory:
         c = self.cache
         out: dict = {"resident": {"accesses": self.resident_accesses, "words": self.resident_words},
                      "cache": {"accesses": c.accesses, "hits": c.hits, "misses": c.misses,
-                               "sets": c.sets, "block_bytes": c.block_bytes},
+                               "sets": c.sets, "ways": c.ways, "block_bytes": c.block_bytes},
                      "global": {"accesses": c.misses}}
         regions = {}
         for key, (a, h, m) in self.region_counts.items():
@@ -207,63 +222,16 @@ class TraceMemory:
 
 
 # ------------------------------------------------------------------------------------------------
-# The machine's ray order and the IC stream in that order
-
-
-def ray_generation(result) -> np.ndarray:
-    """Generation of each traced ray in its pixel's ray tree: the eye ray 0; a surface ray of
-    depth k: k − 1; a shadow ray of a depth-k hit (it carries depth k): k."""
-    depth = result.trace_depth.astype(np.int64)
-    return np.where(result.trace_kind == SHADOW, depth, depth - 1)
-
-
-def machine_order(result) -> np.ndarray:
-    """The golden trace's ray indices in the order the machine's serial mode visits them: pixel
-    by pixel, each pixel's ray tree in level order (the eye ray; its children in spawn order —
-    shadow rays by light, reflection, refraction; then their children in the same order, ...).
-
-    The trace is depth-first (rays sorted by their tree path); within one generation of one
-    pixel, depth-first order and level order are the same order (both sort the equal-length
-    paths lexicographically), so a stable sort by (pixel, generation) gives level order."""
-    if result.trace_kind is None:
-        raise ValueError("render with keep_trace=True to get the IC reference trace")
-    return np.lexsort((ray_generation(result), result.trace_pixel)).astype(np.int64)
-
-
-def ordered_stream_chunks(layout: DatabaseLayout, result, order: np.ndarray | None = None,
-                          rays_per_chunk: int = 32768, hits: bool = True
-                          ) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """The IC access stream (`ic_address_stream`) of the golden trace's rays taken in `order`
-    (default: the trace's depth-first order), in chunks of rays."""
-    if result.trace_prims is None:
-        raise ValueError("render with keep_trace=True to get the IC reference trace")
-    off = result.trace_ray_offsets
-    n = len(off) - 1
-    order = np.arange(n) if order is None else np.asarray(order, np.int64)
-    for c0 in range(0, len(order), rays_per_chunk):
-        rays = order[c0:c0 + rays_per_chunk]
-        length = off[rays + 1] - off[rays]
-        idx = ranges(off[rays], length)
-        new_off = np.concatenate([[0], np.cumsum(length)])
-        if hits:
-            yield ic_address_stream(layout, result.trace_prims[idx], result.trace_leaves[idx], new_off,
-                                    result.trace_hit[rays], result.trace_hit_fan[rays])
-        else:
-            yield ic_address_stream(layout, result.trace_prims[idx], result.trace_leaves[idx])
-
-
-# ------------------------------------------------------------------------------------------------
 # Many configurations at once: the run-collapsed stream
 
 
-@njit(cache=True, nogil=True)
-def _replay_point(first, span, loads, prim, segment, fetch_is_reference, fetch_prim, resident, shift,
-                  tags, word_bytes, block_bytes, lists_cached):  # pragma: no cover - compiled
+def _replay_point(first, span, loads, prim, segment, fetch_is_reference, fetch_prim, resident,
+                  shift, tags, ways, word_bytes, block_bytes, lists_cached):  # pragma: no cover - compiled
     """One configuration's cache over one chunk of runs, in stream order: (hits of record
     loads, hits of list loads, references through the cache whose every block hit). A run's
-    first load of each block is a real access; its other loads of that block hit. A direct-mapped
-    cache is one tag per set: a loop is exact and linear (the vectorised `replay_blocks` sorts)."""
-    sets = len(tags)
+    first load of each block is a real access; its other loads of that block hit (the block is
+    the set's most recent line then, so LRU order is unchanged)."""
+    sets = len(tags) // ways
     missed = np.zeros(len(fetch_is_reference), np.bool_)
     h_shape = 0
     h_list = 0
@@ -282,12 +250,9 @@ def _replay_point(first, span, loads, prim, segment, fetch_is_reference, fetch_p
         hits = loads[i] - (b2 - b1 + 1)
         miss = False
         for b in range(b1, b2 + 1):
-            st = b % sets
-            tag = b // sets
-            if tags[st] == tag:
+            if _touch(tags, (b % sets) * ways, ways, b // sets):
                 hits += 1
             else:
-                tags[st] = tag
                 miss = True
         if p < 0:
             h_list += hits
@@ -315,13 +280,15 @@ class SweepPoint:
     layout: DatabaseLayout
     cache_bytes: int
     block_bytes: int
+    ways: int = 1
     tags: np.ndarray = field(init=False)
     resident: np.ndarray = field(init=False)  # (N,) bool
     shift: np.ndarray = field(init=False)  # (N,) ICGM address − reference ICGM address
     counts: dict[str, int] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        self.tags = np.full(self.cache_bytes // self.block_bytes, -1, np.int64)
+        self.tags = np.full(self.cache_bytes // (self.block_bytes * self.ways) * self.ways, -1,
+                            np.int64)
         self.resident = self.layout.record_space == RESIDENT
         for k in COUNT_KEYS:
             self.counts[k] = 0
@@ -340,8 +307,8 @@ class Runs:
     span: np.ndarray  # last − first
     loads: np.ndarray  # loads in the run
     prim: np.ndarray  # primitive of a record run, -1 for a list-cell run
-    segment: np.ndarray  # record runs: index of their fetch (consecutive runs of one record), else -1
-    fetch_is_reference: np.ndarray  # per fetch: it follows a list cell (a test), not a winner's hit words
+    segment: np.ndarray  # record runs: their fetch (consecutive runs of one record), else -1
+    fetch_is_reference: np.ndarray  # per fetch: after a list cell (a test), not a winner's hit words
 
 
 class SweepStream:
@@ -434,9 +401,9 @@ class SweepStream:
                 c["local.primitive_list"] += list_loads
             if not len(pt.tags):
                 continue
-            h_shape, h_list, ref_hits = _replay_point(
+            h_shape, h_list, ref_hits = _compiled().replay_point(
                 first, span, loads, prim, seg, refs, fetch_prim, pt.resident, pt.shift, pt.tags,
-                self.wb, pt.block_bytes, self.lists_cached)
+                pt.ways, self.wb, pt.block_bytes, self.lists_cached)
             c["hits.shape_data"] += int(h_shape)
             c["hits.primitive_list"] += int(h_list)
             c["ref.hits"] += int(ref_hits)

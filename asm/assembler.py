@@ -28,7 +28,7 @@ from netsushisen.asm.pipeline import PipelineReport
 from netsushisen.asm.regions import Region, RegionAssembly, RegionLoop
 from netsushisen.asm.parser import (CONDITIONAL_RE, Bundle, Chunk, Directive, Expansion, Instr,
                                     Loc, parse_chunk, split_statements)
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.opcodes import OPCODES
 from netsushisen.isa.processors import N_REGISTERS, PROCESSORS, REGISTER_ALIASES

@@ -31,7 +31,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from netsushisen.asm.parser import Chunk, Expansion, Loc, parse_chunk, parse_macro_header
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.opcodes import OPCODES
 from netsushisen.limits import MAX_EXPANDED_CHARS, MAX_EXPANDED_LINES, MAX_STATEMENT_CHARS
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Union
 
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.opcodes import OPCODES, Opcode
 from netsushisen.isa.processors import PROCESSORS, ZERO_REGISTER, register_name
 
@@ -226,7 +226,7 @@ class Program:
         }
 
     def save(self, path: str | Path) -> None:
-        from netsushisen.outputs import write_text
+        from netsushisen.isa.outputs import write_text
 
         write_text(path, json.dumps(self.to_json(), indent=None, separators=(",", ":")) + "\n")
 

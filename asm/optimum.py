@@ -29,7 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from netsushisen.asm.dependences import DependenceGraph, unit_busy
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.processors import Processor
 

@@ -17,7 +17,7 @@ from typing import Any
 from lark import Lark, Token, Transformer, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 
-from netsushisen.errors import Diagnostic
+from netsushisen.isa.errors import Diagnostic
 
 # --------------------------------------------------------------------------------------------
 # Statement model

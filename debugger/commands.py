@@ -23,7 +23,7 @@ from netsushisen.debugger.help import (ALIASES, CLASSES, HELP, INFO_ALIASES, INF
 from netsushisen.debugger.outcome import Outcome
 from netsushisen.debugger.source import SourceCommands
 from netsushisen.debugger.state import state_digest
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.isa.processors import STAGES
 from netsushisen.isa.words import wrap32
 

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from netsushisen.asm.expressions import ExprError, evaluate
 from netsushisen.asm.parser import Chunk, Instr, parse_chunk
 from netsushisen.asm.regnames import register_names
-from netsushisen.errors import Diagnostic
+from netsushisen.isa.errors import Diagnostic
 from netsushisen.isa.processors import N_REGISTERS, REGISTER_ALIASES
 from netsushisen.isa.ring import predefined_symbols
 from netsushisen.isa.words import wrap32

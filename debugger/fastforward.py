@@ -31,7 +31,7 @@ import re
 from dataclasses import dataclass
 
 from netsushisen.debugger.expressions import Context, DebugError
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 
 ENGINE = "compiled"
 

@@ -58,7 +58,7 @@ import struct
 from collections import Counter
 
 from netsushisen.asm.objects import Op, Program
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.opcodes import OPCODES
 from netsushisen.isa.processors import LINK_REGISTER, PROCESSORS, Processor

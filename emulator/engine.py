@@ -26,7 +26,7 @@ from typing import Callable
 import numpy as np
 
 from netsushisen.asm.objects import Program
-from netsushisen.errors import ConfigError, Diagnostic
+from netsushisen.isa.errors import ConfigError, Diagnostic
 from netsushisen.isa.config import MachineConfig
 
 from netsushisen.emulator import stats as run_stats

@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from netsushisen.asm.objects import Program
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.processors import STAGES
 from netsushisen.isa.ring import DESTS, parse_header

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from netsushisen.asm.objects import Program
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.processors import STAGES
 from netsushisen.isa.words import word_format

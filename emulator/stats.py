@@ -134,7 +134,7 @@ def dumps(stats: dict) -> str:
 
 
 def write(machine: Machine, path: str | Path) -> None:
-    from netsushisen.outputs import write_text
+    from netsushisen.isa.outputs import write_text
 
     write_text(path, dumps(collect(machine)))
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from netsushisen.errors import Diagnostic, SceneError
+from netsushisen.isa.errors import Diagnostic, SceneError
 from netsushisen.host.nff import read_nff
 from netsushisen.host.scenes import Scene
 from netsushisen.host.spd import GENERATORS, generate

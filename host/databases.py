@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from netsushisen.errors import ConfigError, Diagnostic
+from netsushisen.isa.errors import ConfigError, Diagnostic
 from netsushisen.host.golden import Luminance, offset_scale, scene_epsilon
 from netsushisen.host.grid import Grid, build_grid
 from netsushisen.host.records import (CELL_WORDS, LIGHT_WORDS, MATERIAL_WORDS, SCENE_HEADER_WORDS,
@@ -264,7 +264,7 @@ class MachineImages:
             arrays[f"regions.{key}"] = np.array(
                 [[r.start, r.end, REGION_NAMES.index(r.name), -1 if r.primitive is None else r.primitive]
                  for r in regs], dtype=np.int64).reshape(-1, 4)
-        from netsushisen.outputs import write_file
+        from netsushisen.isa.outputs import write_file
 
         def write(tmp: Path) -> None:
             with open(tmp, "wb") as f:  # a file, not a name: np.savez would add ".npz" to it

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from netsushisen.errors import Diagnostic, NetsushisenError
-from netsushisen.outputs import write_bytes
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.outputs import write_bytes
 
 _SIGNATURE = b"\x89PNG\r\n\x1a\n"
 _COLOR_TYPES = {1: 0, 2: 4, 3: 2, 4: 6}  # channels -> PNG colour type

@@ -36,8 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
-from netsushisen.errors import Diagnostic, NetsushisenError, SceneError
-from netsushisen.outputs import write_text
+from netsushisen.isa.errors import Diagnostic, NetsushisenError, SceneError
+from netsushisen.isa.outputs import write_text
 from netsushisen.host.nff_builder import SceneBuilder
 from netsushisen.host.nff_geometry import (FP32_EPS, MAX_WARNINGS, GeometryChecks, fp32_half_spacing,  # noqa: F401
                                            scene_warnings)

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from netsushisen.errors import Diagnostic
+from netsushisen.isa.errors import Diagnostic
 from netsushisen.host.scenes import Scene
 
 MAX_COORD = 1e18

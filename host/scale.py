@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
 from netsushisen.host.scenes import Scene
 
 _DTYPES = {"fp32": np.float32, "fp64": np.float64, "fp16": np.float16}

@@ -18,7 +18,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from netsushisen.errors import SceneError
+from netsushisen.isa.errors import SceneError
 from netsushisen.host.nff_builder import SceneBuilder
 from netsushisen.host.scenes import Scene
 from netsushisen.host.spd_extra import lattice, shells, tree

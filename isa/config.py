@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from netsushisen.errors import ConfigError, Diagnostic
+from netsushisen.isa.errors import ConfigError, Diagnostic
 from netsushisen.isa.limits import field_problems, machine_problems, read_input
 
 

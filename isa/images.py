@@ -51,7 +51,7 @@ from typing import Any
 
 import numpy as np
 
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.regions import REGION_NAMES, Region, RegionMap
 from netsushisen.isa.ring import DESTS, make_header
 from netsushisen.isa.words import WordFormat, wrap32

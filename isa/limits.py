@@ -19,7 +19,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
 
 if TYPE_CHECKING:
     from netsushisen.isa.config import MachineConfig

@@ -37,7 +37,7 @@ def __getattr__(name: str):
     function (the render pipeline module is `netsushisen.pipeline`: no submodule may take an
     API name, or importing it would replace the function)."""
     if name == "NetsushisenError":
-        from netsushisen.errors import NetsushisenError
+        from netsushisen.isa.errors import NetsushisenError
         return NetsushisenError
     if name in __all__:
         from netsushisen import api

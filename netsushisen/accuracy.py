@@ -38,7 +38,7 @@ import numpy as np
 
 from netsushisen.cluster import ResultCache, Task, content_key, kernel_digest, run_cached, scene_digest
 from netsushisen.emulator import stats as run_stats
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.host import golden
 from netsushisen.host.prepass import coarse_resolution
 from netsushisen.host.scenes import Scene

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.isa.config import MachineConfig, load_config, override_items
 
 if TYPE_CHECKING:
@@ -92,7 +92,7 @@ class Results:
         """Write the statistics as JSON (as `--json` does), readable by `load_stats`."""
         from netsushisen.emulator.stats import dumps
 
-        from netsushisen.outputs import write_text
+        from netsushisen.isa.outputs import write_text
 
         write_text(path, dumps(self.stats))
 

@@ -21,7 +21,7 @@ import os
 import sys
 
 from netsushisen import __version__
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.options import Parser, UsageError, closest, parse
 
 # name -> (module that implements it, one-line help)

@@ -43,8 +43,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-from netsushisen.errors import NetsushisenError
-from netsushisen.outputs import write_text
+from netsushisen.isa.errors import NetsushisenError
+from netsushisen.isa.outputs import write_text
 
 POLL = 0.1
 """Seconds between looks at finished tasks and emitted items."""

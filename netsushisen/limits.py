@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.limits import (  # the machine's limits: their home is isa/limits.py
     FIELD_LIMITS, GiB, MAX_CYCLES, MAX_DEPTH, MAX_FIFO_WORDS, MAX_GRID_RESOLUTION, MAX_INPUT_BYTES,
     MAX_LATENCY, MAX_SAMPLES, MAX_SIDE, MAX_WORDS, MiB, field_problems, machine_problems,

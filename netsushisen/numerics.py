@@ -13,7 +13,7 @@ fp32 against fp64, and the scene translated by powers of ten until it breaks.
 
 from __future__ import annotations
 
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace

@@ -62,7 +62,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.config import MachineConfig, load_config
 from netsushisen.isa.processors import STAGES
 from netsushisen.limits import (MAX_SIDE, Footprint, check_frame, check_host, machine_bytes,
@@ -377,19 +377,19 @@ def check_output_folders(*paths: str | None) -> None:
 
 def write_output(path: str, write) -> None:
     """`write(tmp)` for the file `path`, atomically and never through a link
-    (netsushisen/outputs.py); an OSError (no such folder, no permission, a full disk) as a
+    (isa/outputs.py); an OSError (no such folder, no permission, a full disk) as a
     located one-line error, the earlier file untouched."""
-    from netsushisen.outputs import write_file
+    from netsushisen.isa.outputs import write_file
 
     write_file(path, write)
 
 
 def write_outputs(outputs: list[tuple[str | None, object]]) -> None:
-    """A command's several outputs as one set (netsushisen/outputs.py `write_all`): each
+    """A command's several outputs as one set (isa/outputs.py `write_all`): each
     (path, writer) with `writer(tmp)` writing the file, or with a str written as UTF-8 text; a
     path None is skipped and a str to `-` goes to standard output once the files are in place.
     A failure leaves every earlier file as it was."""
-    from netsushisen.outputs import write_all
+    from netsushisen.isa.outputs import write_all
 
     files, stdout = [], []
     for path, what in outputs:

@@ -32,14 +32,14 @@ import numpy as np
 
 from netsushisen.cluster import (ResultCache, Task, content_key, kernel_digest,
                                  run_cached, scene_digest, unplain)
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.databases import plan_layout
 from netsushisen.host.golden import render as render_golden
 from netsushisen.host.grid import build_grid
 from netsushisen.host.prepass import coarse_resolution, run_prepass
 from netsushisen.isa.config import MachineConfig, dump_toml
-from netsushisen.outputs import write_text
+from netsushisen.isa.outputs import write_text
 from netsushisen.reports.paper import findings, machine_findings
 from netsushisen.reports.paper_data import (CACHE_SHARES, LOCAL_SHARES,
                                             RESIDENT_SPLITS, PaperOptions, Progress, SceneData)

@@ -25,7 +25,7 @@ import numpy as np
 from netsushisen.asm.assembler import assemble_file
 from netsushisen.asm.objects import Program
 from netsushisen.emulator.engine import EXIT_CODES, Engine, RunResult, default_engine, make_engine
-from netsushisen.errors import ConfigError, Diagnostic
+from netsushisen.isa.errors import ConfigError, Diagnostic
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.databases import MachineImages, build_images
 from netsushisen.host.golden import to_u8

@@ -50,7 +50,7 @@ from typing import Any
 
 from netsushisen import __version__
 from netsushisen.cluster import ResultCache, Task, kernel_digest, run_tasks, scene_digest
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
 from netsushisen.limits import MAX_CONSTANT_BITS, MAX_SWEEP_POINTS, read_input
 from netsushisen.isa.config import MachineConfig, apply_override, dump_toml, load_config
 from netsushisen.options import MAX_RES

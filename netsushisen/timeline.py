@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from netsushisen.emulator.trace import TimelineTap, parse_cycles, wanted
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 
 if TYPE_CHECKING:
     from netsushisen.emulator.engine import Engine

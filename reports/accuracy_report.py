@@ -14,7 +14,7 @@ import csv
 import json
 from pathlib import Path
 
-from netsushisen.outputs import replacing, write_file, write_text
+from netsushisen.isa.outputs import replacing, write_file, write_text
 from netsushisen.reports.accuracy import AXES, RAY_KINDS, Row, axis_sentences
 from netsushisen.reports.tables import Section, render_md, render_table
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 from netsushisen.asm.bounds import (OPTIMUM_MAX_OPS, Bounds, add_optimum, program_bounds,
                                     program_from_listing)
 from netsushisen.asm.objects import Program
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.isa.config import config_from_dict
 from netsushisen.reports.annotate import (BundleCounts, bundle_counts, choose_processors,
                                           find_loops)

@@ -119,7 +119,7 @@ def is_flat(text: str) -> bool:
 
 def parse_flat(text: str, source: str = "<flat>") -> dict:
     """A flat dump back into the statistics file's structure (the listings aside)."""
-    from netsushisen.errors import Diagnostic
+    from netsushisen.isa.errors import Diagnostic
     from netsushisen.reports.tables import StatsError
 
     stats: dict = {}

@@ -19,7 +19,7 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-from netsushisen.outputs import replacing, write_file
+from netsushisen.isa.outputs import replacing, write_file
 from netsushisen.reports.paper import table1, table2
 from netsushisen.reports.paper_data import COUNTINGS, LOCAL_SHARES, SceneData
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from netsushisen.isa.stalls import ISSUED_COLOUR, OTHER_COLOUR, colour
-from netsushisen.outputs import write_file
+from netsushisen.isa.outputs import write_file
 from netsushisen.reports.annotate import bundle_counts, choose_processors, find_loops
 from netsushisen.reports.tables import present_processors
 

@@ -6,8 +6,8 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-from netsushisen.outputs import write_file
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.outputs import write_file
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
 
 
 def read_results(path: str | Path) -> list[dict]:

@@ -10,7 +10,7 @@ import csv
 from pathlib import Path
 from typing import Any
 
-from netsushisen.outputs import write_all
+from netsushisen.isa.outputs import write_all
 
 
 def tidy_row(spec_fields: list[str], result: dict) -> dict[str, Any]:

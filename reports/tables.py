@@ -21,8 +21,8 @@ import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from netsushisen.errors import Diagnostic, NetsushisenError
-from netsushisen.outputs import write_text
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.outputs import write_text
 
 FORMATS = ("table", "json", "csv", "md")
 SCHEMA_NAME = "netsushisen-stats"

@@ -42,9 +42,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TextIO
 
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.isa.events import CacheMiss, Event, FifoLevel, Issued, Stalled, Start
-from netsushisen.outputs import replacing
+from netsushisen.isa.outputs import replacing
 from netsushisen.isa.processors import STAGES
 
 KANATA_SUFFIXES = (".kanata", ".log")

@@ -42,7 +42,7 @@ def pytest_addoption(parser):
 
 def engines(config) -> list[str]:
     from netsushisen.emulator.engine import check_engine, engine_names
-    from netsushisen.errors import ConfigError
+    from netsushisen.isa.errors import ConfigError
 
     chosen = config.getoption("--engine")
     try:

@@ -13,7 +13,7 @@ from program_strategies import random_bundles
 from netsushisen.asm.assembler import AssemblyError, assemble_file, assemble_text, kernels_dir
 from netsushisen.asm.disasm import disassemble
 from netsushisen.asm.objects import Op, Program
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 
 SOURCES = sorted(kernels_dir().rglob("*.s"))
 

@@ -15,7 +15,7 @@ import pytest
 from netsushisen.asm.assembler import assemble_text
 from netsushisen.emulator.harness import ProcessorView, run_machine
 from netsushisen.emulator.memories import Cache
-from netsushisen.errors import ConfigError
+from netsushisen.isa.errors import ConfigError
 from netsushisen.isa.config import load_config
 from netsushisen.isa.images import image_from_json
 

@@ -11,7 +11,7 @@ from netsushisen.asm.assembler import assemble_text
 from netsushisen.asm.disasm import disassemble
 from netsushisen.emulator.machine import Machine
 from netsushisen.emulator.memories import RegionMap
-from netsushisen.errors import ConfigError
+from netsushisen.isa.errors import ConfigError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.databases import RESIDENT, build_images, database_bytes, resident_fill
 from netsushisen.host.golden import Luminance, offset_scale, render, scene_epsilon

@@ -39,7 +39,7 @@ from netsushisen.asm.disasm import disassemble
 from netsushisen.asm.objects import Op, Program
 from netsushisen.emulator import stats as run_stats
 from netsushisen.emulator.engine import engine_names, make_engine
-from netsushisen.errors import ConfigError, NetsushisenError
+from netsushisen.isa.errors import ConfigError, NetsushisenError
 from netsushisen.isa.config import load_config
 from netsushisen.isa.images import MemoryImage, Segment
 from netsushisen.isa.opcodes import opcodes_for

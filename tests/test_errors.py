@@ -8,7 +8,7 @@ import pickle
 
 from netsushisen.emulator.core import RunFault
 from netsushisen.emulator.machine import DeadlockError
-from netsushisen.errors import ConfigError, Diagnostic, NetsushisenError
+from netsushisen.isa.errors import ConfigError, Diagnostic, NetsushisenError
 
 
 def test_errors_copy_and_pickle_by_state():

@@ -12,7 +12,7 @@ import pytest
 from netsushisen import limits
 from netsushisen.asm.assembler import assemble_text
 from netsushisen.cli import main
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 
 
 def _asm_error(text: str) -> str:

@@ -10,7 +10,7 @@ import pytest
 
 from netsushisen.asm.assembler import assemble_text
 from netsushisen.emulator.harness import ProcessorView, run_machine
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.isa.config import load_config
 from netsushisen.isa.images import image_from_json
 from netsushisen.isa.ring import DEST_SHIFT, DESTS

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from netsushisen.errors import ConfigError
+from netsushisen.isa.errors import ConfigError
 from netsushisen.isa.config import load_config
 
 
@@ -61,7 +61,7 @@ def test_a_global_memory_without_a_size_ends_at_its_highest_word():
 
 
 def test_raw_words_up_to_64_bits_load_and_wider_ones_are_refused():
-    from netsushisen.errors import NetsushisenError
+    from netsushisen.isa.errors import NetsushisenError
     from netsushisen.isa.images import image_from_json
     from netsushisen.isa.words import WordFormat
 

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from netsushisen.errors import SceneError
+from netsushisen.isa.errors import SceneError
 from netsushisen.host.nff import SceneBuilder, format_nff, parse_nff, read_nff, write_nff
 from netsushisen.host.scenes import Kind
 

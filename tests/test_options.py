@@ -10,7 +10,7 @@ import pytest
 
 from netsushisen.asm.objects import Program
 from netsushisen.emulator.engine import DEFAULT_ENGINE, engine_names
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.options import MAX_RES, parse_define
 
 MISS_KERNELS = Path(__file__).with_name("kernels_miss")

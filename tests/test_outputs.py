@@ -1,5 +1,5 @@
 """Atomic, consistent outputs that never follow a link (issue 30, items 3 and 5;
-netsushisen/outputs.py): a failed write leaves the earlier file whole and no temporary behind,
+isa/outputs.py): a failed write leaves the earlier file whole and no temporary behind,
 a command's several outputs are never a mixed set, and a symbolic link at a target is refused
 with one line while its target stays untouched."""
 
@@ -14,9 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from netsushisen import outputs
+from netsushisen.isa import outputs
 from netsushisen.cli import main
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 
 
 def _full_disk(monkeypatch, after: int = 0) -> None:

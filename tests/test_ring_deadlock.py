@@ -20,7 +20,7 @@ import pytest
 
 from netsushisen.emulator.stats import ic_reference_counts
 from netsushisen.pipeline import longest_message, render
-from netsushisen.errors import ConfigError
+from netsushisen.isa.errors import ConfigError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.golden import render as golden_render
 from netsushisen.isa.config import load_config

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.host import golden
 from netsushisen.host.nff import parse_nff
 from netsushisen.host.scale import check_scale, minimum_length

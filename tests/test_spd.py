@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from netsushisen.errors import SceneError
+from netsushisen.isa.errors import SceneError
 from netsushisen.host.catalog import BUILTIN_SCENES, load_scene
 from netsushisen.host.nff import format_nff, read_nff
 from netsushisen.host.scenes import Kind

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.isa.config import load_config
 from netsushisen.pipeline import render
 from netsushisen.sweep import evaluate, load_spec, points

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.jit import register_with_numba
 
 register_with_numba()  # the ISA's semantics, marked for numba (isa/jit.py), before any compile

@@ -174,7 +174,7 @@ def record_cache(folder: Path) -> None:
     after numba has written what it compiled."""
     import json
 
-    from netsushisen.outputs import write_text
+    from netsushisen.isa.outputs import write_text
 
     sums = _cache_sums(folder)
     recorded = folder / CHECKSUMS

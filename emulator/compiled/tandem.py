@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
 
 from netsushisen.emulator.compiled.state import LAYOUT
 from netsushisen.emulator.engine import Engine, Progress

@@ -35,7 +35,7 @@ import time
 from pathlib import Path
 
 from netsushisen.cluster import add_cluster_options, check_cluster_options
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
 from netsushisen.options import (add_config_options, add_engine, add_output, add_quiet,
                                  add_resolution, check_footprint,

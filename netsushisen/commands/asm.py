@@ -29,7 +29,7 @@ import sys
 from netsushisen.asm.assembler import Assembler
 from netsushisen.asm.listing import format_static_ilp, listing, static_ilp
 from netsushisen.asm.objects import Program
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.processors import STAGES
 from netsushisen.commands.report import add_optimum_option

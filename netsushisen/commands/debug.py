@@ -31,7 +31,7 @@ import argparse
 import sys
 from dataclasses import replace
 
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.isa.processors import STAGES
 from netsushisen.options import (add_program_options, add_resolution, check_resolution,
                                  config_from_args, machine_inputs)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import argparse
 
-from netsushisen.outputs import write_text
+from netsushisen.isa.outputs import write_text
 from netsushisen.asm.disasm import disassemble
 from netsushisen.asm.objects import Program
 

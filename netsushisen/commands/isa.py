@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from netsushisen.outputs import write_text
+from netsushisen.isa.outputs import write_text
 from netsushisen.isa.reference import markdown
 
 from netsushisen.options import add_output

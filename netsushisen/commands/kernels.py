@@ -16,8 +16,8 @@ import argparse
 import shutil
 from pathlib import Path
 
-from netsushisen.outputs import write_all
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.outputs import write_all
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.options import add_config_options, add_resolution, check_resolution, config_from_args
 
 KERNEL_PATTERNS = ("*.s", "*.inc")
@@ -86,7 +86,7 @@ def export(args: argparse.Namespace) -> int:
             what = f"{args.scene} at {args.res}x{args.res}" + (" (generic)" if args.generic else "")
             text = defines_inc(defines, what)
             files.append((out / "defines.inc", lambda p: p.write_text(text, encoding="utf-8")))
-        write_all(files)  # one set, never through a link (netsushisen/outputs.py)
+        write_all(files)  # one set, never through a link (isa/outputs.py)
         written = [path.name for path, _ in files]
     except OSError as err:
         raise NetsushisenError(f"{out}: cannot write: {err.strerror}") from None

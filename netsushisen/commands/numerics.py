@@ -34,9 +34,9 @@ import sys
 from dataclasses import asdict
 from pathlib import Path
 
-from netsushisen.outputs import write_file
+from netsushisen.isa.outputs import write_file
 from netsushisen.cluster import add_cluster_options, check_cluster_options
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.images import encode_png
 from netsushisen.limits import check_host, numerics_footprint

@@ -38,8 +38,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from netsushisen.outputs import write_text
-from netsushisen.errors import Diagnostic
+from netsushisen.isa.outputs import write_text
+from netsushisen.isa.errors import Diagnostic
 from netsushisen.options import add_output, closest
 from netsushisen.reports.tables import (FORMATS, StatsError, load_stats, render, report_sections,
                                        select, write_csv_dir)

@@ -25,8 +25,8 @@ import argparse
 import sys
 
 
-from netsushisen.outputs import replacing
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.outputs import replacing
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.limits import check_words
 from netsushisen.options import (add_engine, add_json, add_program_options, add_quiet, add_timeline,
                                  check_footprint,

@@ -26,7 +26,7 @@ import sys
 from pathlib import Path
 
 from netsushisen.cluster import add_cluster_options, check_cluster_options
-from netsushisen.errors import NetsushisenError
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.options import add_output, add_quiet
 from netsushisen.sweep import check_sweep_footprint, engine_of, load_spec, run_sweep
 

@@ -28,7 +28,7 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-from netsushisen.errors import Diagnostic, NetsushisenError
+from netsushisen.isa.errors import Diagnostic, NetsushisenError
 
 Writer = Callable[[Path], None]
 """Writes the whole file at the path it is given (a temporary beside the target)."""

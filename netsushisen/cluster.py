@@ -154,6 +154,8 @@ def greeting(address: str) -> None:
         raise refuse(f"no Dask greeting within {GREETING_SECONDS:g} s: not a Dask scheduler?") from None
     except OSError as err:
         raise refuse(err.strerror or type(err).__name__) from None
+    except (UnicodeError, ValueError) as err:  # a host name no resolver takes (a label over 63)
+        raise refuse(f"not a host name: {err}") from None
     (size,) = struct.unpack("<Q", first)
     if size > MAX_GREETING:
         shown = first.decode("ascii", "replace")

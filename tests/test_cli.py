@@ -237,3 +237,20 @@ def test_every_table_fits_80_columns(cli, monkeypatch, tmp_path, stats_file):
         assert code == 0, (argv, err)
         wide = [line for line in out.split("\n") if len(line) > 80]
         assert not wide, (argv, wide[:3])
+
+
+@pytest.mark.parametrize("kind", ["flat", "ilp", "stalls", "memory", "annotate"])
+def test_a_statistics_table_of_the_wrong_shape_is_one_located_line(cli, tmp_path, stats_file, kind):
+    """A table that is null (the fuzz corpus's stats-23: `fifos.<fifo>` = null) was an internal
+    error in `report flat`: every report says 'malformed statistics' at the file."""
+    import json
+
+    stats = json.loads(stats_file.read_text())
+    fifo = next(iter(stats["fifos"]))
+    stats["fifos"][fifo] = None
+    stats["processors"]["pe0.ic"] = stats["memory"]["pe0.ic"] = 5
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(stats))
+    code, _, err = cli("report", kind, path)
+    assert code == 1 and "Traceback" not in err and "internal error" not in err, err
+    assert err.strip().startswith(f"{path}: error: malformed statistics"), err

@@ -103,6 +103,15 @@ def test_nothing_listening_is_one_line(tmp_path, cli):
     assert code == 1 and "cannot connect" in err and len(err.strip().splitlines()) == 1
 
 
+@pytest.mark.parametrize("host", ["a" * 400, "exa mple", "-"], ids=["label-too-long", "space", "dash"])
+def test_an_impossible_host_name_is_one_line(tmp_path, cli, host):
+    """A host no resolver takes (the idna codec refuses a label over 63 characters) was an
+    internal error (the fuzz corpus's scheduler-14)."""
+    code, _, err = cli("accuracy", *COMMANDS["accuracy"](tmp_path), "--scheduler", f"tcp://{host}:9")
+    assert code == 1 and "Traceback" not in err and "internal error" not in err, err
+    assert "--scheduler" in err and len(err.strip().splitlines()) == 1, err
+
+
 def _slow_square(x: int, delay: float) -> int:
     time.sleep(delay)
     return x * x

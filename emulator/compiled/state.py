@@ -248,26 +248,25 @@ class Component:
     def rows(self, machine: Machine):
         return self.objects(machine)
 
-    def read(self, machine: Machine, arrays: dict) -> None:
+    def _cells(self, machine: Machine, arrays: dict):
+        """(array row, object, field) of every declared cell, rows in order."""
         arr = arrays[self.array]
         for i, (_name, obj) in enumerate(self.rows(machine)):
-            if obj is None:
-                continue
-            row = arr if arr.ndim == 1 else arr[i]
-            for f in self.fields:
-                v = getattr(obj, f.attr)
-                row[f.column] = CAUSE_ID[v] if f.kind == "cause" else int(v)
+            if obj is not None:
+                row = arr if arr.ndim == 1 else arr[i]
+                for f in self.fields:
+                    yield row, obj, f
+
+    def read(self, machine: Machine, arrays: dict) -> None:
+        for row, obj, f in self._cells(machine, arrays):
+            v = getattr(obj, f.attr)
+            row[f.column] = CAUSE_ID[v] if f.kind == "cause" else int(v)
 
     def write(self, arrays: dict, machine: Machine) -> None:
-        arr = arrays[self.array]
-        for i, (_name, obj) in enumerate(self.rows(machine)):
-            if obj is None:
-                continue
-            row = arr if arr.ndim == 1 else arr[i]
-            for f in self.fields:
-                v = row[f.column]
-                setattr(obj, f.attr, CAUSES[v] if f.kind == "cause" else
-                        bool(v) if f.kind == "bool" else int(v))
+        for row, obj, f in self._cells(machine, arrays):
+            v = row[f.column]
+            setattr(obj, f.attr, CAUSES[v] if f.kind == "cause" else
+                    bool(v) if f.kind == "bool" else int(v))
 
     def values(self, machine: Machine):
         """(name.attr, value) of every compared field, for the tandem comparison."""

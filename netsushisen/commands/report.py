@@ -35,7 +35,9 @@ writes a report's tables to `DIR/<report>_<table>.csv`.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 from netsushisen.isa.outputs import write_text
@@ -174,6 +176,17 @@ def _write_plot(args: argparse.Namespace, stats: dict) -> None:
     print(f"report {args.kind}: plot -> {args.plot}", file=sys.stderr)
 
 
+@contextlib.contextmanager
+def _malformed(path) -> Iterator[None]:
+    """A statistics file whose shape is wrong (a field missing, a table that is a number) is a
+    located one-line error, whichever report reads it."""
+    try:
+        yield
+    except (KeyError, TypeError, ValueError, AttributeError, ZeroDivisionError) as err:
+        what = f"missing field {err}" if isinstance(err, KeyError) else str(err)
+        raise StatsError(Diagnostic(f"malformed statistics: {what}", file=str(path))) from None
+
+
 def run(args: argparse.Namespace) -> int:
     _check(args)
     if args.kind == "stalls" and args.stats is None:
@@ -183,18 +196,18 @@ def run(args: argparse.Namespace) -> int:
             return _emit(args, glossary_markdown())
     elif args.kind == "flat":
         from netsushisen.reports.flat import format_flat
-        return _emit(args, format_flat(load_stats(args.stats)))
+        stats = load_stats(args.stats)
+        with _malformed(args.stats):
+            text = format_flat(stats)
+        return _emit(args, text)
     else:
         stats = load_stats(args.stats)
         other = load_stats(args.other) if args.kind == "diff" else None
         source = str(args.stats) + (f" {args.other}" if other is not None else "")
-        try:
+        with _malformed(args.stats):
             sections = sections_for(args, stats, other)
             if getattr(args, "plot", None):
                 _write_plot(args, stats)
-        except (KeyError, TypeError, ValueError, AttributeError, ZeroDivisionError) as err:
-            what = f"missing field {err}" if isinstance(err, KeyError) else str(err)
-            raise StatsError(Diagnostic(f"malformed statistics: {what}", file=str(args.stats))) from None
     sections = select(sections, args.table)
     if args.format == "csv" and len(sections) > 1 and args.out:
         paths = write_csv_dir(sections, args.kind, args.out)

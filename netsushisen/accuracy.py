@@ -110,6 +110,11 @@ def with_sets(config: MachineConfig, **fields) -> MachineConfig:
     return c
 
 
+class MachineStopped(NetsushisenError):
+    """A study's machine run that did not end cleanly (e.g. at a deep ray depth more rays wait
+    than OS's memory holds: `queue_overflow`)."""
+
+
 def run_machine(setup: RenderSetup, engine: str, max_cycles: int | None = None
                 ) -> tuple[RenderResult, float]:
     """Run a prepared setup; (result, wall seconds). A run that does not end cleanly is bad
@@ -120,7 +125,7 @@ def run_machine(setup: RenderSetup, engine: str, max_cycles: int | None = None
     result = finish(setup, eng, run)
     seconds = time.perf_counter() - start
     if run.status not in ("halted", "finished") and not (max_cycles and run.status == "max_cycles"):
-        raise NetsushisenError(f"{setup.scene.name} {setup.res}x{setup.res}: the machine run ended "
+        raise MachineStopped(f"{setup.scene.name} {setup.res}x{setup.res}: the machine run ended "
                                f"{run.status} at cycle {run.cycles:,}"
                                + (f": {run.error.format()}" if run.error else ""))
     return result, seconds
@@ -312,18 +317,26 @@ def depth_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
     for d in dict.fromkeys((truth_depth, *depths)):  # the truth first: each row is final when made
         progress(f"{name} depth {d}")
         cfg = with_sets(config, **{"render.max_depth": d})
+        start = time.perf_counter()
         g = golden.render(scene, cfg, res=res)
-        _, r, mt = machine_timed(scene, cfg, res, engine, repeats)
+        g_seconds = time.perf_counter() - start
+        try:
+            _, r, mt = machine_timed(scene, cfg, res, engine, repeats)
+        except MachineStopped as err:  # the machine cannot hold this depth: the golden row alone
+            r, mt, stopped = None, Timing([g_seconds], {"golden": g_seconds}), str(err)
         tg = g if tg is None else tg
         errors, psnr = image_errors(g.image_u8, tg.image_u8)
         t = d == truth_depth
+        machine = (f"machine cycles and seconds (host preparation + run) on the {engine} engine "
+                   "(its rays " + ("equal" if r.rays == g.rays else "DIFFER from")
+                   + " the golden model's)" if r is not None else
+                   f"no machine cycles: {stopped}; seconds: the golden model's")
         rows.append(Row("depth", name, f"depth {d}", t, {k: 0.0 for k in errors} if t else errors,
-                        mt.median, {"rays": traced_rays(g.rays), "cycles": r.run.cycles},
+                        mt.median, {"rays": traced_rays(g.rays), "cycles": r.run.cycles if r else None},
                         f"golden {g.precision} image and rays at max_depth {d} against depth "
-                        f"{truth_depth}; machine cycles and seconds (host preparation + run) on "
-                        f"the {engine} engine (its rays "
-                        + ("equal" if r.rays == g.rays else "DIFFER from") + " the golden model's)",
-                        {"depth": d, "psnr_db": psnr, "machine_rays": traced_rays(r.rays),
+                        f"{truth_depth}; {machine}",
+                        {"depth": d, "psnr_db": psnr,
+                         "machine_rays": traced_rays(r.rays) if r else None,
                          "golden_seconds": g.seconds, "truth_depth": truth_depth,
                          "truth_converged": converged,
                          "truth_depths_tried": len(tried)}, timing=mt))

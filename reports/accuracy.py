@@ -401,9 +401,11 @@ def axis_sentences(axis: str, rows: list[Row]) -> list[str]:
                            "and cycles.")
             elif d is not None:
                 r = next(r for r in others if int(r.values["depth"]) == d)
+                share = (f"at {r.cost['cycles'] / truth.cost['cycles']:.0%} of the truth's cycles"
+                         if r.cost.get("cycles") and truth.cost.get("cycles") else
+                         "the machine did not run the truth's depth")
                 out.append(f"{scene}: the image stops changing at depth {d} (8-bit identical to "
-                           f"depth {int(truth.values['depth'])}), at "
-                           f"{r.cost['cycles'] / truth.cost['cycles']:.0%} of the truth's cycles.")
+                           f"depth {int(truth.values['depth'])}), {share}.")
             else:
                 out.append(f"{scene}: every depth up to 8 still differs from depth "
                            f"{int(truth.values['depth'])}.")

@@ -403,3 +403,28 @@ def test_ctrl_c_before_any_row_finished_says_nothing_was_written(tmp_path, monke
     assert main(["accuracy", "tetra", "--axes", "depth", "--res", "4", "-q", "-o", str(out)]) == 130
     assert capsys.readouterr().err.strip().endswith("no row had finished: nothing written")
     assert not (out / "accuracy.json").exists()
+
+
+def test_a_depth_the_machine_cannot_hold_leaves_a_golden_row_not_a_failed_study(monkeypatch):
+    """At a deep truth depth (mount 32², depth 20) more rays wait than OS's memory holds and the
+    machine stops with queue_overflow; the depth axis keeps the golden model's answer for that
+    depth, says why it has no machine cycles, and the other depths keep theirs."""
+    import netsushisen.accuracy as acc
+    from netsushisen.reports.accuracy_report import axis_section
+
+    real = acc.machine_timed
+
+    def timed(scene, config, res, engine, repeats=1, max_cycles=None):
+        if config.render.max_depth >= 10:
+            raise acc.MachineStopped("tetra 4x4: the machine run ended fault at cycle 9: "
+                                     "pe0.os pc 66 (queue_overflow)")
+        return real(scene, config, res, engine, repeats, max_cycles)
+
+    monkeypatch.setattr(acc, "machine_timed", timed)
+    rows = depth_rows(load_scene("tetra"), 4, MachineConfig(), "compiled", depths=(1, 2), repeats=1)
+    truth = next(r for r in rows if r.truth)
+    assert truth.cost["cycles"] is None and "queue_overflow" in truth.how and truth.seconds > 0
+    assert all(r.cost["cycles"] > 0 for r in rows if not r.truth)
+    section = axis_section("depth", rows)
+    (cells,) = [r for r in section.rows if "(truth)" in str(r[1])]
+    assert section.cell("cycles", cells[section.columns.index("cycles")]) == "-"

@@ -192,6 +192,11 @@ def _call(fn: Callable, args: tuple, queue: str | None, index: int):
     return fn(*args, emit=lambda item: q.put((index, item)))
 
 
+REFETCHES = 3
+"""Times a task whose result could not be fetched, though the task itself did not fail (its
+worker died after it finished), is run again before it counts as lost."""
+
+
 def run_tasks(tasks: list[Task], on_done: Callable[[int, Any], None], *,
               scheduler: str | None = None, workers: int | None = None, title: str = "runs",
               show: bool = False, on_item: Callable[[int, Any], None] | None = None,
@@ -222,6 +227,7 @@ def run_tasks(tasks: list[Task], on_done: Callable[[int, Any], None], *,
             index[f.key] = i
             futures.append(f)
         pending = as_completed(futures)
+        refetched = [0] * len(tasks)
         while not pending.is_empty():
             _drain(queue, on_item)
             for fut in pending.next_batch(block=False):
@@ -230,6 +236,18 @@ def run_tasks(tasks: list[Task], on_done: Callable[[int, Any], None], *,
                 try:
                     result = fut.result()
                 except Exception as err:  # noqa: BLE001 (a worker lost too often, or the task's own)
+                    t = tasks[i]
+                    if fut.status != "error" and not t.emits and refetched[i] < REFETCHES:
+                        # not the task's own error: it finished, then the worker holding its
+                        # result died before the fetch (distributed may then fail the fetch
+                        # itself, "bound to a different event loop"); run it again
+                        refetched[i] += 1
+                        again = client.submit(_call, t.fn, t.args, None, i, pure=False,
+                                              key=f"{t.label}-{uuid.uuid4().hex[:8]}")
+                        index[again.key] = i
+                        futures.append(again)
+                        pending.add(again)
+                        continue
                     if on_error is None:
                         raise
                     on_error(i, err)

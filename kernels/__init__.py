@@ -9,8 +9,9 @@ from pathlib import Path
 KERNELS = Path(__file__).resolve().parent
 
 KERNEL_SETS = {"classic": "the 1992-style kernels as first written: hand-packed bundles, one list "
-                          "cell at a time (kernels/classic/)"}
-"""Other bundled kernel sets, by name: `render --kernels classic` runs them (docs/kernels.md)."""
+                          "cell at a time (kernels/classic/: IC's; OS and SC are today's)"}
+"""Other bundled kernel sets, by name: `render --kernels classic` runs them (docs/kernels.md). A
+set keeps only the stages and includes it changes; the rest are the bundled kernels'."""
 
 
 def kernel_folder(name_or_dir: str | Path | None) -> Path:
@@ -21,6 +22,15 @@ def kernel_folder(name_or_dir: str | Path | None) -> Path:
     if str(name_or_dir) in KERNEL_SETS and not Path(name_or_dir).is_dir():
         return KERNELS / str(name_or_dir)
     return Path(name_or_dir)
+
+
+def kernel_source(folder: Path, stage: str) -> Path:
+    """`stage`.s of a kernels folder; a bundled set without its own (KERNEL_SETS: it keeps only
+    what it changes) uses the bundled kernels' one."""
+    path = Path(folder) / f"{stage}.s"
+    if not path.exists() and Path(folder).resolve().parent == KERNELS:
+        return KERNELS / f"{stage}.s"
+    return path
 
 
 @lru_cache(maxsize=1)

@@ -37,7 +37,7 @@ from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.images import MemoryImage, Segment
 from netsushisen.isa.processors import STAGES
 from netsushisen.isa.words import WordFormat, word_format
-from netsushisen.kernels import KERNELS, kernel_folder, protocol
+from netsushisen.kernels import KERNELS, kernel_folder, kernel_source, protocol
 
 RAY_COUNTERS = ("eye_hits", "reflection", "refraction", "shadow")
 """SC's ray counters, at data labels `count_<name>` of kernels/sc.s."""
@@ -137,7 +137,7 @@ def assemble_kernels(defines: dict[str, int | float], kernel_dir: str | Path | N
     folder = kernel_folder(kernel_dir)
     programs = {}
     for stage in STAGES:
-        path = Path((overrides or {}).get(stage) or folder / f"{stage}.s")
+        path = Path((overrides or {}).get(stage) or kernel_source(folder, stage))
         if path.suffix != ".s" and (overrides or {}).get(stage):
             programs[stage] = load_program(str(path), stage, defines)
             continue

@@ -97,7 +97,7 @@ def format_defines(defines: dict[str, int | float]) -> str:
 
 def _sources(args: argparse.Namespace) -> list[tuple[str | None, Path]]:
     """(processor, source) pairs to assemble."""
-    from netsushisen.kernels import kernel_folder
+    from netsushisen.kernels import kernel_folder, kernel_source
 
     if args.source:
         if args.kernels:
@@ -108,7 +108,7 @@ def _sources(args: argparse.Namespace) -> list[tuple[str | None, Path]]:
     folder = kernel_folder(args.kernels)
     if args.kernels and not folder.is_dir():
         raise NetsushisenError(f"--kernels {args.kernels}: no such folder")
-    return [(stage, folder / f"{stage}.s") for stage in ([args.proc] if args.proc else STAGES)]
+    return [(stage, kernel_source(folder, stage)) for stage in ([args.proc] if args.proc else STAGES)]
 
 
 def run(args: argparse.Namespace) -> int:

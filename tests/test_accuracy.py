@@ -405,7 +405,7 @@ def test_ctrl_c_before_any_row_finished_says_nothing_was_written(tmp_path, monke
     assert not (out / "accuracy.json").exists()
 
 
-def test_a_depth_the_machine_cannot_hold_leaves_a_golden_row_not_a_failed_study(monkeypatch):
+def test_a_depth_the_machine_cannot_hold_leaves_a_golden_row_not_a_failed_study(monkeypatch, engine_name):
     """At a deep truth depth (mount 32², depth 20) more rays wait than OS's memory holds and the
     machine stops with queue_overflow; the depth axis keeps the golden model's answer for that
     depth, says why it has no machine cycles, and the other depths keep theirs."""
@@ -421,7 +421,7 @@ def test_a_depth_the_machine_cannot_hold_leaves_a_golden_row_not_a_failed_study(
         return real(scene, config, res, engine, repeats, max_cycles)
 
     monkeypatch.setattr(acc, "machine_timed", timed)
-    rows = depth_rows(load_scene("tetra"), 4, MachineConfig(), "compiled", depths=(1, 2), repeats=1)
+    rows = depth_rows(load_scene("tetra"), 4, MachineConfig(), engine_name, depths=(1, 2), repeats=1)
     truth = next(r for r in rows if r.truth)
     assert truth.cost["cycles"] is None and "queue_overflow" in truth.how and truth.seconds > 0
     assert all(r.cost["cycles"] > 0 for r in rows if not r.truth)

@@ -223,7 +223,9 @@ def test_paper_on_machine_checks_the_counters(tmp_path, cli, engine_name):
     assert "## On the machine" in md and "**All counters equal**" in md and f"{engine_name} engine" in md
     from netsushisen.paper import MACHINE_POINTS
 
-    assert md.count("| equal |") == 1 + len(MACHINE_POINTS)  # the default memory and each point
+    # per-word counters and per-reference counts, for the default memory and each point
+    assert md.count("| equal |") == 2 * (1 + len(MACHINE_POINTS))
+    assert "## Ray order (on the machine)" in md and "change verdict under the machine's normal" in md
     assert all(f"| mount | {label} |" in md for label, *_ in MACHINE_POINTS)
     assert "The pre-pass on the machine" in md and "§4.3: the pre-pass costs about 1 %" in md
 

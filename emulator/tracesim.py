@@ -411,6 +411,12 @@ class SweepStream:
             glob = p.layout.record_space == GLOBAL
             p.shift = np.where(glob, p.layout.record_address - self.addr0, 0)
 
+    def reset(self) -> None:
+        """Empty every configuration's cache (the next stream is another PE's, with memories of
+        its own); the counts go on adding up."""
+        for p in self.points:
+            p.tags[:] = -1
+
     def runs(self, address: np.ndarray) -> Runs:
         """The chunk's runs and fetches."""
         a = np.asarray(address, np.int64)

@@ -169,6 +169,17 @@ def machine_order(result) -> np.ndarray:
     return np.lexsort((ray_generation(result), result.trace_pixel)).astype(np.int64)
 
 
+def pe_orders(result, pes: int = 1) -> list[np.ndarray]:
+    """`machine_order` divided among `pes` PEs as the machine's static distribution divides
+    the work (`distribution = "static"`: DIS hands eye sample i to PE i mod pes, and a pixel's
+    whole ray tree stays in its PE's ring): per PE, its pixels' rays in its own serial order."""
+    order = machine_order(result)
+    if pes == 1:
+        return [order]
+    pe = result.trace_pixel[order] % pes
+    return [order[pe == k] for k in range(pes)]
+
+
 def ordered_stream_chunks(layout: DatabaseLayout, result, order: np.ndarray | None = None,
                           rays_per_chunk: int = 32768, hits: bool = True
                           ) -> Iterator[tuple[np.ndarray, np.ndarray]]:

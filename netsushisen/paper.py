@@ -43,8 +43,9 @@ from netsushisen.reports.paper import RAY_ORDER, findings, machine_findings
 from netsushisen.reports.paper_data import PaperOptions, Progress, SceneData
 from netsushisen.reports.paper_plots import write_csvs, write_figures
 from netsushisen.reports.paper_report import report_markdown
-from netsushisen.paper_machine import (MACHINE_POINTS, compare_counters,  # noqa: F401 (API)
-                                       machine_check, point_config, ray_order_study)
+from netsushisen.paper_machine import (MACHINE_POINTS, PE_CANDIDATE,  # noqa: F401 (API)
+                                       compare_counters, machine_check, pes_config, point_config,
+                                       ray_order_study)
 from netsushisen.paper_sweep import golden_chunks, replay_figures, sweep_points  # noqa: F401
 
 
@@ -80,13 +81,16 @@ def trace_experiments(golden) -> dict[str, np.ndarray]:
 
 CANDIDATES = ("sizing records+lists", "lists in the cache", "32-byte blocks", "128-byte blocks")
 """The trace-driven readings every "partly" or "differs" of Figures 4–5 is rerun under
-(`candidate_readings`); ray order and PE count need the machine (`--on-machine`)."""
+(`candidate_readings`); `--on-machine` adds the trace split among PE_CANDIDATE PEs (checked on
+the machine) and the machine's normal ray order (`paper_machine.ray_order_study`)."""
 
 
-def candidate_readings(config: MachineConfig, options: PaperOptions
+def candidate_readings(config: MachineConfig, options: PaperOptions, pes: tuple[int, ...] = ()
                        ) -> dict[str, tuple[MachineConfig, PaperOptions]]:
     """Each candidate explanation as a (config, options) that differs from the run's in one
-    choice; a candidate equal to the run's own reading is skipped."""
+    choice; a candidate equal to the run's own reading is skipped. `pes`: also the trace split
+    among that many PEs, each PE's rays on memories of its own (`golden_chunks`; `--on-machine`
+    adds 4, which its machine check holds to the machine)."""
     out = {}
     other_sizing = "records+lists" if options.sizing == "records" else "records"
     other_lists = "cache" if options.lists == "local" else "local"
@@ -98,15 +102,21 @@ def candidate_readings(config: MachineConfig, options: PaperOptions
             c = copy.deepcopy(config)
             c.ic_memory.block_bytes = block
             out[f"{block}-byte blocks"] = (c, options)
+    for n in pes:
+        c = copy.deepcopy(config)
+        c.pes = n
+        out[f"{n} PEs"] = (c, options)
     return out
 
 
 def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
                   progress: Progress | None = None, rays_per_chunk: int = 16384,
-                  options: PaperOptions = PaperOptions(), candidates: bool = False) -> SceneData:
+                  options: PaperOptions = PaperOptions(), candidates: bool = False,
+                  pes: tuple[int, ...] = ()) -> SceneData:
     """Everything the paper's tables and figures need for one scene (`spec`: a name for
     `load_scene`, or a Scene). `candidates`: also replay under every `candidate_readings`
-    (same golden trace and pre-pass; `SceneData.readings`), for the findings' experiments."""
+    (same golden trace and pre-pass; `SceneData.readings`; `pes` its PE counts), for the
+    findings' experiments."""
     progress = progress or (lambda *a: None)
     seconds: dict[str, float] = {}
     t0 = time.perf_counter()
@@ -121,8 +131,8 @@ def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
     pre = run_prepass(scene, config, res=res, corners=corners, grid=grid)
     seconds["prepass"] = time.perf_counter() - t1
     t2 = time.perf_counter()
-    sizes, fig4, fig5, loads = replay_figures(scene, golden_chunks(golden, rays_per_chunk), pre, grid,
-                                      config, options, "", progress)
+    sizes, fig4, fig5, loads = replay_figures(scene, golden_chunks(golden, rays_per_chunk), pre,
+                                              grid, config, options, "", progress)
     seconds["replay"] = time.perf_counter() - t2
     mc = config.ic_memory
     data = SceneData(name=scene.name, res=res, corners=corners, precision=config.precision,
@@ -135,9 +145,10 @@ def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
                      experiments=trace_experiments(golden))
     if candidates:
         t3 = time.perf_counter()
-        for label, (cfg, opts) in candidate_readings(config, options).items():
-            sizes, fig4, fig5, loads = replay_figures(scene, golden_chunks(golden, rays_per_chunk), pre,
-                                              grid, cfg, opts, f" ({label})", progress)
+        for label, (cfg, opts) in candidate_readings(config, options, pes).items():
+            sizes, fig4, fig5, loads = replay_figures(
+                scene, golden_chunks(golden, rays_per_chunk, cfg.pes), pre, grid, cfg, opts,
+                f" ({label})", progress)
             v = copy.copy(data)
             v.database_bytes = sizes["database"]
             v.primitive_database_bytes = sizes["primitive_database_bytes"]
@@ -190,8 +201,9 @@ class PaperRun:
 
     @property
     def differing(self) -> list[dict]:
-        """The machine checks whose counters differ from the trace-driven path's."""
-        return [c for c in self.checks if not c["equal"]]
+        """The machine checks whose per-word counters or per-reference counts differ from the
+        trace-driven path's."""
+        return [c for c in self.checks if not (c["equal"] and c.get("ref_equal", True))]
 
 
 def output_folder(out: Path) -> Path:
@@ -216,14 +228,17 @@ def run_paper(request: PaperRequest, scheduler: str | None = None, show: bool = 
     checks: dict[int, dict] = {}
     n = len(scenes)
     # the scenes as read here travel with the tasks: a worker on another machine has no .nff file
+    pes = (PE_CANDIDATE,) if r.on_machine else ()
     tasks = [Task(analyse_scene,
-                  (scene, r.res, r.config, r.corners, None, 16384, r.options, r.candidates),
+                  (scene, r.res, r.config, r.corners, None, 16384, r.options, r.candidates, pes),
                   f"{scene.name}-trace") for scene in scenes]
     machine_runs = []  # (scene, label, config, with the pre-pass)
     if r.on_machine:
         machine_runs = [(scene, "", r.config, True) for scene in scenes]
         machine_runs += [(scene, label, point_config(r.config, cache, resident), False)
                          for scene in scenes for label, cache, resident in MACHINE_POINTS]
+        machine_runs += [(scene, f"default, {PE_CANDIDATE} PEs", pes_config(r.config), False)
+                         for scene in scenes]
         tasks += [Task(machine_check, (scene, r.res, cfg, r.engine, r.corners, label, pre),
                        f"{scene.name}-machine" + (f" ({label})" if label else ""))
                   for scene, label, cfg, pre in machine_runs]
@@ -251,7 +266,7 @@ def run_paper(request: PaperRequest, scheduler: str | None = None, show: bool = 
     digests = [(scene.name, scene_digest(scene)) for scene in scenes]
     keys = [content_key("paper scene", *d, r.res, r.corners, config, r.options.sizing,
                         r.options.lists,
-                        "candidates" if r.candidates else "")
+                        "candidates" if r.candidates else "", *pes)
             for d in digests]
     if r.on_machine:
         kernels = kernel_digest()

@@ -26,7 +26,8 @@ from netsushisen.emulator.tracesim import (SweepPoint, SweepStream, TraceMemory,
                                            stream_references)
 from netsushisen.host.databases import RESIDENT, plan_layout
 from netsushisen.host.golden import render as render_golden
-from netsushisen.host.ic_access import (load_primitives, machine_order, ordered_stream_chunks,
+from netsushisen.emulator.loads import LoadStream
+from netsushisen.host.ic_access import (load_primitives, ordered_stream_chunks, pe_orders,
                                         to_reference)
 from netsushisen.host.prepass import coarse_resolution
 from netsushisen.isa.config import MachineConfig
@@ -78,6 +79,18 @@ def point_config(config: MachineConfig, cache: float, resident: float) -> Machin
     return c
 
 
+PE_CANDIDATE = 4
+"""The PE count `--on-machine` adds as a candidate reading (the trace split among PEs as the
+machine's static distribution splits the pixels) and checks on the machine first."""
+
+
+def pes_config(config: MachineConfig, pes: int = PE_CANDIDATE) -> MachineConfig:
+    """`config` with `pes` PEs (each with its own IC memories; ICGM shared)."""
+    c = copy.deepcopy(config)
+    c.pes = pes
+    return c
+
+
 def machine_check(scene, res: int, config, engine: str, corners: bool = False, point: str = "",
                   prepass: bool = False) -> dict:
     """Render `scene` (a name, a file or a Scene) on the machine in the serial ray-tree mode
@@ -94,7 +107,6 @@ def machine_check(scene, res: int, config, engine: str, corners: bool = False, p
                record_loads=True)
     t_machine = time.perf_counter() - t0
     setup = r.setup
-    machine = r.stats["memory"]["pe0.ic"]
     out = {"scene": setup.scene.name, "point": point, "cycles": int(r.run.cycles),
            "status": r.run.status, "machine_seconds": t_machine}
     if prepass:
@@ -110,15 +122,21 @@ def machine_check(scene, res: int, config, engine: str, corners: bool = False, p
         return out
     golden = render_golden(setup.scene, setup.config, res=res, corners=corners, keep_trace=True,
                            grid=setup.images.layout.grid)
-    model = TraceMemory.for_images(setup.images)
-    for space, address in ordered_stream_chunks(setup.images.layout, golden, machine_order(golden)):
-        model.replay(space, address)
-    trace = model.stats()
-    diff = compare_counters(trace, machine)
-    res_acc, cache = machine["resident"]["accesses"], machine["cache"]
+    pes = setup.config.pes
+    diff = ""
+    for k, order in enumerate(pe_orders(golden, pes)):  # each PE's IC on its own pixels' rays
+        model = TraceMemory.for_images(setup.images)
+        for space, address in ordered_stream_chunks(setup.images.layout, golden, order):
+            model.replay(space, address)
+        d = compare_counters(model.stats(), r.stats["memory"][f"pe{k}.ic"])
+        if d and not diff:
+            diff = d if pes == 1 else f"pe{k}: {d}"
+    machines = [r.stats["memory"][f"pe{k}.ic"] for k in range(pes)]
+    res_acc = sum(m["resident"]["accesses"] for m in machines)
+    cache = {key: sum(m["cache"][key] for m in machines) for key in ("accesses", "hits")}
     total = res_acc + cache["accesses"]
-    stream = r.engine.recorder.stream("pe0.ic")
-    refs = reference_check(setup, golden, stream.space, stream.address, stream.hit)
+    streams = [r.engine.recorder.stream(f"pe{k}.ic") for k in range(pes)]
+    refs = reference_check(setup, golden, streams)
     out.update(equal=not diff, difference=diff,
                rho=f"{res_acc / total:.4f}" if total else "–",
                mu=f"{cache['hits'] / cache['accesses']:.4f}" if cache["accesses"] else "–",
@@ -144,20 +162,24 @@ def trace_references(setup, golden) -> dict[str, int]:
     cache = TraceMemory.for_images(setup.images).cache
     point = SweepPoint(layout, cache.geometry.capacity, cache.block_bytes, cache.ways)
     sweep = SweepStream(reference, [point], setup.config.word_bytes, lists_cached=True)
-    for space, address in golden_chunks(golden)(reference)[1]:
-        sweep.replay(space, address)
+    for stream in golden_chunks(golden, pes=setup.config.pes)(reference)[1]:
+        sweep.reset()
+        for space, address in stream:
+            sweep.replay(space, address)
     return {k: int(point.counts[k]) for k in REFERENCE_KEYS}
 
 
 REFERENCE_KEYS = ("ref.resident", "ref.cache", "ref.hits")
 
 
-def reference_check(setup, golden, space: np.ndarray, address: np.ndarray,
-                    hit: np.ndarray) -> dict:
-    """Per-reference counts on the machine (its recorded stream) against the trace-driven
-    path's: `ref_machine`, `ref_trace`, `ref_equal`, `ref_difference`, and the per-reference
-    ρ and μ the machine's counts give."""
-    got = machine_references(setup.images.layout, space, address, hit)
+def reference_check(setup, golden, streams: list[LoadStream]) -> dict:
+    """Per-reference counts on the machine (each PE's IC's recorded stream, summed) against the
+    trace-driven path's: `ref_machine`, `ref_trace`, `ref_equal`, `ref_difference`, and the
+    per-reference ρ and μ the machine's counts give."""
+    got = dict.fromkeys(REFERENCE_KEYS, 0)
+    for s in streams:
+        for k, v in machine_references(setup.images.layout, s.space, s.address, s.hit).items():
+            got[k] += v
     want = trace_references(setup, golden)
     diff = "; ".join(f"{k}: trace-driven {want[k]}, machine {got[k]}" for k in REFERENCE_KEYS
                      if got[k] != want[k])
@@ -183,8 +205,8 @@ def machine_chunks(layout, space: np.ndarray, address: np.ndarray, loads_per_chu
 
     def chunks(reference):
         ref_address = to_reference(layout, reference, space, address)
-        return len(bounds) - 1, ((np.full(b - a, GLOBAL, np.int8), ref_address[a:b])
-                                 for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist()))
+        return len(bounds) - 1, [((np.full(b - a, GLOBAL, np.int8), ref_address[a:b])
+                                  for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist()))]
     return chunks
 
 

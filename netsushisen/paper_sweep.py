@@ -10,7 +10,7 @@ import copy
 
 from netsushisen.emulator.tracesim import SweepPoint, SweepStream
 from netsushisen.host.databases import plan_layout
-from netsushisen.host.ic_access import machine_order, ordered_stream_chunks
+from netsushisen.host.ic_access import ordered_stream_chunks, pe_orders
 from netsushisen.isa.config import MachineConfig
 from netsushisen.reports.paper_data import (CACHE_SHARES, LOCAL_SHARES, RESIDENT_SPLITS,
                                             PaperOptions, Progress)
@@ -36,14 +36,16 @@ def sweep_points(config: MachineConfig) -> list[tuple[str, float, float]]:
     return out
 
 
-def golden_chunks(golden, rays_per_chunk: int = 16384):
+def golden_chunks(golden, rays_per_chunk: int = 16384, pes: int = 1):
     """The golden trace's IC stream in the machine's serial order, for `replay_figures`: a function of
-    the reference layout giving (number of chunks, the chunks)."""
-    order = machine_order(golden)
+    the reference layout giving (number of chunks, one stream of chunks per PE). `pes` > 1: the
+    pixels divided among PEs as the machine's static distribution divides them
+    (`host.ic_access.pe_orders`), each PE's rays in its own serial order."""
+    orders = pe_orders(golden, pes)
 
     def chunks(reference):
-        return (max(1, -(-len(order) // rays_per_chunk)),
-                ordered_stream_chunks(reference, golden, order, rays_per_chunk))
+        return (sum(max(1, -(-len(o) // rays_per_chunk)) for o in orders),
+                [ordered_stream_chunks(reference, golden, o, rays_per_chunk) for o in orders])
     return chunks
 
 
@@ -51,8 +53,9 @@ def replay_figures(scene, chunks, pre, grid, config: MachineConfig, options: Pap
            progress: Progress) -> tuple[dict, list[dict], list[dict], int]:
     """Replay a stream through every memory configuration of Figures 4–5 under one reading:
     (database sizes, fig4 rows, fig5 rows, loads replayed). `chunks(reference layout)`: (number
-    of chunks, the stream in that layout in chunks that end between tests) — the golden trace's
-    (`golden_chunks`) or the machine's recorded one (`machine_chunks`)."""
+    of chunks, per PE the stream in that layout in chunks that end between tests) — the golden
+    trace's (`golden_chunks`) or the machine's recorded one (`machine_chunks`). Each PE's stream
+    runs through memories of its own (its caches start cold); the counts are summed."""
     reference = plan_layout(scene, sized_config(config, 1, 0.0, 0.0), pre.priorities, grid)
     base = (reference.shape_words if options.sizing == "records"
             else reference.primitive_database_words)
@@ -70,13 +73,16 @@ def replay_figures(scene, chunks, pre, grid, config: MachineConfig, options: Pap
             points[key] = SweepPoint(lay, lay.cache_bytes, config.ic_memory.block_bytes)
         chosen.append((fig, share, split, lay.resident_capacity * wb, key))
     sweep = SweepStream(reference, list(points.values()), wb, lists_cached=options.lists == "cache")
-    n_chunks, stream = chunks(reference)
-    loads = 0
+    n_chunks, streams = chunks(reference)
+    loads = i = 0
     what = f"{scene.name}: replay {len(points)} memory configurations{label}"
-    for i, (space, address) in enumerate(stream):
-        progress(what, i, n_chunks)
-        loads += len(address)
-        sweep.replay(space, address)
+    for stream in streams:
+        sweep.reset()
+        for space, address in stream:
+            progress(what, i, n_chunks)
+            i += 1
+            loads += len(address)
+            sweep.replay(space, address)
     progress(what, n_chunks, n_chunks)
     mc = config.ic_memory
     fig4, fig5 = [], []

@@ -207,8 +207,9 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
         lines += ["",
                   "Every Figure 4–5 finding that is not \"agree\" names what each candidate "
                   "reading makes of it (*Why*)"
-                  + ("; the machine's normal ray order is one of them (`--on-machine`)."
-                     if RAY_ORDER in common_readings(scenes) else
+                  + ("; `--on-machine` adds the machine's normal ray order and the trace split "
+                     "among PEs as the machine splits the pixels (checked on the machine: "
+                     "\"On the machine\")." if RAY_ORDER in common_readings(scenes) else
                      "; ray order and PE count need the machine (`--on-machine`).")]
     lines += [""]
     if machine:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from netsushisen.emulator.loads import LoadStream
 from netsushisen.host.golden import render as golden_render
 from netsushisen.host.ic_access import load_primitives, to_reference
 from netsushisen.isa.config import load_config
@@ -47,19 +48,19 @@ def test_a_changed_stream_makes_the_reference_check_differ(serial_run):
     then misses), or one test's list cells dropped (that fetch is no reference any more),
     makes it name the count that moved."""
     setup, golden, s = serial_run
-    assert reference_check(setup, golden, s.space, s.address, s.hit)["ref_equal"]
+    assert reference_check(setup, golden, [s])["ref_equal"]
     prim, _ = load_primitives(setup.images.layout, s.space, s.address)
     # the first load of a reference through the cache, which hit
     cand = np.flatnonzero((prim >= 0) & (s.space == GLOBAL) & s.hit & (np.roll(prim, 1) == -1))
     hit = s.hit.copy()
     hit[cand[0]] = False
-    got = reference_check(setup, golden, s.space, s.address, hit)
+    got = reference_check(setup, golden, [LoadStream(s.space, s.address, hit)])
     assert not got["ref_equal"] and got["ref_difference"].startswith("ref.hits:")
     assert got["ref_machine"]["ref.hits"] == got["ref_trace"]["ref.hits"] - 1
     cells = np.flatnonzero(prim < 0)[:2]
     keep = np.ones(len(prim), bool)
     keep[cells] = False
-    got = reference_check(setup, golden, s.space[keep], s.address[keep], s.hit[keep])
+    got = reference_check(setup, golden, [LoadStream(s.space[keep], s.address[keep], s.hit[keep])])
     assert not got["ref_equal"] and "ref." in got["ref_difference"]
     want = trace_references(setup, golden)
     assert got["ref_machine"]["ref.resident"] + got["ref_machine"]["ref.cache"] == \
@@ -95,3 +96,28 @@ def test_ray_order_study_in_serial_mode_is_the_trace_path(options):
     assert study["fig4"] == trace.fig4 and study["fig5"] == trace.fig5
     normal = ray_order_study("mount:2", 6, config, "compiled", options=options)
     assert normal["loads"] == study["loads"] and normal["fig5"] != study["fig5"]
+
+
+def test_pes_split_the_trace_as_the_machine_splits_the_pixels(engine_name):
+    """Four PEs in serial mode: each PE's IC counters equal the trace-driven model of its own
+    pixels' rays (static distribution: sample i to PE i mod 4) on its own memories, and the
+    per-reference counts summed over the PEs equal the sweep's split replay."""
+    config = load_config(None, SMALL + ["pes=4"])
+    out = machine_check("mount:2", 6, config, engine_name)
+    assert out["equal"] and out["ref_equal"], (out["difference"], out["ref_difference"])
+    one = machine_check("mount:2", 6, _config(), engine_name)
+    # same references, but four cold caches miss more than one
+    assert (out["ref_machine"]["ref.resident"] + out["ref_machine"]["ref.cache"]
+            == one["ref_machine"]["ref.resident"] + one["ref_machine"]["ref.cache"])
+    assert out["ref_machine"]["ref.hits"] < one["ref_machine"]["ref.hits"]
+
+
+def test_pe_orders_partition_the_serial_order(serial_run):
+    from netsushisen.host.ic_access import machine_order, pe_orders
+
+    _, golden, _ = serial_run
+    parts = pe_orders(golden, 4)
+    assert sorted(np.concatenate(parts).tolist()) == sorted(machine_order(golden).tolist())
+    for k, o in enumerate(parts):
+        assert np.all(golden.trace_pixel[o] % 4 == k)
+        assert np.all(np.diff(golden.trace_pixel[o]) >= 0)  # pixel by pixel

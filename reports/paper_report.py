@@ -7,8 +7,9 @@ Split from `paper.py` (which decides the findings) so that each stays readable."
 from __future__ import annotations
 
 from netsushisen.reports.paper import (PAPER_RES, PAPER_TABLE1, RAY_ORDER, TABLE1_COLUMNS,
-                                       VERDICTS, Finding, _pct, _yn, common_readings, fig5_best,
-                                       fig5_curve, findings, ray_order_rows, table2)
+                                       VERDICTS, Finding, _pct, _yn, common_readings, fig4_miss,
+                                       fig5_best, fig5_curve, fig5_row, findings, ray_order_rows,
+                                       table2)
 from netsushisen.reports.paper_data import COUNTINGS, LOCAL_SHARES, SceneData
 
 DEFAULTS_ARGUED = [
@@ -145,6 +146,22 @@ def _ray_order(check: dict, scenes: list[SceneData]) -> list[str]:
                          f"{o['seconds']:.0f}"] for o in orders]) + [""]
     if not rows:
         return lines + ["(Not every scene's study finished: no findings recomputed.)", ""]
+    moved = []
+    for d in scenes:
+        n = d.readings[RAY_ORDER]
+        cells = [d.name]
+        for local in (0.3, 0.5):
+            a, b = fig5_row(d, local, 0.7)["ref"]["mu"], fig5_row(n, local, 0.7)["ref"]["mu"]
+            cells.append(f"{a:.3f} → {b:.3f}")
+        for local in (0.3, 0.5):
+            (sa, ta, _), (sb, tb, _) = fig5_best(d, local), fig5_best(n, local)
+            cells.append(f"{_pct(sa)}, {ta:.2f} → {_pct(sb)}, {tb:.2f} t_r")
+        cells.append(f"{_pct(fig4_miss(d, 0.3), 2)} → {_pct(fig4_miss(n, 0.3), 2)}")
+        moved.append(cells)
+    lines += ["Per scene (per primitive reference; serial → normal order):", ""]
+    lines += _md_table(["scene", "μ at 30 % local, 70 % resident", "μ at 50 % local, 70 % resident",
+                        "lowest t at 30 % local (split, t)", "lowest t at 50 % local (split, t)",
+                        "miss rate, 30 % cache-only"], moved) + [""]
     lines += _md_table(["finding", "serial order", "machine's normal order", "numbers (serial)",
                         "numbers (normal order)"],
                        [[f"{r['figure']}: {r['paper']}", r["serial"],

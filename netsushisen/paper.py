@@ -10,9 +10,11 @@ address are the ones the machine would get for that split. The records it fills
 (`SceneData`, `PaperOptions`) and everything that reads them (tables, findings, figures,
 report.md) are in `reports/paper*.py`.
 
-`machine_check` (`--on-machine`) renders a scene on the emulated machine in the serial ray-tree
-mode and compares IC's counters with the trace-driven path's (`compare_counters`): accesses by
-memory and by region, loads per primitive, hence ρ and μ; they must be equal.
+The Figure 4–5 sweep itself is netsushisen/paper_sweep.py. `--on-machine` (netsushisen/
+paper_machine.py) renders each scene on the emulated machine: `machine_check` (serial ray-tree
+mode) compares IC's per-word counters and per-reference counts with the trace-driven path's;
+`ray_order_study` replays IC's stream recorded in the normal mode through the same sweep (a
+candidate reading, RAY_ORDER); with it the trace split among PE_CANDIDATE PEs is a candidate.
 
 `run_paper` runs a whole reproduction — every scene's analysis and machine check, each an
 independent run on the cluster layer (netsushisen/cluster.py) — and writes the figures, the CSV

@@ -116,3 +116,20 @@ def test_normal_mode_and_several_pes_record_alike(engine_name, monkeypatch):
         m = r.stats["memory"][pe]
         assert s.counts()["cache"] == m["cache"]["accesses"]
         assert s.counts()["hits"] == m["cache"]["hits"]
+
+
+def test_each_pes_stream_is_its_pixels_serial_trace(engine_name):
+    """Four PEs in serial mode: PE k's IC loads are, load by load, the golden trace's stream of
+    the pixels k, k + 4, ... in machine order (`pe_orders`: the static distribution) — what the
+    trace-driven path's PE-count reading replays."""
+    from netsushisen.host.ic_access import pe_orders
+
+    r = _render(engine_name, slots=1, pes=4)
+    setup = r.setup
+    golden = golden_render(setup.scene, setup.config, res=6, keep_trace=True,
+                           grid=setup.images.layout.grid)
+    for k, order in enumerate(pe_orders(golden, 4)):
+        s = r.engine.recorder.stream(f"pe{k}.ic")
+        parts = list(ordered_stream_chunks(setup.images.layout, golden, order))
+        assert len(s) > 0 and np.array_equal(s.address, np.concatenate([p[1] for p in parts]))
+        assert np.array_equal(s.space, np.concatenate([p[0] for p in parts]))

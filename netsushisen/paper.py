@@ -105,9 +105,7 @@ def candidate_readings(config: MachineConfig, options: PaperOptions, pes: tuple[
             c.ic_memory.block_bytes = block
             out[f"{block}-byte blocks"] = (c, options)
     for n in pes:
-        c = copy.deepcopy(config)
-        c.pes = n
-        out[f"{n} PEs"] = (c, options)
+        out[f"{n} PEs"] = (pes_config(config, n), options)
     return out
 
 

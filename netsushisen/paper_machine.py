@@ -85,9 +85,10 @@ machine's static distribution splits the pixels) and checks on the machine first
 
 
 def pes_config(config: MachineConfig, pes: int = PE_CANDIDATE) -> MachineConfig:
-    """`config` with `pes` PEs (each with its own IC memories; ICGM shared)."""
+    """`config` with `pes` PEs (each with its own IC memories; ICGM shared), the pixels
+    divided statically (the division the trace-driven path models: `pe_orders`)."""
     c = copy.deepcopy(config)
-    c.pes = pes
+    c.pes, c.distribution = pes, "static"
     return c
 
 

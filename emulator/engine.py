@@ -30,6 +30,7 @@ from netsushisen.isa.errors import ConfigError, Diagnostic
 from netsushisen.isa.config import MachineConfig
 
 from netsushisen.emulator import stats as run_stats
+from netsushisen.emulator.loads import LoadRecorder, Sink
 from netsushisen.isa.images import MemoryImage
 from netsushisen.emulator.machine import EXIT_CODES, Machine, RunResult
 
@@ -91,6 +92,26 @@ class Engine(ABC):
         live counters for a progress display, valid during a run (from a progress callback)."""
         m = self.machine
         return m.cycle, sum(m.dis.assigned), m.col.messages
+
+    # -- recording ---------------------------------------------------------------------------
+
+    def record_loads(self, processors: list[str] | None = None,
+                     sink: Sink | None = None) -> LoadRecorder:
+        """Record every resident (`ldr`) and global (`ldg`, with its cache hit) load of
+        `processors` (default: every PE's IC) from now on, in issue order (emulator/loads.py):
+        off unless asked for. Both engines record the same stream; read it with
+        `recorder.stream(name)` after the run (or take it piece by piece through `sink`)."""
+        names = processors if processors is not None else [
+            p for p in self.processors() if p.endswith(".ic")]
+        for name in names:
+            self._core(name)  # an unknown name is a KeyError naming the processors
+        rec = LoadRecorder(names, sink)
+        for name in names:
+            self._core(name).memory.record = rec.buffer(name)
+        self.recorder = rec
+        return rec
+
+    recorder: LoadRecorder | None = None
 
     # -- reading -------------------------------------------------------------------------------
 
@@ -188,6 +209,13 @@ class ReferenceEngine(Engine):
 
     def run(self, max_cycles: int | None = None, progress: Progress | None = None,
             every: int = 20000) -> RunResult:
+        try:
+            return ReferenceEngine._run(self, max_cycles, progress, every)
+        finally:
+            if self.recorder is not None:
+                self.recorder.flush()
+
+    def _run(self, max_cycles: int | None, progress: Progress | None, every: int) -> RunResult:
         m = self.machine
         if progress is None:
             return m.run(max_cycles)

@@ -38,7 +38,9 @@ Counters: local {reads, writes}; resident {accesses}; cache {accesses, hits, mis
 ranges (voxel_data, primitive_list, shape_data, luminance_data, ...) and optionally a primitive id
 per range; every load that falls in a range counts towards that region (and, for a cache, its
 hits/misses) and towards the range's primitive (give one word per primitive, e.g. the head of
-its shape record, to count intersection tests).
+its shape record, to count intersection tests). `record` (a list, set by
+`Engine.record_loads`; None by default) receives every `ldr` and `ldg` as a code of
+emulator/loads.py, in issue order.
 
 An access outside a memory raises `MemoryFault`; the core turns it into a run-time fault that
 names processor, PC and cycle.
@@ -206,6 +208,7 @@ class MemorySystem:
         self.global_regions = regions.get("global")
         self.global_counts = RegionCounters()
         self.global_accesses = 0
+        self.record: list[int] | None = None  # codes of recorded loads (emulator/loads.py), or off
         if proc == "os":
             latency = config.os.latency.get("ld")
             self.t_local = latency if latency is not None else OPCODES["ld"].latency
@@ -241,12 +244,17 @@ class MemorySystem:
         if space == "resident":
             if self.resident is None:
                 raise MemoryFault("this processor has no resident memory")
-            return self.resident.read(address), -1
+            word = self.resident.read(address)
+            if self.record is not None:
+                self.record.append((address << 2) | 1)  # loads.encode(address, True, False)
+            return word, -1
         gm = self.global_memory
         if gm is None or self.cache is None:
             raise MemoryFault("this processor has no global memory")
         gm.check(address)
         hit, s = self.cache.access(address)
+        if self.record is not None:
+            self.record.append((address << 2) | (int(hit) << 1))  # loads.encode(address, False, hit)
         if not hit:
             self.global_accesses += 1
         if self.global_regions is not None:

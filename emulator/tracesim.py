@@ -53,9 +53,11 @@ def _compiled() -> SimpleNamespace:
     """The replay loops compiled by numba (once per process; its own cache on disk)."""
     from numba import njit  # noqa: PLC0415 (numba only where a compiled function is needed)
 
-    global _touch
+    global _touch, _hits_of_references
     _touch = njit(nogil=True, inline="always")(cacherule.touch)
-    return SimpleNamespace(replay=njit(nogil=True)(_replay), replay_point=njit(nogil=True)(_replay_point))
+    _hits_of_references = njit(nogil=True, inline="always")(reference_hits)
+    return SimpleNamespace(replay=njit(nogil=True)(_replay), replay_point=njit(nogil=True)(_replay_point),
+                           reference_hits=njit(nogil=True)(reference_hits))
 
 
 def block_numbers(addresses: np.ndarray, word_bytes: int, block_bytes: int) -> np.ndarray:
@@ -260,11 +262,71 @@ def _replay_point(first, span, loads, prim, segment, fetch_is_reference, fetch_p
             h_shape += hits
             if miss:
                 missed[segment[i]] = True
-    ref_hits = 0
-    for k in range(len(fetch_is_reference)):
-        if fetch_is_reference[k] and not resident[fetch_prim[k]] and not missed[k]:
-            ref_hits += 1
-    return h_shape, h_list, ref_hits
+    return h_shape, h_list, _hits_of_references(fetch_is_reference, fetch_prim, resident, missed)
+
+
+# ------------------------------------------------------------------------------------------------
+# The per-reference rule (docs/databases.md), shared by the trace-driven sweep and the machine's
+# recorded stream (`stream_references`)
+
+
+@dataclass
+class Fetches:
+    """A stream's fetches: `segment` per item (its fetch, -1 for a list cell), `heads` (the
+    first item of each fetch), `is_reference` per fetch."""
+
+    segment: np.ndarray
+    heads: np.ndarray
+    is_reference: np.ndarray
+
+
+def fetches(prim: np.ndarray) -> Fetches:
+    """The paper's references in a sequence of items — loads, or runs of loads of one record —
+    given each item's primitive (-1: a list cell): a *fetch* is a maximal sequence of record
+    items of one primitive; a fetch that follows a list cell is one reference (one test); a
+    fetch that follows another record (a winner's hit words, read after the ray's last test) is
+    none."""
+    prim = np.asarray(prim, np.int64)
+    is_rec = prim >= 0
+    prev = np.concatenate([[-2], prim[:-1]])
+    seg_start = is_rec & (prev != prim)
+    segment = np.where(is_rec, np.cumsum(seg_start) - 1, -1)
+    return Fetches(segment, np.flatnonzero(seg_start), (prev == -1)[seg_start])
+
+
+def reference_hits(is_reference, fetch_prim, resident, missed) -> int:  # compiled by numba too
+    """References through the cache (`resident[fetch_prim]` false) whose every block hit
+    (`missed` false): the paper's cache hits."""
+    n = 0
+    for k in range(len(is_reference)):
+        if is_reference[k] and not resident[fetch_prim[k]] and not missed[k]:
+            n += 1
+    return n
+
+
+_hits_of_references = reference_hits  # replaced by its compiled form in `_compiled()`
+
+
+def reference_counts(fetch_prim: np.ndarray, f: Fetches, resident: np.ndarray,
+                     missed: np.ndarray) -> dict[str, int]:
+    """`ref.resident`, `ref.cache`, `ref.hits` of one stream: its fetches `f`, each fetch's
+    primitive, which primitives are resident and which fetches missed."""
+    refs = fetch_prim[f.is_reference]
+    res = int(np.count_nonzero(resident[refs]))
+    hits = _compiled().reference_hits(f.is_reference, fetch_prim, resident, missed) \
+        if len(refs) else 0
+    return {"ref.resident": res, "ref.cache": len(refs) - res, "ref.hits": int(hits)}
+
+
+def stream_references(prim: np.ndarray, hit: np.ndarray, resident: np.ndarray) -> dict[str, int]:
+    """The per-reference counts of a recorded load stream (emulator/loads.py) mapped to
+    primitives (`prim` per load, -1 a list cell; `resident` per primitive), each reference's
+    hit decided by the machine's own per-load hit flags (`hit`): every load of a fetch hit."""
+    prim = np.asarray(prim, np.int64)
+    f = fetches(prim)
+    missed = np.bincount(f.segment[(prim >= 0) & ~np.asarray(hit, bool)],
+                         minlength=len(f.heads)) > 0
+    return reference_counts(prim[f.heads], f, np.asarray(resident, bool), missed)
 
 
 @dataclass
@@ -309,6 +371,7 @@ class Runs:
     prim: np.ndarray  # primitive of a record run, -1 for a list-cell run
     segment: np.ndarray  # record runs: their fetch (consecutive runs of one record), else -1
     fetch_is_reference: np.ndarray  # per fetch: after a list cell (a test), not a winner's hit words
+    fetch_prim: np.ndarray  # per fetch: its primitive
 
 
 class SweepStream:
@@ -348,12 +411,18 @@ class SweepStream:
             glob = p.layout.record_space == GLOBAL
             p.shift = np.where(glob, p.layout.record_address - self.addr0, 0)
 
+    def reset(self) -> None:
+        """Empty every configuration's cache (the next stream is another PE's, with memories of
+        its own); the counts go on adding up."""
+        for p in self.points:
+            p.tags[:] = -1
+
     def runs(self, address: np.ndarray) -> Runs:
         """The chunk's runs and fetches."""
         a = np.asarray(address, np.int64)
         if not len(a):
             z = np.zeros(0, np.int64)
-            return Runs(z, z, z, z, z, np.zeros(0, bool))
+            return Runs(z, z, z, z, z, np.zeros(0, bool), z)
         cell = a < self.list_words
         i = np.searchsorted(self.starts, a, side="right") - 1
         prim = np.where(cell, -1, self.start_prim[np.maximum(i, 0)])
@@ -363,12 +432,9 @@ class SweepStream:
         start = np.flatnonzero(brk)
         end = np.concatenate([start[1:], [len(a)]]) - 1
         rp = prim[start]
-        is_rec = rp >= 0
-        prev = np.concatenate([[-2], rp[:-1]])
-        seg_start = is_rec & (prev != rp)
-        segment = np.where(is_rec, np.cumsum(seg_start) - 1, -1)
-        fetch_is_reference = (prev == -1)[seg_start]
-        return Runs(a[start], a[end] - a[start], end - start + 1, rp, segment, fetch_is_reference)
+        f = fetches(rp)
+        return Runs(a[start], a[end] - a[start], end - start + 1, rp, f.segment, f.is_reference,
+                    rp[f.heads])
 
     def replay(self, space: np.ndarray, address: np.ndarray) -> None:
         """One chunk of the reference layout's stream (every load GLOBAL)."""
@@ -377,10 +443,7 @@ class SweepStream:
         n = len(self.addr0)
         is_rec = prim >= 0
         p = np.maximum(prim, 0)
-        rec_runs = np.flatnonzero(is_rec)
-        heads = rec_runs[np.concatenate([[True], seg[rec_runs][1:] != seg[rec_runs][:-1]])] \
-            if len(rec_runs) else rec_runs
-        fetch_prim = prim[heads]
+        fetch_prim = r.fetch_prim
         refs = r.fetch_is_reference
         # what does not depend on the cache, per primitive: O(N) per configuration, not O(runs)
         rec_loads = np.bincount(p[is_rec], loads[is_rec], minlength=n).astype(np.int64)

@@ -26,7 +26,7 @@ from typing import Iterator
 
 import numpy as np
 
-from netsushisen.host.databases import GLOBAL, LIST_BASE, DatabaseLayout, access_tables
+from netsushisen.host.databases import GLOBAL, LIST_BASE, RESIDENT, DatabaseLayout, access_tables
 from netsushisen.host.golden import SHADOW
 from netsushisen.host.records import CELL_WORDS, patch_hit_offsets, ranges
 from netsushisen.host.scenes import Kind
@@ -169,6 +169,17 @@ def machine_order(result) -> np.ndarray:
     return np.lexsort((ray_generation(result), result.trace_pixel)).astype(np.int64)
 
 
+def pe_orders(result, pes: int = 1) -> list[np.ndarray]:
+    """`machine_order` divided among `pes` PEs as the machine's static distribution divides
+    the work (`distribution = "static"`: DIS hands eye sample i to PE i mod pes, and a pixel's
+    whole ray tree stays in its PE's ring): per PE, its pixels' rays in its own serial order."""
+    order = machine_order(result)
+    if pes == 1:
+        return [order]
+    pe = result.trace_pixel[order] % pes
+    return [order[pe == k] for k in range(pes)]
+
+
 def ordered_stream_chunks(layout: DatabaseLayout, result, order: np.ndarray | None = None,
                           rays_per_chunk: int = 32768, hits: bool = True
                           ) -> Iterator[tuple[np.ndarray, np.ndarray]]:
@@ -189,3 +200,45 @@ def ordered_stream_chunks(layout: DatabaseLayout, result, order: np.ndarray | No
                                     new_off, result.trace_hit[rays], result.trace_hit_fan[rays])
         else:
             yield ic_address_stream(layout, result.trace_prims[idx], result.trace_leaves[idx])
+
+
+# ------------------------------------------------------------------------------------------------
+# The machine's recorded stream (emulator/loads.py) read through a layout
+
+
+def load_primitives(layout: DatabaseLayout, space: np.ndarray, address: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """(primitive, word offset in its shape record) of each IC load in `layout`: a list cell
+    (ICGM below `list_words`) gives primitive -1, offset its address. A load inside no record
+    is a ValueError naming it (the stream is not of this layout)."""
+    space = np.asarray(space)
+    address = np.asarray(address, np.int64)
+    prim = np.full(len(address), -1, np.int64)
+    offset = address.copy()
+    for sp in (GLOBAL, RESIDENT):
+        sel = (space == sp) & ((address >= layout.list_words) if sp == GLOBAL else True)
+        ids = np.flatnonzero(layout.record_space == sp)
+        ids = ids[np.argsort(layout.record_address[ids], kind="stable")]
+        starts = layout.record_address[ids]
+        a = address[sel]
+        k = np.searchsorted(starts, a, side="right") - 1
+        p = ids[np.maximum(k, 0)] if len(ids) else np.zeros(len(a), np.int64)
+        off = a - layout.record_address[p] if len(ids) else a
+        bad = (k < 0) | (off >= layout.record_size[p]) if len(ids) else np.ones(len(a), bool)
+        if np.any(bad):
+            j = int(np.flatnonzero(bad)[0])
+            where = "ICGM" if sp == GLOBAL else "resident memory"
+            raise ValueError(f"load of {where} address {int(a[j])} is in no shape record")
+        prim[sel], offset[sel] = p, off
+    return prim, offset
+
+
+def to_reference(layout: DatabaseLayout, reference: DatabaseLayout, space: np.ndarray,
+                 address: np.ndarray) -> np.ndarray:
+    """The ICGM address each IC load of `layout` has in `reference` (every record in ICGM, the
+    same lists: `tracesim.SweepStream`'s layout): list cells keep theirs, a record's word moves
+    with its record."""
+    if reference.list_words != layout.list_words:
+        raise ValueError("the two layouts have different primitive lists")
+    prim, offset = load_primitives(layout, space, address)
+    return np.where(prim >= 0, reference.record_address[np.maximum(prim, 0)] + offset, offset)

@@ -10,9 +10,11 @@ address are the ones the machine would get for that split. The records it fills
 (`SceneData`, `PaperOptions`) and everything that reads them (tables, findings, figures,
 report.md) are in `reports/paper*.py`.
 
-`machine_check` (`--on-machine`) renders a scene on the emulated machine in the serial ray-tree
-mode and compares IC's counters with the trace-driven path's (`compare_counters`): accesses by
-memory and by region, loads per primitive, hence ρ and μ; they must be equal.
+The Figure 4–5 sweep itself is netsushisen/paper_sweep.py. `--on-machine` (netsushisen/
+paper_machine.py) renders each scene on the emulated machine: `machine_check` (serial ray-tree
+mode) compares IC's per-word counters and per-reference counts with the trace-driven path's;
+`ray_order_study` replays IC's stream recorded in the normal mode through the same sweep (a
+candidate reading, RAY_ORDER); with it the trace split among PE_CANDIDATE PEs is a candidate.
 
 `run_paper` runs a whole reproduction — every scene's analysis and machine check, each an
 independent run on the cluster layer (netsushisen/cluster.py) — and writes the figures, the CSV
@@ -34,19 +36,19 @@ from netsushisen.cluster import (ResultCache, Task, content_key, kernel_digest,
                                  run_cached, scene_digest, unplain)
 from netsushisen.isa.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
-from netsushisen.host.databases import plan_layout
 from netsushisen.host.golden import render as render_golden
 from netsushisen.host.grid import build_grid
-from netsushisen.host.prepass import coarse_resolution, run_prepass
+from netsushisen.host.prepass import run_prepass
 from netsushisen.isa.config import MachineConfig, dump_toml
 from netsushisen.isa.outputs import write_text
-from netsushisen.reports.paper import findings, machine_findings
-from netsushisen.reports.paper_data import (CACHE_SHARES, LOCAL_SHARES,
-                                            RESIDENT_SPLITS, PaperOptions, Progress, SceneData)
+from netsushisen.reports.paper import RAY_ORDER, findings, machine_findings
+from netsushisen.reports.paper_data import PaperOptions, Progress, SceneData
 from netsushisen.reports.paper_plots import write_csvs, write_figures
 from netsushisen.reports.paper_report import report_markdown
-from netsushisen.emulator.tracesim import SweepPoint, SweepStream, TraceMemory
-from netsushisen.host.ic_access import machine_order, ordered_stream_chunks
+from netsushisen.paper_machine import (MACHINE_POINTS, PE_CANDIDATE,  # noqa: F401 (API)
+                                       compare_counters, machine_check, pes_config, point_config,
+                                       ray_order_study)
+from netsushisen.paper_sweep import golden_chunks, replay_figures, sweep_points  # noqa: F401
 
 
 def scene_counts(scene) -> dict:
@@ -55,26 +57,6 @@ def scene_counts(scene) -> dict:
             "spheres": scene.count(Kind.SPHERE), "cones": scene.count(Kind.CONE),
             "cylinders": scene.count(Kind.CYLINDER), "lights": int(len(scene.light_position)),
             "reflective": scene.reflective, "transparent": scene.transparent}
-
-
-def _sized(config: MachineConfig, base_words: int, resident: float, cache: float) -> MachineConfig:
-    """`config` with IC's resident and cache sizes set to shares of `base_words` (the sized
-    database), rounded as the machine rounds shares (resident: whole words, cache: whole blocks)."""
-    c = copy.deepcopy(config)
-    mc = c.ic_memory
-    wb = config.word_bytes
-    mc.resident_share = mc.cache_share = None
-    mc.resident_bytes = int(resident * base_words) * wb
-    size = int(cache * base_words * wb)
-    mc.cache_bytes = size - size % mc.block_bytes
-    return c
-
-
-def sweep_points(config: MachineConfig) -> list[tuple[str, float, float]]:
-    """(figure, local or cache share, resident split) of every configuration swept."""
-    out = [("fig4", c, 0.0) for c in CACHE_SHARES]
-    out += [("fig5", local, r) for local in LOCAL_SHARES for r in RESIDENT_SPLITS]
-    return out
 
 
 def trace_experiments(golden) -> dict[str, np.ndarray]:
@@ -101,13 +83,16 @@ def trace_experiments(golden) -> dict[str, np.ndarray]:
 
 CANDIDATES = ("sizing records+lists", "lists in the cache", "32-byte blocks", "128-byte blocks")
 """The trace-driven readings every "partly" or "differs" of Figures 4–5 is rerun under
-(`candidate_readings`); ray order and PE count need the machine (`--on-machine`)."""
+(`candidate_readings`); `--on-machine` adds the trace split among PE_CANDIDATE PEs (checked on
+the machine) and the machine's normal ray order (`paper_machine.ray_order_study`)."""
 
 
-def candidate_readings(config: MachineConfig, options: PaperOptions
+def candidate_readings(config: MachineConfig, options: PaperOptions, pes: tuple[int, ...] = ()
                        ) -> dict[str, tuple[MachineConfig, PaperOptions]]:
     """Each candidate explanation as a (config, options) that differs from the run's in one
-    choice; a candidate equal to the run's own reading is skipped."""
+    choice; a candidate equal to the run's own reading is skipped. `pes`: also the trace split
+    among that many PEs, each PE's rays on memories of its own (`golden_chunks`; `--on-machine`
+    adds 4, which its machine check holds to the machine)."""
     out = {}
     other_sizing = "records+lists" if options.sizing == "records" else "records"
     other_lists = "cache" if options.lists == "local" else "local"
@@ -119,60 +104,19 @@ def candidate_readings(config: MachineConfig, options: PaperOptions
             c = copy.deepcopy(config)
             c.ic_memory.block_bytes = block
             out[f"{block}-byte blocks"] = (c, options)
+    for n in pes:
+        out[f"{n} PEs"] = (pes_config(config, n), options)
     return out
-
-
-def _sweep(scene, golden, pre, grid, config: MachineConfig, options: PaperOptions, label: str,
-           progress: Progress, rays_per_chunk: int) -> tuple[dict, list[dict], list[dict], int]:
-    """Replay the trace through every memory configuration of Figures 4–5 under one reading:
-    (database sizes, fig4 rows, fig5 rows, loads replayed)."""
-    reference = plan_layout(scene, _sized(config, 1, 0.0, 0.0), pre.priorities, grid)
-    base = (reference.shape_words if options.sizing == "records"
-            else reference.primitive_database_words)
-    wb = config.word_bytes
-    points: dict[tuple[int, int], SweepPoint] = {}
-    chosen = []
-    for fig, share, split in sweep_points(config):
-        if fig == "fig4":
-            cfg = _sized(config, base, 0.0, share)
-        else:
-            cfg = _sized(config, base, share * split, share * (1 - split))
-        lay = plan_layout(scene, cfg, pre.priorities, grid)
-        key = (lay.resident_count, lay.cache_bytes)
-        if key not in points:
-            points[key] = SweepPoint(lay, lay.cache_bytes, config.ic_memory.block_bytes)
-        chosen.append((fig, share, split, lay.resident_capacity * wb, key))
-    sweep = SweepStream(reference, list(points.values()), wb, lists_cached=options.lists == "cache")
-    order = machine_order(golden)
-    n_chunks = max(1, -(-len(order) // rays_per_chunk))
-    loads = 0
-    what = f"{scene.name}: replay {len(points)} memory configurations{label}"
-    for i, (space,
-            address) in enumerate(ordered_stream_chunks(reference, golden, order, rays_per_chunk)):
-        progress(what, i, n_chunks)
-        loads += len(address)
-        sweep.replay(space, address)
-    progress(what, n_chunks, n_chunks)
-    mc = config.ic_memory
-    fig4, fig5 = [], []
-    for fig, share, split, resident_bytes, key in chosen:
-        f = SweepStream.figures(points[key], mc.t_r, mc.t_c, mc.t_g)
-        row = {"resident_bytes": resident_bytes, "resident_count": key[0], "cache_bytes": key[1],
-               "all": f["all"], "shape": f["shape"], "ref": f["ref"]}
-        if fig == "fig4":
-            fig4.append({"cache_share": share} | row)
-        else:
-            fig5.append({"local_share": share, "resident_split": split} | row)
-    sizes = {"database": reference.sizes(), "primitive_database_bytes": base * wb}
-    return sizes, fig4, fig5, loads
 
 
 def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
                   progress: Progress | None = None, rays_per_chunk: int = 16384,
-                  options: PaperOptions = PaperOptions(), candidates: bool = False) -> SceneData:
+                  options: PaperOptions = PaperOptions(), candidates: bool = False,
+                  pes: tuple[int, ...] = ()) -> SceneData:
     """Everything the paper's tables and figures need for one scene (`spec`: a name for
     `load_scene`, or a Scene). `candidates`: also replay under every `candidate_readings`
-    (same golden trace and pre-pass; `SceneData.readings`), for the findings' experiments."""
+    (same golden trace and pre-pass; `SceneData.readings`; `pes` its PE counts), for the
+    findings' experiments."""
     progress = progress or (lambda *a: None)
     seconds: dict[str, float] = {}
     t0 = time.perf_counter()
@@ -187,8 +131,8 @@ def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
     pre = run_prepass(scene, config, res=res, corners=corners, grid=grid)
     seconds["prepass"] = time.perf_counter() - t1
     t2 = time.perf_counter()
-    sizes, fig4, fig5, loads = _sweep(scene, golden, pre, grid, config, options, "",
-                                      progress, rays_per_chunk)
+    sizes, fig4, fig5, loads = replay_figures(scene, golden_chunks(golden, rays_per_chunk), pre,
+                                              grid, config, options, "", progress)
     seconds["replay"] = time.perf_counter() - t2
     mc = config.ic_memory
     data = SceneData(name=scene.name, res=res, corners=corners, precision=config.precision,
@@ -201,9 +145,10 @@ def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
                      experiments=trace_experiments(golden))
     if candidates:
         t3 = time.perf_counter()
-        for label, (cfg, opts) in candidate_readings(config, options).items():
-            sizes, fig4, fig5, loads = _sweep(scene, golden, pre, grid, cfg, opts,
-                                              f" ({label})", progress, rays_per_chunk)
+        for label, (cfg, opts) in candidate_readings(config, options, pes).items():
+            sizes, fig4, fig5, loads = replay_figures(
+                scene, golden_chunks(golden, rays_per_chunk, cfg.pes), pre, grid, cfg, opts,
+                f" ({label})", progress)
             v = copy.copy(data)
             v.database_bytes = sizes["database"]
             v.primitive_database_bytes = sizes["primitive_database_bytes"]
@@ -214,95 +159,6 @@ def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
     seconds["total"] = time.perf_counter() - t0
     return data
 
-
-
-# -- the on-machine check ----------------------------------------------------------------------
-
-COMPARED = ("resident", "cache", "global", "regions", "primitives")
-"""IC's counters the two paths must agree on (`MemorySystem.stats()` keys)."""
-
-
-def _first_difference(got: dict, want: dict, path: str = "") -> str:
-    """Where two counter dictionaries first differ, as `key.key: trace X, machine Y`."""
-    for k in sorted(set(got) | set(want), key=str):
-        a, b = got.get(k), want.get(k)
-        if isinstance(a, dict) and isinstance(b, dict):
-            d = _first_difference(a, b, f"{path}{k}.")
-            if d:
-                return d
-        elif a != b:
-            return f"{path}{k}: trace-driven {a}, machine {b}"
-    return ""
-
-
-def compare_counters(trace: dict, machine: dict) -> str:
-    """'' when IC's counters agree on every COMPARED key, else the first difference."""
-    return _first_difference({k: trace[k] for k in COMPARED if k in trace},
-                             {k: machine[k] for k in COMPARED if k in machine})
-
-
-MACHINE_POINTS = (
-    ("cache-only 10 %", 0.1, 0.0),
-    ("cache-only 100 %", 1.0, 0.0),
-    ("30 % local, 70 % resident", 0.09, 0.21),
-    ("50 % local, all resident", 0.0, 0.5),
-)
-"""Sweep points `--on-machine` also renders (label, cache share, resident share of the machine's
-primitive database — lists + records, `--sizing records+lists --lists cache`, the machine's own
-reading): Figure 4's extremes, the paper's 70 % split at 30 % local, and a resident-only one."""
-
-
-def point_config(config: MachineConfig, cache: float, resident: float) -> MachineConfig:
-    """`config` with IC's cache and resident memory as shares of the scene's database."""
-    c = copy.deepcopy(config)
-    c.ic_memory.cache_share, c.ic_memory.resident_share = cache, resident
-    return c
-
-
-def machine_check(scene, res: int, config, engine: str, corners: bool = False, point: str = "",
-                  prepass: bool = False) -> dict:
-    """Render `scene` (a name, a file or a Scene) on the machine in the serial ray-tree mode
-    (SLOTS=1, SERIAL_TREES=1: one ray tree in flight, so IC sees the golden trace's rays in
-    `tracesim.machine_order`) and compare IC's counters with the trace-driven path's for the
-    same images. `point`: the sweep point's label (`MACHINE_POINTS`; "" for the configuration
-    as given). `prepass`: also run the pre-pass's coarse render on the machine (same mode) and
-    report its cycles (§4.3: about 1 % of the main pass). Runs in a worker process:
-    module-level, picklable arguments."""
-    from netsushisen.pipeline import render  # noqa: PLC0415 (the machine side is heavy to import)
-
-    t0 = time.perf_counter()
-    r = render(scene, config, res=res, corners=corners, slots=1,
-               defines={"SERIAL_TREES": 1}, engine=engine)
-    t_machine = time.perf_counter() - t0
-    setup = r.setup
-    machine = r.stats["memory"]["pe0.ic"]
-    out = {"scene": setup.scene.name, "point": point, "cycles": int(r.run.cycles),
-           "status": r.run.status, "machine_seconds": t_machine}
-    if prepass:
-        side = coarse_resolution(res, config.prepass.share)
-        coarse = render(setup.scene, config, res=side, corners=corners, slots=1,
-                        defines={"SERIAL_TREES": 1}, engine=engine)
-        out["prepass"] = {"resolution": side, "cycles": int(coarse.run.cycles),
-                          "status": coarse.run.status}
-    if r.run.status not in ("halted", "finished"):
-        out.update(equal=False, difference=f"the machine stopped: {r.run.status}"
-                   + (f" ({r.run.error})" if r.run.error else ""), rho="–", mu="–",
-                   seconds=time.perf_counter() - t0)
-        return out
-    golden = render_golden(setup.scene, setup.config, res=res, corners=corners, keep_trace=True,
-                           grid=setup.images.layout.grid)
-    model = TraceMemory.for_images(setup.images)
-    for space, address in ordered_stream_chunks(setup.images.layout, golden, machine_order(golden)):
-        model.replay(space, address)
-    trace = model.stats()
-    diff = compare_counters(trace, machine)
-    res_acc, cache = machine["resident"]["accesses"], machine["cache"]
-    total = res_acc + cache["accesses"]
-    out.update(equal=not diff, difference=diff,
-               rho=f"{res_acc / total:.4f}" if total else "–",
-               mu=f"{cache['hits'] / cache['accesses']:.4f}" if cache["accesses"] else "–",
-               loads=total, seconds=time.perf_counter() - t0)
-    return out
 
 
 # -- a whole reproduction -----------------------------------------------------------------------
@@ -341,11 +197,13 @@ class PaperRun:
     seconds: float = 0.0
     interrupted: bool = False
     cached: int = 0  # runs taken from out/runs/
+    orders: list[dict] = field(default_factory=list)  # `ray_order_study` per scene (--on-machine)
 
     @property
     def differing(self) -> list[dict]:
-        """The machine checks whose counters differ from the trace-driven path's."""
-        return [c for c in self.checks if not c["equal"]]
+        """The machine checks whose per-word counters or per-reference counts differ from the
+        trace-driven path's."""
+        return [c for c in self.checks if not (c["equal"] and c.get("ref_equal", True))]
 
 
 def output_folder(out: Path) -> Path:
@@ -370,23 +228,34 @@ def run_paper(request: PaperRequest, scheduler: str | None = None, show: bool = 
     checks: dict[int, dict] = {}
     n = len(scenes)
     # the scenes as read here travel with the tasks: a worker on another machine has no .nff file
+    pes = (PE_CANDIDATE,) if r.on_machine else ()
     tasks = [Task(analyse_scene,
-                  (scene, r.res, r.config, r.corners, None, 16384, r.options, r.candidates),
+                  (scene, r.res, r.config, r.corners, None, 16384, r.options, r.candidates, pes),
                   f"{scene.name}-trace") for scene in scenes]
     machine_runs = []  # (scene, label, config, with the pre-pass)
     if r.on_machine:
         machine_runs = [(scene, "", r.config, True) for scene in scenes]
         machine_runs += [(scene, label, point_config(r.config, cache, resident), False)
                          for scene in scenes for label, cache, resident in MACHINE_POINTS]
+        machine_runs += [(scene, f"default, {PE_CANDIDATE} PEs", pes_config(r.config), False)
+                         for scene in scenes]
         tasks += [Task(machine_check, (scene, r.res, cfg, r.engine, r.corners, label, pre),
                        f"{scene.name}-machine" + (f" ({label})" if label else ""))
                   for scene, label, cfg, pre in machine_runs]
+        tasks += [Task(ray_order_study, (scene, r.res, r.config, r.engine, r.corners, r.options),
+                       f"{scene.name}-machine (normal ray order)") for scene in scenes]
+    n_checks = len(machine_runs)
+    orders: dict[int, dict] = {}
     log = _log if show and not sys.stderr.isatty() else (lambda text: None)
 
     def done(i: int, result) -> None:
         if i < n:
             results[i] = result
             log(f"{result.name}: trace-driven path done in {result.seconds['total']:.0f} s")
+        elif i >= n + n_checks:
+            orders[i - n - n_checks] = result
+            log(f"{result['scene']}: machine, normal ray order, {result['cycles']:,} cycles, "
+                f"{result['seconds']:.0f} s")
         else:
             checks[i - n] = result
             at = f" ({result['point']})" if result.get("point") else ""
@@ -397,13 +266,16 @@ def run_paper(request: PaperRequest, scheduler: str | None = None, show: bool = 
     digests = [(scene.name, scene_digest(scene)) for scene in scenes]
     keys = [content_key("paper scene", *d, r.res, r.corners, config, r.options.sizing,
                         r.options.lists,
-                        "candidates" if r.candidates else "")
+                        "candidates" if r.candidates else "", *pes)
             for d in digests]
     if r.on_machine:
         kernels = kernel_digest()
         keys += [content_key("paper machine check", scene.name, scene_digest(scene),
                              r.res, r.corners, dump_toml(cfg), r.engine, kernels, label, pre)
                  for scene, label, cfg, pre in machine_runs]
+        keys += [content_key("paper ray order", scene.name, scene_digest(scene), r.res,
+                             r.corners, config, r.engine, kernels, r.options.sizing,
+                             r.options.lists) for scene in scenes]
 
     def decode(i: int, data):
         return SceneData.from_plain(unplain(data)) if i < n else unplain(data)
@@ -416,9 +288,24 @@ def run_paper(request: PaperRequest, scheduler: str | None = None, show: bool = 
     run = PaperRun([results[i] for i in sorted(results)],
                    [s.name for i, s in enumerate(scenes) if i not in results],
                    [checks[i] for i in sorted(checks)],
-                   interrupted=outcome.interrupted, cached=cached)
+                   interrupted=outcome.interrupted, cached=cached,
+                   orders=[orders[i] for i in sorted(orders)])
+    _attach_orders(run.scenes, run.orders)
     _write(r, run, out, start, r.workers or min(os.cpu_count() or 1, len(tasks)), scheduler)
     return run
+
+
+def _attach_orders(scenes: list[SceneData], orders: list[dict]) -> None:
+    """Each scene's sweep in the machine's normal ray order as one more candidate reading
+    (RAY_ORDER), so the findings' experiments and the "Ray order" section see it."""
+    by = {o["scene"]: o for o in orders if o.get("fig5")}
+    for d in scenes:
+        o = by.get(d.name)
+        if o is not None:
+            v = copy.copy(d)
+            v.fig4, v.fig5, v.loads = o["fig4"], o["fig5"], o["loads"]
+            v.readings, v.experiments = {}, {}
+            d.readings = dict(d.readings) | {RAY_ORDER: v}
 
 
 def _log(text: str) -> None:
@@ -443,7 +330,7 @@ def _write(r: PaperRequest, run: PaperRun, out: Path, start: float, workers: int
                    "memory": f"IC cache {mc.cache_bytes} B, resident {mc.resident_bytes} B"
                    if mc.cache_share is None
                    else f"IC cache share {mc.cache_share}, resident share {mc.resident_share}",
-                   "scenes": run.checks}
+                   "scenes": run.checks, "orders": run.orders}
     settings = {"res": r.res, "command": r.command, "max_depth": r.config.render.max_depth,
                 "engine": r.engine, "seconds": run.seconds}
     run.report = out / "report.md"

@@ -302,9 +302,12 @@ def render(scene: Scene | str, config: MachineConfig, res: int = 32, corners: bo
            generic: bool = False, slots: int = DEFAULT_SLOTS, kernel_dir: str | Path | None = None,
            kernels: dict[str, str | Path] | None = None, progress=None,
            defines: dict[str, int | float] | None = None,
-           engine: str | None = None) -> RenderResult:
+           engine: str | None = None, record_loads: bool = False) -> RenderResult:
     """Render on the emulated machine with engine `engine` (default: `default_engine()`). `progress(cycle)` is called now and
-    then if given; `defines` adds kernel symbols (see `prepare`)."""
+    then if given; `defines` adds kernel symbols (see `prepare`). `record_loads`: record every
+    IC's resident and global loads (`Engine.record_loads`; read `result.engine.recorder`)."""
     setup = prepare(scene, config, res, corners, generic, slots, kernel_dir, kernels, defines)
     eng = setup.engine(engine)
+    if record_loads:
+        eng.record_loads()
     return finish(setup, eng, eng.run(progress=progress))

@@ -183,12 +183,42 @@ def findings(scenes: list[SceneData], counting: str = "ref") -> list[Finding]:
     return _with_candidates(_findings(scenes, counting), scenes, counting)
 
 
+RAY_ORDER = "the machine's normal ray order"
+"""The candidate reading `--on-machine` adds: Figures 4–5 replayed from IC's stream recorded on
+the machine in the kernels' normal mode (several rays in flight) instead of the serial order."""
+
+
+def common_readings(scenes: list[SceneData]) -> list[str]:
+    """The candidate readings every scene carries, in the first scene's order."""
+    if not scenes:
+        return []
+    return [k for k in scenes[0].readings if all(k in d.readings for d in scenes)]
+
+
+def ray_order_rows(scenes: list[SceneData], counting: str = "ref") -> list[dict]:
+    """Each Figure 4–5 finding in the serial order (the trace-driven path's) and in the
+    machine's normal order (RAY_ORDER): verdicts and the numbers each gives."""
+    if RAY_ORDER not in common_readings(scenes):
+        return []
+    serial = _findings(scenes, counting)
+    normal = {(f.figure, f.paper): f
+              for f in _findings([d.readings[RAY_ORDER] for d in scenes], counting)}
+    out = []
+    for f in serial:
+        g = normal.get((f.figure, f.paper))
+        if f.figure in ("Figure 4", "Figure 5") and g is not None:
+            out.append({"figure": f.figure, "paper": f.paper, "serial": f.verdict,
+                        "normal": g.verdict, "serial_ours": f.ours, "normal_ours": g.ours,
+                        "flips": f.verdict != g.verdict})
+    return out
+
+
 def _with_candidates(items: list[Finding], scenes: list[SceneData], counting: str) -> list[Finding]:
     """Rerun each differing Figure 4–5 finding under every candidate reading the scenes carry:
     a candidate that turns it to "agree" explains it; "unexplained" only after all were run."""
-    if not scenes or not all(d.readings for d in scenes):
+    labels = common_readings(scenes)
+    if not labels:
         return items
-    labels = list(scenes[0].readings)
     alt = {k: {(f.figure, f.paper): f for f in _findings([d.readings[k] for d in scenes], counting)}
            for k in labels}
     for f in items:

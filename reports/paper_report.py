@@ -6,8 +6,10 @@ Split from `paper.py` (which decides the findings) so that each stays readable."
 
 from __future__ import annotations
 
-from netsushisen.reports.paper import (PAPER_RES, PAPER_TABLE1, TABLE1_COLUMNS, VERDICTS, Finding,
-                                       _pct, _yn, fig5_best, fig5_curve, findings, table2)
+from netsushisen.reports.paper import (PAPER_RES, PAPER_TABLE1, RAY_ORDER, TABLE1_COLUMNS,
+                                       VERDICTS, Finding, _pct, _yn, common_readings, fig4_miss,
+                                       fig5_best, fig5_curve, fig5_row, findings, ray_order_rows,
+                                       table2)
 from netsushisen.reports.paper_data import COUNTINGS, LOCAL_SHARES, SceneData
 
 DEFAULTS_ARGUED = [
@@ -89,16 +91,24 @@ def _on_machine(check: dict) -> list[str]:
              f"{check['res']}×{check['res']} with the default memory configuration "
              f"({check['memory']}) and at the sweep points below, {check['workers']}; IC's "
              "per-word counters (loads by memory and by region, loads per primitive, and the "
-             "per-word ρ and μ) compared with the trace-driven path's for the same images. The "
-             "points size IC's memories as shares of the machine's own database (list cells + "
-             "shape records, list cells through the cache: `--sizing records+lists --lists cache`).",
+             "per-word ρ and μ) compared with the trace-driven path's for the same images, and "
+             "the per-reference counts the findings use (references served by resident memory, "
+             "through the cache, and cache hits: a reference hits when every load of it hit) — "
+             "on the machine from IC's recorded load stream with the machine's own per-load hit "
+             "flags, on the trace-driven path from the sweep's replay of the golden trace for "
+             "the same configuration. The points size IC's memories as shares of the machine's "
+             "own database (list cells + shape records, list cells through the cache: "
+             "`--sizing records+lists --lists cache`).",
              ""]
     rows = [[r["scene"], r.get("point") or "default", f"{r['cycles']:,}", f"{r['seconds']:.0f}",
-             r["rho"], r["mu"], "equal" if r["equal"] else "DIFFERENT: " + r["difference"]]
+             r["rho"], r["mu"], "equal" if r["equal"] else "DIFFERENT: " + r["difference"],
+             r.get("ref_rho", "–"), r.get("ref_mu", "–"),
+             "equal" if r.get("ref_equal") else "DIFFERENT: " + r.get("ref_difference", "")]
             for r in check["scenes"]]
     lines += _md_table(["scene", "memory", "machine cycles", "wall s", "ρ (per word)",
-                        "μ (per word)", "counters"], rows)
-    same = all(r["equal"] for r in check["scenes"])
+                        "μ (per word)", "per-word counters", "ρ (per reference)",
+                        "μ (per reference)", "per-reference counts"], rows)
+    same = all(r["equal"] and r.get("ref_equal") for r in check["scenes"])
     scenes = sorted({r["scene"] for r in check["scenes"]})
     lines += ["", f"**{'All counters equal' if same else 'Counters differ'}** "
               f"({len(check['scenes'])} runs of {len(scenes)} scenes; wall time "
@@ -111,6 +121,58 @@ def _on_machine(check: dict) -> list[str]:
                              f"{r['prepass']['resolution']}×{r['prepass']['resolution']}",
                              f"{r['prepass']['cycles']:,}", f"{r['cycles']:,}",
                              f"{100 * r['prepass']['cycles'] / r['cycles']:.2f} %"] for r in pre]) + [""]
+    return lines
+
+
+def _ray_order(check: dict, scenes: list[SceneData]) -> list[str]:
+    """The ray-order study: each Figure 4–5 finding with the serial order and with the machine's
+    normal order (`reports.paper.ray_order_rows`)."""
+    orders = check.get("orders") or []
+    rows = ray_order_rows(scenes)
+    if not orders:
+        return []
+    lines = ["## Ray order (on the machine)", "",
+             "Which order did the paper's measurements use? The trace-driven path replays the "
+             "rays in the machine's serial order (one ray tree in flight). Here each scene was "
+             "rendered on the machine in the kernels' normal mode "
+             f"({orders[0].get('slots')} rays in flight), IC's load stream recorded, mapped back "
+             "to the sweep's reference layout (every record in ICGM: address → primitive and "
+             "offset → reference address) and replayed through every configuration of Figures "
+             "4–5; the findings below are recomputed from it (per primitive reference). The "
+             "normal order also enters every differing finding's candidates (*Why*: "
+             f"\"{RAY_ORDER}\").", ""]
+    lines += _md_table(["scene", "machine cycles (normal mode)", "IC loads", "wall s"],
+                       [[o["scene"], f"{o['cycles']:,}", f"{o.get('loads', 0):,}",
+                         f"{o['seconds']:.0f}"] for o in orders]) + [""]
+    if not rows:
+        return lines + ["(Not every scene's study finished: no findings recomputed.)", ""]
+    moved = []
+    for d in scenes:
+        n = d.readings[RAY_ORDER]
+        cells = [d.name]
+        for local in (0.3, 0.5):
+            a, b = fig5_row(d, local, 0.7)["ref"]["mu"], fig5_row(n, local, 0.7)["ref"]["mu"]
+            cells.append(f"{a:.3f} → {b:.3f}")
+        for local in (0.3, 0.5):
+            (sa, ta, _), (sb, tb, _) = fig5_best(d, local), fig5_best(n, local)
+            cells.append(f"{_pct(sa)}, {ta:.2f} → {_pct(sb)}, {tb:.2f} t_r")
+        cells.append(f"{_pct(fig4_miss(d, 0.3), 2)} → {_pct(fig4_miss(n, 0.3), 2)}")
+        moved.append(cells)
+    lines += ["Per scene (per primitive reference; serial → normal order):", ""]
+    lines += _md_table(["scene", "μ at 30 % local, 70 % resident", "μ at 50 % local, 70 % resident",
+                        "lowest t at 30 % local (split, t)", "lowest t at 50 % local (split, t)",
+                        "miss rate, 30 % cache-only"], moved) + [""]
+    lines += _md_table(["finding", "serial order", "machine's normal order", "numbers (serial)",
+                        "numbers (normal order)"],
+                       [[f"{r['figure']}: {r['paper']}", r["serial"],
+                         r["normal"] + (" (flips)" if r["flips"] else ""), r["serial_ours"],
+                         r["normal_ours"] if r["normal_ours"] != r["serial_ours"]
+                         else "same"] for r in rows])
+    flips = [r for r in rows if r["flips"]]
+    lines += ["", f"**{len(flips)} of {len(rows)} Figure 4–5 findings change verdict under the "
+              "machine's normal ray order**" + (": " + "; ".join(
+                  f"{r['figure']} ({r['serial']} → {r['normal']})" for r in flips) if flips
+                  else "."), ""]
     return lines
 
 
@@ -155,17 +217,20 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
               f"- {COUNTINGS['ref']} (the paper's counting): {_counts_text(items)}."]
     if word_items is not None:
         lines += [f"- {COUNTINGS['all']}: {_counts_text(word_items)}."]
-    if all(d.readings for d in scenes):
+    if common_readings(scenes):
         lines += [f"- {COUNTINGS['ref']}, under the candidate reading *{k}* (Figures 4–5 rerun): "
                   f"{_counts_text(findings([d.readings[k] for d in scenes], 'ref'))}."
-                  for k in scenes[0].readings]
+                  for k in common_readings(scenes)]
         lines += ["",
                   "Every Figure 4–5 finding that is not \"agree\" names what each candidate "
-                  "reading makes of it (*Why*); ray order and PE count need the machine "
-                  "(`--on-machine`)."]
+                  "reading makes of it (*Why*)"
+                  + ("; `--on-machine` adds the machine's normal ray order and the trace split "
+                     "among PEs as the machine splits the pixels (checked on the machine: "
+                     "\"On the machine\")." if RAY_ORDER in common_readings(scenes) else
+                     "; ray order and PE count need the machine (`--on-machine`).")]
     lines += [""]
     if machine:
-        lines += _on_machine(machine)
+        lines += _on_machine(machine) + _ray_order(machine, scenes)
     # Table 1
     lines += ["## Table 1: benchmark scenes (ours, paper's in brackets where they differ)", ""]
     rows = []

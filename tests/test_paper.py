@@ -218,12 +218,15 @@ def test_paper_on_machine_checks_the_counters(tmp_path, cli, engine_name):
     code, stdout, err = cli("paper", "--res", "4", "--scenes", "mount:2", "--out", out,
                             "--on-machine", "--engine", engine_name, "--jobs", "2")
     assert code == 0, err
-    assert "counters equal the trace-driven path's for mount" in stdout
+    assert "per-reference counts equal the trace-driven path's for mount" in stdout
     md = (out / "report.md").read_text()
     assert "## On the machine" in md and "**All counters equal**" in md and f"{engine_name} engine" in md
     from netsushisen.paper import MACHINE_POINTS
 
-    assert md.count("| equal |") == 1 + len(MACHINE_POINTS)  # the default memory and each point
+    # per-word counters and per-reference counts, for the default memory, each point and 4 PEs
+    assert md.count("| equal |") == 2 * (2 + len(MACHINE_POINTS))
+    assert "| mount | default, 4 PEs |" in md and "*4 PEs*" in md
+    assert "## Ray order (on the machine)" in md and "change verdict under the machine's normal" in md
     assert all(f"| mount | {label} |" in md for label, *_ in MACHINE_POINTS)
     assert "The pre-pass on the machine" in md and "§4.3: the pre-pass costs about 1 %" in md
 

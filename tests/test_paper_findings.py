@@ -285,3 +285,29 @@ def test_the_prepass_cost_finding_flips_when_the_prepass_is_dear():
     assert machine_findings(dear)[0].verdict == "partly"
     assert machine_findings([_check(n, 1_000_000, 50_000) for n in N])[0].verdict == "differ"
     assert machine_findings([]) == []
+
+
+def test_ray_order_study_shows_which_findings_flip_and_names_it_as_a_candidate():
+    """The machine's normal ray order (RAY_ORDER) is a candidate reading: a finding it turns to
+    "agree" says so in its *Why*, and the ray-order rows mark the flip with both sets of
+    numbers; an order that changes nothing flips nothing."""
+    from netsushisen.reports.paper import RAY_ORDER, ray_order_rows
+    from netsushisen.reports.paper_report import _ray_order
+
+    broken = world(t=lambda L, s: 2.0 + s)  # resident memory never beats cache-only
+    for d, f in zip(broken, world()):
+        d.readings = {RAY_ORDER: f}
+    (beats,) = [f for f in findings(broken) if f.paper.startswith("resident memory beats")]
+    assert beats.why.startswith(f"explained by {RAY_ORDER} (candidates run")
+    rows = {r["paper"]: r for r in ray_order_rows(broken)}
+    r = rows["resident memory beats a cache-only local memory"]
+    assert (r["serial"], r["normal"], r["flips"]) == ("differ", "agree", True)
+    assert r["serial_ours"] != r["normal_ours"]
+    md = "\n".join(_ray_order({"orders": [{"scene": "tetra", "cycles": 5, "loads": 7,
+                                           "seconds": 1, "slots": 8}]}, broken))
+    assert "## Ray order (on the machine)" in md and "agree (flips)" in md
+    same = world()
+    for d, f in zip(same, world()):
+        d.readings = {RAY_ORDER: f}
+    assert not any(r["flips"] for r in ray_order_rows(same))
+    assert ray_order_rows(world()) == []  # no study: no rows

@@ -80,13 +80,19 @@ class CompiledEngine(Engine):
             g[S.G_STOP_P], g[S.G_STOP_PC] = self._stop
             g[S.G_AHEAD] = 0  # a stop point may come in any cycle: no processor runs ahead
         code = S.S_RUNNING
+        lrec = st.arrays["lrec"]
+        recorded = int(st.arrays["cs"][:, S.C_RECORD].sum())
         try:
             while True:
                 until = g[S.G_CYCLE] + max(every, 1)
+                if recorded:  # a chunk cannot fill the buffer: two loads a cycle at most
+                    until = min(until, g[S.G_CYCLE] + max(1, (len(lrec) - 1) // (2 * recorded)))
                 if limit:
                     until = min(until, limit)
                 st.arrays["until"] = int(until)
                 code = _chunk(loop, st)
+                if recorded:
+                    self._take_loads(lrec)
                 if code != S.S_RUNNING:
                     break
                 if progress is not None:
@@ -104,6 +110,15 @@ class CompiledEngine(Engine):
         if progress is not None:
             progress(m.cycle)
         return self.result()
+
+    def _take_loads(self, lrec: np.ndarray) -> None:
+        """Hand the loads recorded in the chunk to the recorder, processor by processor, and
+        empty the buffer."""
+        proc, codes = S.record_codes(lrec)
+        names = self.processors()
+        for p in np.unique(proc).tolist():
+            self.recorder.add(names[p], codes[proc == p])
+        lrec[0] = 0
 
     _live: S.State | None = None
     _stop: tuple[int, int] | None = None

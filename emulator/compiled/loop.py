@@ -42,7 +42,7 @@ from netsushisen.emulator.compiled.state import (
     G_DEADLOCK_CYCLES, G_POOLED, G_NPES, G_W, G_STOP_P, G_STOP_PC, S_RUNNING, S_HALTED, S_FINISHED,
     S_DEADLOCK_PE, S_DEADLOCK_COL, S_FAULT, S_STOPPED, F_PC, F_MEMORY, F_RING_COL, F_COL_HEADER,
     F_COL_PIXEL, SP_LOCAL, SP_RESIDENT, S_DEADLOCK_MSG, C_AHEAD, C_AHEAD_ISSUED, C_AHEAD_CAUSE,
-    B_PRIVATE, G_AHEAD, C_CACHE_WAYS,
+    B_PRIVATE, G_AHEAD, C_CACHE_WAYS, C_RECORD,
 )
 from netsushisen.emulator import cacherule
 
@@ -255,7 +255,7 @@ def issue_checks(c, p, pc, A, W):
     """T10's checks 2–6 for the bundle at pc: the stall cause, or -1 when it can issue. Sets
     the processor's wake cycle (operand, destination, unit) or FIFO wait (see state.py)."""
     (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops, opk, opf, bun, recvq,
-     sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw) = A
+     sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw, lrec) = A
     if not cs[p, C_FIFOWAIT]:
         npend = cs[p, C_NPEND]
         # 2. operands (RAW): the source ready last. 2 and 3 pass with no result in flight (a
@@ -367,7 +367,7 @@ def fifo_checks(c, p, pc, cs, bun, recvq, sendq, fq, fbt):
 def issue(c, p, pc, A, W, finfo):
     """core.Core._issue: returns 0, or a fault code (finfo filled)."""
     (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops, opk, opf, bun, recvq,
-     sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw) = A
+     sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw, lrec) = A
     nops = bun[p, pc, B_NOPS]
     # every load's timing first (access_time has no side effects)
     lt0 = 0
@@ -431,6 +431,10 @@ def issue(c, p, pc, A, W, finfo):
                     cs[p, C_CACHE_MISSES] += 1
                     cs[p, C_GLOBAL_ACC] += 1
             count_region(rg, rmap, rdense, rcnt, pcnt, p, sp, addr, hit)
+            if cs[p, C_RECORD] and sp != SP_LOCAL:  # Engine.record_loads (state.py C_RECORD)
+                n = lrec[0] + 1
+                lrec[n] = (addr << 18) | (p << 2) | (2 if hit == 1 else 0) | (1 if sp == SP_RESIDENT else 0)
+                lrec[0] = n
             srd = ops[p, pc, j, O_RD]
             sw = mem[seg[sg, 0] + addr]
             st = c + t_acc
@@ -777,7 +781,7 @@ def unsent(npes, cm, cin, route, rem, fq, fbw):
 def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops,
              opk, opf, bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense,
              rcnt, pcnt, cm, cin, cout, route, rem, lown, linkw, pes, dis, dcur, doff, dup, dasg,
-             moff, mwords, col, cpart, cplen, frame, ids, cflags, pw, finfo):
+             moff, mwords, col, cpart, cplen, frame, ids, cflags, pw, lrec, finfo):
     """Run cycles from g[G_CYCLE] until the run ends or the cycle `until` is reached; returns
     the status code (S_*). The cycle counter in g is advanced like machine.cycle. Every
     processor is awake on return (its cycles charged), so the state reads as the reference's."""
@@ -785,7 +789,7 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
                       bpc, ops, opk, opf, bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg,
                       rmap, rdense, rcnt, pcnt, cm, cin, cout, route, rem, lown, linkw, pes, dis,
                       dcur, doff, dup, dasg, moff, mwords, col, cpart, cplen, frame, ids, cflags,
-                      pw, finfo)
+                      pw, lrec, finfo)
     wake_all(cs, stpc, g[G_NPES] * 3, g[G_CYCLE] - 1, g[G_NPES] * 3)
     flush_stalls(cs, stpc, g[G_NPES] * 3)
     return code
@@ -795,12 +799,12 @@ def run_loop(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, s
 def run_cycles(g, until, cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops,
                opk, opf, bun, recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense,
                rcnt, pcnt, cm, cin, cout, route, rem, lown, linkw, pes, dis, dcur, doff, dup, dasg,
-               moff, mwords, col, cpart, cplen, frame, ids, cflags, pw, finfo):
+               moff, mwords, col, cpart, cplen, frame, ids, cflags, pw, lrec, finfo):
     """run_loop's cycles (faults wake the sleeping processors themselves: not all of them were
     stepped in the faulting cycle)."""
     W = g[G_W]
     A = (cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops, opk, opf, bun,
-         recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw)
+         recvq, sendq, fq, fbt, fbw, mem, seg, ctags, rg, rmap, rdense, rcnt, pcnt, pw, lrec)
     npes = g[G_NPES]
     pooled = g[G_POOLED]
     limit = g[G_DEADLOCK_CYCLES]

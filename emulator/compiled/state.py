@@ -34,14 +34,14 @@ _C = _enum("PC HALTED HOLD_UNTIL HOLD_MEM_UNTIL HOLD_CAUSE HOLD_PC CYCLES BUNDLE
            "SEG_RES SEG_GLOBAL CACHE_SETS CACHE_OFF BLOCK_BYTES WORD_BYTES LOCAL_READS "
            "LOCAL_WRITES RES_READS CACHE_ACC CACHE_HITS CACHE_MISSES GLOBAL_ACC WAKE WAKE_CAUSE NPEND "
            "FIFOWAIT BSHIFT SSHIFT BUSYMAX SLEEP RUN_N RUN_PC RUN_CAUSE AHEAD AHEAD_ISSUED AHEAD_CAUSE "
-           "CACHE_WAYS")
+           "CACHE_WAYS RECORD")
 (C_PC, C_HALTED, C_HOLD_UNTIL, C_HOLD_MEM_UNTIL, C_HOLD_CAUSE, C_HOLD_PC, C_CYCLES, C_BUNDLES,
  C_LAST_PC, C_LAST_ISSUED, C_CAUSE, C_PRESENT, C_NB, C_WPORTS, C_PENALTY, C_PE,
  C_T_LOCAL, C_T_R, C_T_C, C_T_G, C_SEG_LOCAL, C_SEG_RES, C_SEG_GLOBAL, C_CACHE_SETS,
  C_CACHE_OFF, C_BLOCK_BYTES, C_WORD_BYTES, C_LOCAL_READS, C_LOCAL_WRITES, C_RES_READS,
  C_CACHE_ACC, C_CACHE_HITS, C_CACHE_MISSES, C_GLOBAL_ACC, C_WAKE, C_WAKE_CAUSE,
  C_NPEND, C_FIFOWAIT, C_BSHIFT, C_SSHIFT, C_BUSYMAX, C_SLEEP, C_RUN_N, C_RUN_PC,
- C_RUN_CAUSE, C_AHEAD, C_AHEAD_ISSUED, C_AHEAD_CAUSE, C_CACHE_WAYS) = range(len(_C))
+ C_RUN_CAUSE, C_AHEAD, C_AHEAD_ISSUED, C_AHEAD_CAUSE, C_CACHE_WAYS, C_RECORD) = range(len(_C))
 """C_WAKE, C_WAKE_CAUSE: derived, not written back — a processor stalled on an operand, a
 destination or a busy unit stalls for that same cause until the cycle C_WAKE (nothing but its
 own issue changes what those checks read), so the loop charges those cycles without checking.
@@ -64,7 +64,9 @@ C_AHEAD (derived): 1 while the processor has run ahead of the machine (loop.py r
 bundles up to its next FIFO operation touch nothing another part of the machine reads, so it
 steps through them at once and then sleeps (C_SLEEP: the cycle it has reached). Meanwhile the
 end-of-run checks see it as stalled for a cause of its own (C_LAST_ISSUED 0, C_CAUSE branch);
-C_AHEAD_ISSUED and C_AHEAD_CAUSE keep the real values until it wakes."""
+C_AHEAD_ISSUED and C_AHEAD_CAUSE keep the real values until it wakes.
+C_RECORD: 1 when the processor's resident and global loads are recorded (Engine.record_loads):
+each goes into `lrec` as `address << 18 | processor << 2 | hit << 1 | resident`."""
 N_C = len(_C)
 
 # decoded bundles: bun[processor, pc, B_*]; reads up to 8, writes up to 4, (class, count) pairs
@@ -151,6 +153,16 @@ F_PC, F_MEMORY, F_RING_COL, F_COL_HEADER, F_COL_PIXEL = range(1, 6)
 
 _ROUTE_NONE = -2
 
+RECORD_CAPACITY = 1 << 22
+"""Loads `lrec` holds (32 MB): the engine ends a chunk of cycles before it can fill up (a
+processor issues at most two loads a cycle) and takes the codes out between chunks."""
+
+
+def record_codes(lrec: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(processor, emulator/loads.py code) of each load recorded in `lrec`, in order."""
+    e = lrec[1:1 + int(lrec[0])]
+    return (e >> 2) & 0xFFFF, ((e >> 18) << 2) | (e & 3)
+
 
 @dataclass
 class State:
@@ -208,6 +220,8 @@ ARRAYS: dict[str, Array] = {
     "cpart": Array("int64", "(PEs, 8)"), "cplen": Array("int64", "(PEs,)"),
     "frame": Array("float64", "(height, width, 3)"), "ids": Array("int32", "(height, width)"),
     "cflags": Array("int64", "(causes,)", True), "pw": Array("int64", "(PEs, W_WAKE + 3) W_*"),
+    "lrec": Array("int64", "(1 + capacity,) recorded loads: lrec[0] their count, then C_RECORD's "
+                  "codes (a run records none: (1,))"),
     "finfo": Array("int64", "(8,) fault kind and where"),
 }
 """Every array the loop takes, in its argument order (loop.py unpacks them in this order)."""
@@ -488,6 +502,7 @@ def flatten(machine: Machine) -> State:
         cs[p, C_BUSYMAX] = busy[p].max()
 
         cs[p, C_PRESENT] = core.present
+        cs[p, C_RECORD] = mem.record is not None
         cs[p, C_NB] = len(core.bundles)
         cs[p, C_WPORTS] = core.write_ports
         cs[p, C_PENALTY] = core.penalty
@@ -608,6 +623,7 @@ def flatten(machine: Machine) -> State:
         moff=moff, mwords=mwords,
         col=np.array([0, 0, col.width, col.height], np.int64),  # 0: LAYOUT
         cpart=cpart, cplen=cplen, frame=col.frame, ids=col.ids, cflags=CAUSE_FLAGS, pw=pw,
+        lrec=_new("lrec", 1 + (RECORD_CAPACITY if cs[:, C_RECORD].any() else 0)),
         finfo=np.zeros(8, np.int64))
     for component in LAYOUT:
         component.read(machine, a)

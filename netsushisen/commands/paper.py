@@ -97,7 +97,8 @@ def run(args: argparse.Namespace) -> int:
     check_footprint("paper", None, args.res + 1 if args.corners else args.res, None, golden=True,
                     quiet=args.quiet)
     check_cluster_options(args)
-    from netsushisen.paper import PaperRequest, run_paper  # noqa: PLC0415 (host and machine: heavy)
+    from netsushisen.paper import (MACHINE_POINTS, PE_CANDIDATE,  # noqa: PLC0415 (heavy)
+                                   PaperRequest, run_paper)
 
     request = PaperRequest(list(args.scenes), args.res, config, Path(args.out),
                            PaperOptions(sizing=args.sizing, lists=args.lists), args.corners,
@@ -121,12 +122,13 @@ def run(args: argparse.Namespace) -> int:
         print("netsushisen paper: on the machine, IC's counters differ from the trace-driven "
               "path's: "
               + "; ".join(f"{c['scene']}" + (f" ({c['point']})" if c.get("point") else "")
-                         + f": {c['difference']}" for c in done.differing),
+                         + f": {c['difference'] or c.get('ref_difference', '')}"
+                         for c in done.differing),
               file=sys.stderr)
         return 1
     if done.checks and not args.quiet:
         scenes = list(dict.fromkeys(c["scene"] for c in done.checks))
-        print(f"on the machine: IC's counters equal the trace-driven path's for "
-              f"{', '.join(scenes)} ({len(done.checks)} runs: the default memory and "
-              f"{len(done.checks) // max(len(scenes), 1) - 1} sweep points each)")
+        print(f"on the machine: IC's counters and per-reference counts equal the trace-driven "
+              f"path's for {', '.join(scenes)} ({len(done.checks)} runs: the default memory, "
+              f"{len(MACHINE_POINTS)} sweep points and {PE_CANDIDATE} PEs each)")
     return 0

@@ -597,14 +597,18 @@ MUTANTS = [
      ".equ EARLY_K, 0.999755859375", ".equ EARLY_K, 1.25"),   #   wrong way: hits near the rim lost
     ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # the cylinder's early rejection
      "fmul c_Ak, c_A, c_k", "fadd c_Ak, c_A, c_A"),          #   rejecting hits (2 q.q > r2)
-    ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # ... also after the last cell
-     "fadd c_Zg, c_thr, c_Z", "fmov c_Zg, c_Z"),
+    ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # ... going on to a next cell
+     "fadd c_Zm, c_thr, c_Zg", "fmov c_Zm, c_Zg"),           #   after the last one
+    ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # ... rejecting the last cell's
+     "flt c_eno, c_Zg, c_E", "flt c_eno, c_E, c_Zg"),        #   hits
     ("quads4", 9, 0.5, "ic_polygon.inc",                     # quads: tie-break dy before dx
      "fsel \\i, \\b, v_w, \\i", "fsel \\i, \\b, \\i, v_w"),
     ("quads4", 9, 0.5, "ic_polygon.inc",                     # quads: the second fan triangle
      "fsel v_c3, v_n12, r0, v_n03", "fsel v_c3, v_n12, r0, v_n02"),
-    ("grazing_sphere.nff", 9, 0.0, "ic_sphere.inc",          # the sphere's after the last cell
-     "fadd s_Zg, s_thr, s_r2", "fmov s_Zg, s_r2"),
+    ("grazing_sphere.nff", 9, 0.0, "ic_sphere.inc",          # the sphere's going on to a next
+     "fsel s_Zm, s_g1, s_Zt, pinf", "fsel s_Zm, s_g1, s_r2, pinf"),  # cell after the last one
+    ("grazing_sphere.nff", 9, 0.0, "ic_sphere.inc",          # ... rejecting the last cell's hits
+     "flt s_eno, s_Zg, s_E", "flt s_eno, s_E, s_Zg"),
 ]
 
 

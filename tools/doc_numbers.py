@@ -44,6 +44,7 @@ class Measured:
 
     cycles: int
     per_stage: dict  # stage -> {"cycles", "ops", "issued", "stall_cycles", "stalls", "bundles", "static_ilp"}
+    parts: dict  # IC's list walk: part of a reference -> (cycles, references) (`reference_parts`)
 
     def ilp(self, stage: str) -> float:
         """Dynamic ILP: operations per cycle, stalls included."""
@@ -71,7 +72,38 @@ def measure(scene: str, res: int, generic: bool = False, kernels: str | None = N
         per[stage] = {"cycles": p["cycles"], "ops": p["ops"], "issued": p["bundles"], "stall_cycles": p.get("stall_cycles", 0),
                       "stalls": dict(p.get("stalls", {})), "bundles": prog["bundles"],
                       "static_ilp": (prog.get("static_ilp") or {}).get("ops_per_bundle")}
-    return Measured(int(stats["run"]["cycles"]), per)
+    return Measured(int(stats["run"]["cycles"]), per, reference_parts(stats))
+
+
+# IC's list walk by part of a reference, as the kernels label their code (today's and the
+# classic ones): a label's cycles (issued + stalled) go to the first part whose rule it meets,
+# and a part's references are the entries to its first labels (offset 0). The hit's code
+# (`*_hit*`, the patch's fan search) is no part of a reference.
+REFERENCE_PARTS = {
+    "cell": (lambda b: b in ("cell_loop", "visit", "next_cell") or b.startswith("rec_"),
+             ("cell_loop", "visit")),
+    "sphere": (lambda b: b.startswith("sph_") and "hit" not in b, ("sph_g", "sph_r")),
+    "cylinder": (lambda b: b.startswith("cyl_") and "hit" not in b, ("cyl_g", "cyl_r")),
+    "polygon": (lambda b: b.startswith(("poly", "tri_", "quad_")) and "hit" not in b,
+                ("poly_g", "poly_r")),
+}
+
+
+def reference_parts(stats: dict) -> dict[str, tuple[int, int]]:
+    """IC's cycles and references per part of a reference (`REFERENCE_PARTS`) in a render's
+    statistics (pe0.ic; `report annotate`'s per-bundle counts)."""
+    from netsushisen.reports.annotate import bundle_counts
+
+    out = {part: [0, 0] for part in REFERENCE_PARTS}
+    for b in bundle_counts(stats, "pe0.ic", stats["processors"]["pe0.ic"]):
+        base, _, offset = b.label.partition("+")
+        for part, (rule, entries) in REFERENCE_PARTS.items():
+            if rule(base):
+                out[part][0] += b.cycles
+                if not offset and base in entries:
+                    out[part][1] += b.issued
+                break
+    return {part: (c, n) for part, (c, n) in out.items()}
 
 
 def cycles(scene: str, res: int, generic: bool = False) -> int:
@@ -143,6 +175,16 @@ def _kernels_total() -> tuple[str, ...]:
     old = sum(measure(s, 32, kernels="classic").cycles for s in scenes)
     new = sum(measure(s, 32).cycles for s in scenes)
     return count(old), count(new), change(old, new)
+
+
+def _per_reference(part: str) -> tuple[str, ...]:
+    """IC cycles per reference of one part, classic kernels → today's, per scene ("—" where the
+    scene has no such reference)."""
+    out = []
+    for scene in ("tetra", "balls", "mount", "rings"):
+        old, new = measure(scene, 32, kernels="classic").parts[part], measure(scene, 32).parts[part]
+        out.append(f"{old[0] / old[1]:.1f} → {new[0] / new[1]:.1f}" if new[1] else "—")
+    return tuple(out)
 
 
 def _fmul_diff() -> tuple[str, ...]:
@@ -261,6 +303,11 @@ CLAIMS: tuple[Claim, ...] = (
             rf"(\d+) % → (\d+) % \|", (lambda s=s: _kernels_row(s)), f"kernel table row {s} 32x32")
       for s in ("tetra", "balls", "mount", "rings")),
     Claim("README.md", rf"\| total \| {NUM} \| {NUM} \| {PCT} % \|", _kernels_total, "kernel table total 32x32"),
+    *(Claim("README.md", rf"\| {label} " + 4 * r"\| (—|[\d.]+ → [\d.]+) " + r"\|",
+            (lambda part=part: _per_reference(part)),
+            f"IC cycles per reference, {part}")
+      for part, label in (("cell", "the cell: P, S, memory, kind word, dispatch"), ("sphere", "sphere test"),
+                          ("cylinder", "cylinder test"), ("polygon", "polygon test"))),
     # README: the `diff` example
     Claim("README.md", rf"cycles{S}{NUM}{S}→{S}{NUM}{S}\({PCT}{S}%\),{S}IC's{S}`operand:fmul`{S}stalls{S}{NUM}{S}→"
           rf"{S}{NUM},{S}its{S}dynamic{S}ILP{S}{DEC}{S}→{S}{DEC}", _fmul_diff,

@@ -81,10 +81,12 @@ def trace_experiments(golden) -> dict[str, np.ndarray]:
     }
 
 
-CANDIDATES = ("sizing records+lists", "lists in the cache", "32-byte blocks", "128-byte blocks")
+CANDIDATES = ("sizing records+lists", "lists in the cache", "32-byte blocks", "128-byte blocks",
+              f"{PE_CANDIDATE} PEs")
 """The trace-driven readings every "partly" or "differs" of Figures 4–5 is rerun under
-(`candidate_readings`); `--on-machine` adds the trace split among PE_CANDIDATE PEs (checked on
-the machine) and the machine's normal ray order (`paper_machine.ray_order_study`)."""
+(`candidate_readings`; the last, the trace split among PE_CANDIDATE PEs, is checked on the
+machine by `--on-machine`), which also adds the machine's normal ray order
+(`paper_machine.ray_order_study`)."""
 
 
 def candidate_readings(config: MachineConfig, options: PaperOptions, pes: tuple[int, ...] = ()
@@ -228,7 +230,7 @@ def run_paper(request: PaperRequest, scheduler: str | None = None, show: bool = 
     checks: dict[int, dict] = {}
     n = len(scenes)
     # the scenes as read here travel with the tasks: a worker on another machine has no .nff file
-    pes = (PE_CANDIDATE,) if r.on_machine else ()
+    pes = (PE_CANDIDATE,)  # the trace path models a PE split exactly (--on-machine checks it)
     tasks = [Task(analyse_scene,
                   (scene, r.res, r.config, r.corners, None, 16384, r.options, r.candidates, pes),
                   f"{scene.name}-trace") for scene in scenes]

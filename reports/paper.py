@@ -228,6 +228,8 @@ def _with_candidates(items: list[Finding], scenes: list[SceneData], counting: st
         runs = [(k, g) for k, g in runs if g is not None]
         fixes = [k for k, g in runs if g.verdict == "agree"]
         done = "; ".join(f"{k}: {g.verdict} ({g.ours})" for k, g in runs)
+        if RAY_ORDER not in labels:  # it needs the machine's normal-mode renders
+            done += f"; not run: {RAY_ORDER} (`--on-machine`)"
         head = (f"explained by {' / '.join(fixes)}" if fixes else
                 "unexplained after the candidates " + ", ".join(k for k, _ in runs))
         detail = f.why

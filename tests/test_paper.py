@@ -208,6 +208,10 @@ def test_paper_command_writes_report_figures_and_csvs(tmp_path, cli):
     assert "per primitive reference (the paper's counting):" in md and "- per word:" in md
     assert md.count("*Test:*") == 17 and "Why these defaults are the paper's" in md
     assert "--sizing records --lists local" in md
+    # a differing Figure 4–5 finding was rerun under every trace-driven candidate, the PE split
+    # among them; the machine's ray order needs --on-machine and says so
+    assert "candidates run — " in md and "4 PEs: " in md
+    assert "not run: the machine's normal ray order (`--on-machine`)" in md
 
 
 def test_paper_on_machine_checks_the_counters(tmp_path, cli, engine_name):

@@ -248,6 +248,7 @@ def test_a_differing_finding_reports_every_candidate_and_which_explains_it():
         d.readings = {"32-byte blocks": b}
     (beats,) = [f for f in findings(broken) if f.paper.startswith("resident memory beats")]
     assert beats.why.startswith("unexplained after the candidates 32-byte blocks")
+    assert "not run: the machine's normal ray order" in beats.why  # only --on-machine runs it
     # agreeing findings and scenes without readings are left alone
     assert all(f.why == "" for f in findings(world()))
 
@@ -299,6 +300,7 @@ def test_ray_order_study_shows_which_findings_flip_and_names_it_as_a_candidate()
         d.readings = {RAY_ORDER: f}
     (beats,) = [f for f in findings(broken) if f.paper.startswith("resident memory beats")]
     assert beats.why.startswith(f"explained by {RAY_ORDER} (candidates run")
+    assert "not run:" not in beats.why
     rows = {r["paper"]: r for r in ray_order_rows(broken)}
     r = rows["resident memory beats a cache-only local memory"]
     assert (r["serial"], r["normal"], r["flips"]) == ("differ", "agree", True)

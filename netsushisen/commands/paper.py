@@ -57,11 +57,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         aliases=("--jobs",))
     parser.add_argument("--no-candidates", action="store_true",
                         help="skip rerunning Figures 4–5 under the candidate readings (sizing, "
-                             "list placement, 32- and 128-byte blocks) that explain a differing "
-                             "finding")
+                             "list placement, 32- and 128-byte blocks, 4 PEs) that explain a "
+                             "differing finding")
     parser.add_argument("--on-machine", action="store_true",
                         help="also render each scene on the emulated machine (serial mode) and "
-                             "check IC's counters equal the trace-driven path's")
+                             "check IC's counters and per-reference counts equal the "
+                             "trace-driven path's, and run the ray-order study (normal mode)")
     parser.add_argument("--fresh", action="store_true",
                         help="compute every run again (default: a run already in DIR/runs/ is "
                              "reused)")

@@ -80,8 +80,9 @@ def point_config(config: MachineConfig, cache: float, resident: float) -> Machin
 
 
 PE_CANDIDATE = 4
-"""The PE count `--on-machine` adds as a candidate reading (the trace split among PEs as the
-machine's static distribution splits the pixels) and checks on the machine first."""
+"""The PE count of the candidate reading every `paper` run replays (the trace split among PEs
+as the machine's static distribution splits the pixels), which `--on-machine` checks on the
+machine."""
 
 
 def pes_config(config: MachineConfig, pes: int = PE_CANDIDATE) -> MachineConfig:

@@ -597,7 +597,7 @@ MUTANTS = [
      ".equ EARLY_K, 0.999755859375", ".equ EARLY_K, 1.25"),   #   wrong way: hits near the rim lost
     ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # the cylinder's early rejection
      "fmul c_Ak, c_A, c_k", "fadd c_Ak, c_A, c_A"),          #   rejecting hits (2 q.q > r2)
-    ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # ... going on to a next cell
+    ("rings:2", 4, 0.5, "ic_cylinder.inc",                   # ... going on to a next cell
      "fadd c_Zm, c_thr, c_Zg", "fmov c_Zm, c_Zg"),           #   after the last one
     ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # ... rejecting the last cell's
      "flt c_eno, c_Zg, c_E", "flt c_eno, c_E, c_Zg"),        #   hits

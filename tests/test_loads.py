@@ -101,6 +101,7 @@ def test_stream_sums_to_the_counters_and_is_the_traces_in_serial_mode(engine_nam
     assert np.array_equal(s.hit[s.space == GLOBAL], model.replay(address[space == GLOBAL]))
 
 
+@pytest.mark.heavy  # [reference] under -m slow (tests/conftest.py)
 def test_normal_mode_and_several_pes_record_alike(engine_name, monkeypatch):
     """Several rays in flight on two PEs: each IC's stream, recorded on its own, equals the
     reference engine's and sums to that IC's counters."""
@@ -118,6 +119,7 @@ def test_normal_mode_and_several_pes_record_alike(engine_name, monkeypatch):
         assert s.counts()["hits"] == m["cache"]["hits"]
 
 
+@pytest.mark.heavy  # [reference] under -m slow (tests/conftest.py)
 def test_each_pes_stream_is_its_pixels_serial_trace(engine_name):
     """Four PEs in serial mode: PE k's IC loads are, load by load, the golden trace's stream of
     the pixels k, k + 4, ... in machine order (`pe_orders`: the static distribution) — what the

@@ -214,6 +214,7 @@ def test_paper_command_writes_report_figures_and_csvs(tmp_path, cli):
     assert "not run: the machine's normal ray order (`--on-machine`)" in md
 
 
+@pytest.mark.heavy  # [reference] under -m slow (tests/conftest.py)
 def test_paper_on_machine_checks_the_counters(tmp_path, cli, engine_name):
     """--on-machine renders each scene on the machine (serial mode) in worker processes and
     finds IC's counters equal to the trace-driven path's."""

@@ -98,6 +98,7 @@ def test_ray_order_study_in_serial_mode_is_the_trace_path(options):
     assert normal["loads"] == study["loads"] and normal["fig5"] != study["fig5"]
 
 
+@pytest.mark.heavy  # [reference] under -m slow (tests/conftest.py)
 def test_pes_split_the_trace_as_the_machine_splits_the_pixels(engine_name):
     """Four PEs in serial mode: each PE's IC counters equal the trace-driven model of its own
     pixels' rays (static distribution: sample i to PE i mod 4) on its own memories, and the

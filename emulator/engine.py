@@ -96,11 +96,12 @@ class Engine(ABC):
     # -- recording ---------------------------------------------------------------------------
 
     def record_loads(self, processors: list[str] | None = None,
-                     sink: Sink | None = None) -> LoadRecorder:
+                     sink: Sink | None = None, local: bool = False) -> LoadRecorder:
         """Record every resident (`ldr`) and global (`ldg`, with its cache hit) load of
         `processors` (default: every PE's IC) from now on, in issue order (emulator/loads.py):
-        off unless asked for. Both engines record the same stream; read it with
-        `recorder.stream(name)` after the run (or take it piece by piece through `sink`)."""
+        off unless asked for; `local`: also every local `ld` (space LOCAL). Both engines record
+        the same stream; read it with `recorder.stream(name)` after the run (or take it piece
+        by piece through `sink`)."""
         names = processors if processors is not None else [
             p for p in self.processors() if p.endswith(".ic")]
         for name in names:
@@ -108,6 +109,7 @@ class Engine(ABC):
         rec = LoadRecorder(names, sink)
         for name in names:
             self._core(name).memory.record = rec.buffer(name)
+            self._core(name).memory.record_local = local
         self.recorder = rec
         return rec
 

@@ -6,7 +6,8 @@ count (one record fetched for one intersection test, docs/databases.md) or a rep
 memory configurations (`emulator/tracesim.py`) needs from a run on the machine.
 
 Recording is opt-in (`Engine.record_loads`) and off by default. Both engines produce the same
-codes: one int64 per load, `address << 2 | hit << 1 | resident` (hit 0 for a resident load),
+codes: one int64 per load, `address << 2 | hit << 1 | resident` (hit 0 for a resident load;
+a local `ld`, recorded only with `record_loads(local=True)`, has the low bits 3 — space LOCAL),
 which the reference engine appends per load (`MemorySystem.load`) and the compiled engine writes
 into a preallocated buffer it hands back between chunks of cycles (emulator/compiled). A
 `LoadRecorder` keeps them per processor as numpy arrays (8 bytes a load); `stream(name)` decodes
@@ -23,6 +24,10 @@ import numpy as np
 
 from netsushisen.isa.regions import GLOBAL, RESIDENT
 
+LOCAL = 2
+"""The space of a recorded local load (`record_loads(local=True)`: list cells held in local
+memory, the findings' reading; paper_machine.py)."""
+
 Sink = Callable[[str, np.ndarray], None]
 """Called with (processor name, codes) for each piece of a processor's stream, in order."""
 
@@ -36,15 +41,16 @@ def encode(address: int, resident: bool, hit: bool) -> int:
 class LoadStream:
     """One processor's recorded database loads, in issue order."""
 
-    space: np.ndarray  # int8: GLOBAL (ldg, through the cache) or RESIDENT (ldr)
+    space: np.ndarray  # int8: GLOBAL (ldg, through the cache), RESIDENT (ldr) or LOCAL (ld)
     address: np.ndarray  # int64 word address in that space
     hit: np.ndarray  # bool: the ldg hit the cache (False for every ldr)
 
     @classmethod
     def decode(cls, codes: np.ndarray) -> LoadStream:
         codes = np.asarray(codes, np.int64)
-        return cls(np.where(codes & 1, RESIDENT, GLOBAL).astype(np.int8), codes >> 2,
-                   (codes & 2) != 0)
+        low = codes & 3
+        space = np.where(low == 3, LOCAL, np.where(low == 1, RESIDENT, GLOBAL)).astype(np.int8)
+        return cls(space, codes >> 2, low == 2)
 
     def __len__(self) -> int:
         return len(self.address)
@@ -54,7 +60,7 @@ class LoadStream:
         hits and misses."""
         res = self.space == RESIDENT
         hits = int(np.count_nonzero(self.hit & ~res))
-        acc = int(np.count_nonzero(~res))
+        acc = int(np.count_nonzero(self.space == GLOBAL))
         return {"resident": int(np.count_nonzero(res)), "cache": acc, "hits": hits,
                 "misses": acc - hits}
 

@@ -39,8 +39,8 @@ ranges (voxel_data, primitive_list, shape_data, luminance_data, ...) and optiona
 per range; every load that falls in a range counts towards that region (and, for a cache, its
 hits/misses) and towards the range's primitive (give one word per primitive, e.g. the head of
 its shape record, to count intersection tests). `record` (a list, set by
-`Engine.record_loads`; None by default) receives every `ldr` and `ldg` as a code of
-emulator/loads.py, in issue order.
+`Engine.record_loads`; None by default) receives every `ldr` and `ldg` (with `record_local`
+also every local `ld`) as a code of emulator/loads.py, in issue order.
 
 An access outside a memory raises `MemoryFault`; the core turns it into a run-time fault that
 names processor, PC and cycle.
@@ -209,6 +209,7 @@ class MemorySystem:
         self.global_counts = RegionCounters()
         self.global_accesses = 0
         self.record: list[int] | None = None  # codes of recorded loads (emulator/loads.py), or off
+        self.record_local = False  # also local loads (`Engine.record_loads(local=True)`)
         if proc == "os":
             latency = config.os.latency.get("ld")
             self.t_local = latency if latency is not None else OPCODES["ld"].latency
@@ -240,7 +241,10 @@ class MemorySystem:
     def load(self, space: str, address: int) -> tuple[int, int]:
         """The word at `address` of `space`; (word, cache set touched or -1)."""
         if space == "local":
-            return self.local.read(address), -1
+            word = self.local.read(address)
+            if self.record is not None and self.record_local:
+                self.record.append((address << 2) | 3)  # loads.encode_local(address)
+            return word, -1
         if space == "resident":
             if self.resident is None:
                 raise MemoryFault("this processor has no resident memory")

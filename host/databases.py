@@ -46,6 +46,10 @@ SC_BASE = 256
 """Default SC local address of the scene block; words below it are the SC kernel's own data."""
 LIST_BASE = 1
 """ICGM address of the first list cell: word 0 stays 0, so a cell or list pointer of 0 is null."""
+IC_LISTS_BASE = 4096
+"""With the lists in IC's local memory (`build_images(lists_local=True)`, the findings' reading
+`--lists local`): the IC local address of ICGM word 0, so cell c is read at IC_LISTS_BASE + c;
+words below it are IC's own data (slot table, fan buffers)."""
 # GLOBAL, RESIDENT — the address spaces of a shape record / an IC access, ICGM through the cache
 # (ldg) or resident (ldr) — live in isa/regions.py, shared with the machine's trace-driven model.
 DATABASES = ("voxel_data", "primitive_list", "shape_data", "luminance_data")
@@ -236,10 +240,13 @@ class MachineImages:
     sc_resident: np.ndarray  # empty: SC keeps nothing resident
     regions: dict[str, list[Region]]  # "<proc>.<local|resident|global>" -> ranges
     symbols: dict[str, int]
+    ic_local: np.ndarray | None = None  # lists_local: ICGM's list words, placed at IC_LISTS_BASE
 
     def placements(self) -> dict[str, tuple[int, np.ndarray]]:
         """Memory key (emulator image names) -> (address, words)."""
         out = {"os.local": (self.layout.os_base, self.os_local), "icgm": (0, self.icgm),
+               "ic.local": (IC_LISTS_BASE, self.ic_local if self.ic_local is not None
+                            else self.icgm[:0]),
                "ic.resident": (0, self.ic_resident), "scgm": (0, self.scgm),
                "sc.local": (self.layout.sc_base, self.sc_local), "sc.resident": (0, self.sc_resident)}
         return {k: v for k, v in out.items() if len(v[1]) or k in ("icgm", "scgm")}
@@ -280,6 +287,10 @@ class MachineImages:
                 raise ConfigError(f"the {stage.upper()} kernel has {len(prog.data)} data words but the "
                                   f"{'voxel data' if stage == 'os' else 'scene block'} start at local "
                                   f"address {base}: build the images with a larger {stage}_base")
+        prog = programs.get("ic")
+        if self.ic_local is not None and prog is not None and len(prog.data) > IC_LISTS_BASE:
+            raise ConfigError(f"the IC kernel has {len(prog.data)} data words but the lists start "
+                              f"at IC local address {IC_LISTS_BASE} (lists local)")
 
     def defines(self) -> list[str]:
         """The symbols as assembler arguments: ["-D", "NAME=VALUE", ...]."""
@@ -290,9 +301,14 @@ class MachineImages:
 
 
 def build_images(scene: Scene, config: MachineConfig | None = None, priorities=None, grid: Grid | None = None,
-                 os_base: int = OS_BASE, sc_base: int = SC_BASE) -> MachineImages:
+                 os_base: int = OS_BASE, sc_base: int = SC_BASE,
+                 lists_local: bool = False) -> MachineImages:
     """Lay out and encode the databases of `scene` for `config`. `priorities` (from the
-    pre-pass, `host/prepass.py`) decide which records are resident; None = id order."""
+    pre-pass, `host/prepass.py`) decide which records are resident; None = id order.
+    `lists_local`: also place the list words (ICGM 0 .. list end, the same words at the same
+    relative addresses) in IC's local memory from IC_LISTS_BASE, for the kernels assembled with
+    LISTS_LOCAL = 1 (IC reads its cells there with `ld`, never through the cache: the findings'
+    reading `--lists local`); ICGM keeps every address as it is."""
     config = config or MachineConfig()
     lay = plan_layout(scene, config, priorities, grid, os_base, sc_base)
     wf = lay.wf
@@ -309,10 +325,21 @@ def build_images(scene: Scene, config: MachineConfig | None = None, priorities=N
     resolved.ic_memory.resident_bytes = lay.resident_capacity * wf.bytes
     resolved.ic_memory.cache_bytes = lay.cache_bytes
     resolved.ic_memory.resident_share = resolved.ic_memory.cache_share = None
+    regions, symbols, ic_local = region_maps(lay), kernel_symbols(lay, config), None
+    if lists_local:
+        if IC_LISTS_BASE + lay.list_words > config.ic.local_words:
+            raise ConfigError(Diagnostic(
+                f"the lists ({lay.list_words} words) at IC local address {IC_LISTS_BASE} do not "
+                f"fit ic.local_words = {config.ic.local_words}; raise ic.local_words to at least "
+                f"{IC_LISTS_BASE + lay.list_words} to hold them in IC's local memory", file="config"))
+        ic_local = icgm[:lay.list_words].copy()
+        regions["ic.local"] = [Region(IC_LISTS_BASE, IC_LISTS_BASE + lay.list_words,
+                                      "primitive_list")]
+        symbols.update(LISTS_LOCAL=1, IC_LISTS_BASE=IC_LISTS_BASE)
     return MachineImages(layout=lay, config=resolved, os_local=_voxel_words(lay), icgm=icgm,
                          ic_resident=ic_resident, scgm=lay.material_words.copy(), sc_local=scene_words,
-                         sc_resident=np.zeros(0, wf.word_dtype), regions=region_maps(lay),
-                         symbols=kernel_symbols(lay, config))
+                         sc_resident=np.zeros(0, wf.word_dtype), regions=regions,
+                         symbols=symbols, ic_local=ic_local)
 
 
 def _gather(records: np.ndarray, offsets: np.ndarray, ids: np.ndarray) -> np.ndarray:

@@ -48,6 +48,12 @@
 .ifndef SLOTS
 .equ SLOTS, 64                  # OS's rays in flight (render passes -D SLOTS)
 .endif
+# LISTS_LOCAL = 1 (`build_images(lists_local=True)`): the list cells are read from IC's local
+# memory (ld at IC_LISTS_BASE + the cell's ICGM address), never through the cache — the
+# findings' reading `--lists local` (docs/databases.md); OS still sends ICGM addresses.
+.ifndef LISTS_LOCAL
+.equ LISTS_LOCAL, 0
+.endif
 # The generic kernel (every HAS_* = 1, `render --generic`) assembles every path, also those that
 # depend on the scene's numbers rather than its features.
 .equ GENERIC, HAS_POLYGONS && HAS_PATCHES && HAS_SPHERES && HAS_CYLINDERS && HAS_CONES && HAS_TWO_SIDED && HAS_REFLECTION && HAS_REFRACTION
@@ -396,8 +402,13 @@ reload:
 # per memory (BOTH), so no copy jumps to shared code.
 visit:
 cell_loop:
+.if LISTS_LOCAL
+    { ld pri, [cell + (IC_LISTS_BASE + CELL_PRIORITY)] }
+    { ld shp, [cell + (IC_LISTS_BASE + CELL_SHAPE)] }
+.else
     { ldg pri, [cell + CELL_PRIORITY] }
     { ldg shp, [cell + CELL_SHAPE] }
+.endif
 .if HAS_RESIDENT && HAS_GLOBAL
     { addi m_t, pri, RESIDENT_M }
     { bltu m_t, mlim, rec_r }                                           # |P| <= M: resident

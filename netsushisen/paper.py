@@ -45,7 +45,7 @@ from netsushisen.reports.paper import RAY_ORDER, findings, machine_findings
 from netsushisen.reports.paper_data import PaperOptions, Progress, SceneData
 from netsushisen.reports.paper_plots import write_csvs, write_figures
 from netsushisen.reports.paper_report import report_markdown
-from netsushisen.paper_machine import (MACHINE_POINTS, PE_CANDIDATE,  # noqa: F401 (API)
+from netsushisen.paper_machine import (FINDINGS_POINT, MACHINE_POINTS, PE_CANDIDATE,  # noqa: F401
                                        compare_counters, machine_check, pes_config, point_config,
                                        ray_order_study)
 from netsushisen.paper_sweep import golden_chunks, replay_figures, sweep_points  # noqa: F401
@@ -234,16 +234,17 @@ def run_paper(request: PaperRequest, scheduler: str | None = None, show: bool = 
     tasks = [Task(analyse_scene,
                   (scene, r.res, r.config, r.corners, None, 16384, r.options, r.candidates, pes),
                   f"{scene.name}-trace") for scene in scenes]
-    machine_runs = []  # (scene, label, config, with the pre-pass)
+    machine_runs = []  # (scene, label, config, with the pre-pass, lists local)
     if r.on_machine:
-        machine_runs = [(scene, "", r.config, True) for scene in scenes]
-        machine_runs += [(scene, label, point_config(r.config, cache, resident), False)
+        machine_runs = [(scene, "", r.config, True, False) for scene in scenes]
+        machine_runs += [(scene, label, point_config(r.config, cache, resident), False, False)
                          for scene in scenes for label, cache, resident in MACHINE_POINTS]
-        machine_runs += [(scene, f"default, {PE_CANDIDATE} PEs", pes_config(r.config), False)
-                         for scene in scenes]
-        tasks += [Task(machine_check, (scene, r.res, cfg, r.engine, r.corners, label, pre),
+        machine_runs += [(scene, f"default, {PE_CANDIDATE} PEs", pes_config(r.config), False,
+                          False) for scene in scenes]
+        machine_runs += [(scene, FINDINGS_POINT, r.config, False, True) for scene in scenes]
+        tasks += [Task(machine_check, (scene, r.res, cfg, r.engine, r.corners, label, pre, local),
                        f"{scene.name}-machine" + (f" ({label})" if label else ""))
-                  for scene, label, cfg, pre in machine_runs]
+                  for scene, label, cfg, pre, local in machine_runs]
         tasks += [Task(ray_order_study, (scene, r.res, r.config, r.engine, r.corners, r.options),
                        f"{scene.name}-machine (normal ray order)") for scene in scenes]
     n_checks = len(machine_runs)
@@ -273,8 +274,9 @@ def run_paper(request: PaperRequest, scheduler: str | None = None, show: bool = 
     if r.on_machine:
         kernels = kernel_digest()
         keys += [content_key("paper machine check", scene.name, scene_digest(scene),
-                             r.res, r.corners, dump_toml(cfg), r.engine, kernels, label, pre)
-                 for scene, label, cfg, pre in machine_runs]
+                             r.res, r.corners, dump_toml(cfg), r.engine, kernels, label, pre,
+                             *(("lists local",) if local else ()))
+                 for scene, label, cfg, pre, local in machine_runs]
         keys += [content_key("paper ray order", scene.name, scene_digest(scene), r.res,
                              r.corners, config, r.engine, kernels, r.options.sizing,
                              r.options.lists) for scene in scenes]

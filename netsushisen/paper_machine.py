@@ -7,6 +7,9 @@ IC's per-word counters (`compare_counters`: accesses by memory and by region, lo
 primitive) and the per-reference counts the findings use (`reference_check`: the paper's
 references, each hit decided by the machine's own per-load hit flags, against `SweepStream`'s
 for the same configuration — one rule, `tracesim.fetches` / `tracesim.reference_hits`).
+With `lists_local` it does so in the reading the findings use (`--sizing records --lists
+local`): the lists in IC's local memory (the kernels' LISTS_LOCAL build), the memories sized
+against the shape records (`findings_config`), the trace side `SweepStream(lists_cached=False)`.
 
 `ray_order_study` renders in the kernels' normal mode (several rays in flight), maps IC's
 recorded stream back to the sweep's reference layout (`host.ic_access.to_reference`) and
@@ -26,7 +29,11 @@ from netsushisen.emulator.tracesim import (SweepPoint, SweepStream, TraceMemory,
                                            stream_references)
 from netsushisen.host.databases import RESIDENT, plan_layout
 from netsushisen.host.golden import render as render_golden
-from netsushisen.emulator.loads import LoadStream
+from netsushisen.emulator.loads import LOCAL, LoadStream
+from netsushisen.host.catalog import load_scene
+from netsushisen.host.databases import IC_LISTS_BASE
+from netsushisen.host.records import record_sizes
+from netsushisen.host.shapes import build_shape_data
 from netsushisen.host.ic_access import (load_primitives, ordered_stream_chunks, pe_orders,
                                         to_reference)
 from netsushisen.host.prepass import coarse_resolution
@@ -93,20 +100,52 @@ def pes_config(config: MachineConfig, pes: int = PE_CANDIDATE) -> MachineConfig:
     return c
 
 
+FINDINGS_POINT = "findings' reading: records, lists local"
+"""The label of `--on-machine`'s row in the reading the findings use (`machine_check(lists_local=True)`)."""
+
+FINDINGS_LOCAL_WORDS = 1 << 18
+"""IC's local words in the findings' reading: room for IC's data and the lists (tetra's ~99 K
+words, rings' ~106 K; the default 65536 holds neither)."""
+
+
+def findings_config(scene, config: MachineConfig) -> MachineConfig:
+    """`config` as the findings read it (`--sizing records --lists local`): IC's cache and
+    resident shares resolved against the shape records alone (`sized_config`; sizes given in
+    bytes stay), IC's local memory at least FINDINGS_LOCAL_WORDS to hold the lists."""
+    mc = config.ic_memory
+    words = int(record_sizes(build_shape_data(scene, config.precision)).sum())
+    c = sized_config(config, words, mc.resident_share, mc.cache_share)
+    c.ic.local_words = max(c.ic.local_words, FINDINGS_LOCAL_WORDS)
+    return c
+
+
+def local_lists(s: LoadStream) -> LoadStream:
+    """A stream recorded with the lists local, as the sweep sees it: IC's list-cell loads
+    (local, from IC_LISTS_BASE) at their ICGM addresses, still in space LOCAL; its other local
+    loads (slot table, fan buffers: no database) dropped."""
+    keep = (s.space != LOCAL) | (s.address >= IC_LISTS_BASE)
+    address = np.where(s.space == LOCAL, s.address - IC_LISTS_BASE, s.address)
+    return LoadStream(s.space[keep], address[keep], s.hit[keep])
+
+
 def machine_check(scene, res: int, config, engine: str, corners: bool = False, point: str = "",
-                  prepass: bool = False) -> dict:
+                  prepass: bool = False, lists_local: bool = False) -> dict:
     """Render `scene` (a name, a file or a Scene) on the machine in the serial ray-tree mode
     (SLOTS=1, SERIAL_TREES=1: one ray tree in flight, so IC sees the golden trace's rays in
     `tracesim.machine_order`) with IC's loads recorded, and compare IC's per-word counters and
     per-reference counts with the trace-driven path's for the same images. `point`: the sweep
     point's label (`MACHINE_POINTS`; "" for the configuration as given). `prepass`: also run
     the pre-pass's coarse render on the machine (same mode) and report its cycles (§4.3: about
-    1 % of the main pass)."""
+    1 % of the main pass). `lists_local`: in the findings' reading (`findings_config`; IC reads
+    the lists from local memory, the trace side counts their loads as `local.primitive_list`)."""
     from netsushisen.pipeline import render  # noqa: PLC0415 (the machine side is heavy to import)
 
     t0 = time.perf_counter()
+    if lists_local:
+        scene = load_scene(scene) if isinstance(scene, str) else scene
+        config = findings_config(scene, config)
     r = render(scene, config, res=res, corners=corners, slots=1, defines=SERIAL, engine=engine,
-               record_loads=True)
+               record_loads=True, lists_local=lists_local)
     t_machine = time.perf_counter() - t0
     setup = r.setup
     out = {"scene": setup.scene.name, "point": point, "cycles": int(r.run.cycles),
@@ -126,19 +165,32 @@ def machine_check(scene, res: int, config, engine: str, corners: bool = False, p
                            grid=setup.images.layout.grid)
     pes = setup.config.pes
     diff = ""
+    layout = setup.images.layout
+    lists = 0
     for k, order in enumerate(pe_orders(golden, pes)):  # each PE's IC on its own pixels' rays
         model = TraceMemory.for_images(setup.images)
-        for space, address in ordered_stream_chunks(setup.images.layout, golden, order):
+        local = 0
+        for space, address in ordered_stream_chunks(layout, golden, order):
+            if lists_local:  # list cells read from local memory: counted, never cached
+                cell = (space == GLOBAL) & (address < layout.list_words)
+                local += int(np.count_nonzero(cell))
+                space, address = space[~cell], address[~cell]
             model.replay(space, address)
-        d = compare_counters(model.stats(), r.stats["memory"][f"pe{k}.ic"])
+        want = model.stats()
+        if local:
+            want.setdefault("regions", {})["local.primitive_list"] = {"accesses": local}
+        lists += local
+        d = compare_counters(want, r.stats["memory"][f"pe{k}.ic"])
         if d and not diff:
             diff = d if pes == 1 else f"pe{k}: {d}"
     machines = [r.stats["memory"][f"pe{k}.ic"] for k in range(pes)]
-    res_acc = sum(m["resident"]["accesses"] for m in machines)
+    res_acc = sum(m["resident"]["accesses"] for m in machines) + lists  # local lists: at t_r
     cache = {key: sum(m["cache"][key] for m in machines) for key in ("accesses", "hits")}
     total = res_acc + cache["accesses"]
     streams = [r.engine.recorder.stream(f"pe{k}.ic") for k in range(pes)]
-    refs = reference_check(setup, golden, streams)
+    if lists_local:
+        streams = [local_lists(s) for s in streams]
+    refs = reference_check(setup, golden, streams, lists_cached=not lists_local)
     out.update(equal=not diff, difference=diff,
                rho=f"{res_acc / total:.4f}" if total else "–",
                mu=f"{cache['hits'] / cache['accesses']:.4f}" if cache["accesses"] else "–",
@@ -154,36 +206,45 @@ def machine_references(layout, space: np.ndarray, address: np.ndarray,
     return stream_references(prim, hit, layout.record_space == RESIDENT)
 
 
-def trace_references(setup, golden) -> dict[str, int]:
+def trace_references(setup, golden, lists_cached: bool = True) -> dict[str, int]:
     """The trace-driven path's per-reference counts for the machine's configuration: the golden
     trace replayed by `SweepStream` (the reference layout, one point: the machine's layout and
-    cache), as the paper's sweep counts them."""
+    cache), as the paper's sweep counts them; `lists_cached=False`: the lists local (their loads
+    `local.primitive_list`, outside the cache)."""
     layout = setup.images.layout
     reference = plan_layout(setup.scene, sized_config(setup.config, 1, 0.0, 0.0),
                             setup.prepass.priorities, layout.grid)
     cache = TraceMemory.for_images(setup.images).cache
     point = SweepPoint(layout, cache.geometry.capacity, cache.block_bytes, cache.ways)
-    sweep = SweepStream(reference, [point], setup.config.word_bytes, lists_cached=True)
+    sweep = SweepStream(reference, [point], setup.config.word_bytes, lists_cached=lists_cached)
     for stream in golden_chunks(golden, pes=setup.config.pes)(reference)[1]:
         sweep.reset()
         for space, address in stream:
             sweep.replay(space, address)
-    return {k: int(point.counts[k]) for k in REFERENCE_KEYS}
+    return {k: int(point.counts[k]) for k in (*REFERENCE_KEYS, LOCAL_LISTS)}
 
 
 REFERENCE_KEYS = ("ref.resident", "ref.cache", "ref.hits")
+LOCAL_LISTS = "local.primitive_list"
 
 
-def reference_check(setup, golden, streams: list[LoadStream]) -> dict:
+def reference_check(setup, golden, streams: list[LoadStream], lists_cached: bool = True) -> dict:
     """Per-reference counts on the machine (each PE's IC's recorded stream, summed) against the
     trace-driven path's: `ref_machine`, `ref_trace`, `ref_equal`, `ref_difference`, and the
-    per-reference ρ and μ the machine's counts give."""
-    got = dict.fromkeys(REFERENCE_KEYS, 0)
+    per-reference ρ and μ the machine's counts give. `lists_cached=False`: the findings'
+    reading — the streams' list cells are local loads (`local_lists`), compared also with the
+    sweep's `local.primitive_list`."""
+    keys = REFERENCE_KEYS if lists_cached else (*REFERENCE_KEYS, LOCAL_LISTS)
+    got = dict.fromkeys(keys, 0)
     for s in streams:
-        for k, v in machine_references(setup.images.layout, s.space, s.address, s.hit).items():
+        local = s.space == LOCAL
+        space = np.where(local, GLOBAL, s.space)
+        for k, v in machine_references(setup.images.layout, space, s.address, s.hit).items():
             got[k] += v
-    want = trace_references(setup, golden)
-    diff = "; ".join(f"{k}: trace-driven {want[k]}, machine {got[k]}" for k in REFERENCE_KEYS
+        if not lists_cached:
+            got[LOCAL_LISTS] += int(np.count_nonzero(local))
+    want = trace_references(setup, golden, lists_cached)
+    diff = "; ".join(f"{k}: trace-driven {want[k]}, machine {got[k]}" for k in keys
                      if got[k] != want[k])
     total = got["ref.resident"] + got["ref.cache"]
     return {"ref_machine": got, "ref_trace": want, "ref_equal": not diff, "ref_difference": diff,

@@ -16,16 +16,21 @@ from netsushisen.reports.paper_data import (CACHE_SHARES, LOCAL_SHARES, RESIDENT
                                             PaperOptions, Progress)
 
 
-def sized_config(config: MachineConfig, base_words: int, resident: float, cache: float) -> MachineConfig:
+def sized_config(config: MachineConfig, base_words: int, resident: float | None,
+                 cache: float | None) -> MachineConfig:
     """`config` with IC's resident and cache sizes set to shares of `base_words` (the sized
-    database), rounded as the machine rounds shares (resident: whole words, cache: whole blocks)."""
+    database), rounded as the machine rounds shares (resident: whole words, cache: whole blocks);
+    a share of None keeps that memory's size in bytes as configured."""
     c = copy.deepcopy(config)
     mc = c.ic_memory
     wb = config.word_bytes
-    mc.resident_share = mc.cache_share = None
-    mc.resident_bytes = int(resident * base_words) * wb
-    size = int(cache * base_words * wb)
-    mc.cache_bytes = size - size % mc.block_bytes
+    if resident is not None:
+        mc.resident_share = None
+        mc.resident_bytes = int(resident * base_words) * wb
+    if cache is not None:
+        mc.cache_share = None
+        size = int(cache * base_words * wb)
+        mc.cache_bytes = size - size % mc.block_bytes
     return c
 
 

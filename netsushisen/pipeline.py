@@ -217,12 +217,13 @@ class KernelInputs:
 def kernel_inputs(scene: Scene | str, config: MachineConfig, res: int = 32,
                   corners: bool = False, generic: bool = False, slots: int = DEFAULT_SLOTS,
                   defines: dict[str, int | float] | None = None,
-                  memo: HostMemo | None = None) -> KernelInputs:
+                  memo: HostMemo | None = None, lists_local: bool = False) -> KernelInputs:
     """The host work the kernels' symbols depend on — grid, pre-pass (at `res`: it picks the
     resident records), databases — and the symbols. The one place they are computed: `render`
     (through `prepare`) and `asm --scene` / `kernels export --scene` call it, so an assembled
     kernel is the one the render runs. `defines` adds or overrides symbols; `memo` keeps the
-    scene and grid for later calls (only for a scene given by name)."""
+    scene and grid for later calls (only for a scene given by name). `lists_local`: the list
+    cells in IC's local memory too, IC assembled to read them there (`build_images`)."""
     name = scene if isinstance(scene, str) else None
 
     def cached(key: tuple, build):
@@ -235,7 +236,8 @@ def kernel_inputs(scene: Scene | str, config: MachineConfig, res: int = 32,
     grid = cached(("grid", repr(config.grid), config.os.local_words, config.precision),
                   lambda: build_grid(scene, config))
     prepass = run_prepass(scene, config, res=res, corners=corners, grid=grid)
-    images = build_images(scene, config, priorities=prepass.priorities, grid=grid)
+    images = build_images(scene, config, priorities=prepass.priorities, grid=grid,
+                          lists_local=lists_local)
     return KernelInputs(scene, prepass, images, kernel_defines(images, generic, slots, defines))
 
 
@@ -243,12 +245,13 @@ def prepare(scene: Scene | str, config: MachineConfig, res: int = 32, corners: b
             generic: bool = False, slots: int = DEFAULT_SLOTS, kernel_dir: str | Path | None = None,
             kernels: dict[str, str | Path] | None = None,
             defines: dict[str, int | float] | None = None,
-            memo: HostMemo | None = None) -> RenderSetup:
+            memo: HostMemo | None = None, lists_local: bool = False) -> RenderSetup:
     """Host work before a run: grid, pre-pass, images, kernels, eye rays. `defines` adds (or
     overrides) kernel symbols, e.g. {"SERIAL_TREES": 1} for the serial mode. `memo` keeps the
-    scene, grid and kernels for later calls (only for a scene given by name)."""
+    scene, grid and kernels for later calls (only for a scene given by name). `lists_local`:
+    IC reads the list cells from its local memory (`kernel_inputs`)."""
     name = scene if isinstance(scene, str) else None
-    inputs = kernel_inputs(scene, config, res, corners, generic, slots, defines, memo)
+    inputs = kernel_inputs(scene, config, res, corners, generic, slots, defines, memo, lists_local)
     scene, prepass, images, defines = inputs.scene, inputs.prepass, inputs.images, inputs.defines
     check_scale(scene, config.precision)
     key = ("kernels", str(kernel_dir), repr(kernels), tuple(sorted(defines.items())),
@@ -302,12 +305,16 @@ def render(scene: Scene | str, config: MachineConfig, res: int = 32, corners: bo
            generic: bool = False, slots: int = DEFAULT_SLOTS, kernel_dir: str | Path | None = None,
            kernels: dict[str, str | Path] | None = None, progress=None,
            defines: dict[str, int | float] | None = None,
-           engine: str | None = None, record_loads: bool = False) -> RenderResult:
+           engine: str | None = None, record_loads: bool = False,
+           lists_local: bool = False) -> RenderResult:
     """Render on the emulated machine with engine `engine` (default: `default_engine()`). `progress(cycle)` is called now and
     then if given; `defines` adds kernel symbols (see `prepare`). `record_loads`: record every
-    IC's resident and global loads (`Engine.record_loads`; read `result.engine.recorder`)."""
-    setup = prepare(scene, config, res, corners, generic, slots, kernel_dir, kernels, defines)
+    IC's resident and global loads (`Engine.record_loads`; read `result.engine.recorder`).
+    `lists_local`: IC reads the list cells from its local memory (`prepare`); recorded loads
+    then include IC's local ones."""
+    setup = prepare(scene, config, res, corners, generic, slots, kernel_dir, kernels, defines,
+                    lists_local=lists_local)
     eng = setup.engine(engine)
     if record_loads:
-        eng.record_loads()
+        eng.record_loads(local=lists_local)
     return finish(setup, eng, eng.run(progress=progress))

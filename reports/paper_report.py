@@ -11,6 +11,7 @@ from netsushisen.reports.paper import (PAPER_RES, PAPER_TABLE1, RAY_ORDER, TABLE
                                        fig5_best, fig5_curve, fig5_row, findings, ray_order_rows,
                                        table2)
 from netsushisen.reports.paper_data import COUNTINGS, LOCAL_SHARES, SceneData
+from netsushisen.paper_machine import FINDINGS_LOCAL_WORDS, FINDINGS_POINT
 
 DEFAULTS_ARGUED = [
     "- **Per primitive reference is the paper's counting.** Figure 3 counts references per "
@@ -28,8 +29,8 @@ DEFAULTS_ARGUED = [
     "- **List cells in local memory.** §4.4 has IC read primitive i's priority P_i *from resident "
     "memory* and compare it with M before it chooses resident memory or the cache; the priority "
     "lives in the list cell, so the paper's list cells are read locally, not through the cache. "
-    "The machine's IC kernel keeps them in ICGM (docs/databases.md): `--lists cache` evaluates "
-    "that.",
+    "The machine's IC kernel reads them from ICGM by default (docs/databases.md): `--lists cache` "
+    "evaluates that; `--on-machine` also runs the machine in this reading (\"On the machine\").",
     "- **Whole primitives resident by priority.** The resident fill copies records in priority "
     "order until the next one does not fit (M records), as §4.4 describes; IC tests P_i ≤ M.",
 ]
@@ -98,7 +99,12 @@ def _on_machine(check: dict) -> list[str]:
              "flags, on the trace-driven path from the sweep's replay of the golden trace for "
              "the same configuration. The points size IC's memories as shares of the machine's "
              "own database (list cells + shape records, list cells through the cache: "
-             "`--sizing records+lists --lists cache`).",
+             "`--sizing records+lists --lists cache`). The row \"" + FINDINGS_POINT + "\" runs "
+             "the machine in the reading the findings use (`--sizing records --lists local`): IC "
+             "built with LISTS_LOCAL reads the list cells from its local memory (ic.local_words "
+             f"raised to {FINDINGS_LOCAL_WORDS:,} to hold them), never through the cache, its "
+             "shares sized against the shape records (sizes in bytes as given); its list-cell "
+             "loads are compared with the sweep's `local.primitive_list` count.",
              ""]
     rows = [[r["scene"], r.get("point") or "default", f"{r['cycles']:,}", f"{r['seconds']:.0f}",
              r["rho"], r["mu"], "equal" if r["equal"] else "DIFFERENT: " + r["difference"],

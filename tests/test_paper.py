@@ -226,10 +226,12 @@ def test_paper_on_machine_checks_the_counters(tmp_path, cli, engine_name):
     assert "per-reference counts equal the trace-driven path's for mount" in stdout
     md = (out / "report.md").read_text()
     assert "## On the machine" in md and "**All counters equal**" in md and f"{engine_name} engine" in md
-    from netsushisen.paper import MACHINE_POINTS
+    from netsushisen.paper import FINDINGS_POINT, MACHINE_POINTS
 
-    # per-word counters and per-reference counts, for the default memory, each point and 4 PEs
-    assert md.count("| equal |") == 2 * (2 + len(MACHINE_POINTS))
+    # per-word counters and per-reference counts, for the default memory, each point, 4 PEs and
+    # the findings' reading (lists local)
+    assert md.count("| equal |") == 2 * (3 + len(MACHINE_POINTS))
+    assert f"| mount | {FINDINGS_POINT} |" in md
     assert "| mount | default, 4 PEs |" in md and "*4 PEs*" in md
     assert "## Ray order (on the machine)" in md and "change verdict under the machine's normal" in md
     assert all(f"| mount | {label} |" in md for label, *_ in MACHINE_POINTS)

@@ -122,3 +122,90 @@ def test_pe_orders_partition_the_serial_order(serial_run):
     for k, o in enumerate(parts):
         assert np.all(golden.trace_pixel[o] % 4 == k)
         assert np.all(np.diff(golden.trace_pixel[o]) >= 0)  # pixel by pixel
+
+
+# -- the findings' reading on the machine (lists in IC's local memory) -----------------------------
+
+
+@pytest.mark.heavy  # [reference] under -m slow (tests/conftest.py)
+def test_lists_local_render_is_the_same_picture_and_its_counters_are_the_findings(engine_name):
+    """IC built with LISTS_LOCAL reads the list cells from its local memory: the same image
+    and ids as the default build, the same list loads now local reads (none through the cache),
+    and its counters and per-reference counts equal the trace path's in the findings' reading
+    (`SweepStream(lists_cached=False)`: list loads `local.primitive_list`)."""
+    from netsushisen.pipeline import render
+    from netsushisen.paper_machine import FINDINGS_LOCAL_WORDS, findings_config
+
+    config = findings_config(load_scene_named("mount:2"), load_config(None, SMALL))
+    assert config.ic.local_words == FINDINGS_LOCAL_WORDS and config.ic_memory.cache_share is None
+    kw = dict(res=6, slots=1, defines={"SERIAL_TREES": 1}, engine=engine_name)
+    default, local = render("mount:2", config, **kw), render("mount:2", config, lists_local=True, **kw)
+    assert np.array_equal(default.hit_ids, local.hit_ids)
+    assert np.array_equal(default.image_u8, local.image_u8)
+    d, m = default.stats["memory"]["pe0.ic"], local.stats["memory"]["pe0.ic"]
+    assert "global.primitive_list" not in m["regions"]
+    assert m["regions"]["local.primitive_list"]["accesses"] \
+        == d["regions"]["global.primitive_list"]["accesses"] > 0
+    assert m["cache"]["accesses"] == d["regions"]["global.shape_data"]["accesses"]
+    classic = render("mount:2", config, lists_local=True, kernel_dir="classic", **kw)
+    assert np.array_equal(classic.hit_ids, default.hit_ids)  # the classic set reads them too
+    assert classic.stats["memory"]["pe0.ic"]["regions"]["local.primitive_list"] \
+        == m["regions"]["local.primitive_list"]
+    out = machine_check("mount:2", 6, load_config(None, SMALL), engine_name, lists_local=True)
+    assert out["equal"] and out["ref_equal"], (out["difference"], out["ref_difference"])
+    refs = out["ref_machine"]
+    assert refs["local.primitive_list"] == m["regions"]["local.primitive_list"]["accesses"]
+    assert refs["ref.resident"] > 0 and 0 < refs["ref.hits"] < refs["ref.cache"]
+
+
+def load_scene_named(name):
+    from netsushisen.host.catalog import load_scene
+
+    return load_scene(name)
+
+
+@pytest.fixture(scope="module")
+def lists_local_run():
+    from netsushisen.pipeline import render
+    from netsushisen.paper_machine import findings_config
+
+    config = findings_config(load_scene_named("mount:2"), load_config(None, SMALL))
+    r = render("mount:2", config, res=6, slots=1, defines={"SERIAL_TREES": 1},
+               engine="compiled", record_loads=True, lists_local=True)
+    golden = golden_render(r.setup.scene, r.setup.config, res=6, keep_trace=True,
+                           grid=r.setup.images.layout.grid)
+    return r, golden
+
+
+def test_the_wrong_reading_makes_the_lists_local_check_differ(lists_local_run):
+    """The findings' reading on the machine is compared in that reading only: the trace path
+    with the lists cached (the machine's default reading) gives other cache hits."""
+    from netsushisen.emulator.loads import LOCAL
+    from netsushisen.paper_machine import local_lists
+
+    r, golden = lists_local_run
+    s = local_lists(r.engine.recorder.stream("pe0.ic"))
+    assert np.count_nonzero(s.space == LOCAL) \
+        == r.stats["memory"]["pe0.ic"]["regions"]["local.primitive_list"]["accesses"]
+    right = reference_check(r.setup, golden, [s], lists_cached=False)
+    assert right["ref_equal"], right["ref_difference"]
+    wrong = reference_check(r.setup, golden, [s], lists_cached=True)
+    assert not wrong["ref_equal"] and wrong["ref_difference"].startswith("ref.hits:")
+    assert wrong["ref_trace"]["ref.hits"] < right["ref_trace"]["ref.hits"]
+    # the machine's stream with the list loads dropped is no longer the findings' stream
+    keep = s.space != LOCAL
+    short = LoadStream(s.space[keep], s.address[keep], s.hit[keep])
+    got = reference_check(r.setup, golden, [short], lists_cached=False)
+    assert not got["ref_equal"] and "local.primitive_list" in got["ref_difference"]
+
+
+def test_lists_that_do_not_fit_ic_local_memory_are_a_config_error():
+    from netsushisen.host.databases import IC_LISTS_BASE, build_images
+    from netsushisen.isa.errors import ConfigError
+
+    scene = load_scene_named("mount:2")
+    config = load_config(None, [f"ic.local_words={IC_LISTS_BASE + 10}"])
+    assert build_images(scene, config).ic_local is None  # the default build: nothing placed
+    with pytest.raises(ConfigError, match=r"the lists \(\d+ words\) at IC local address 4096 do "
+                                          r"not fit ic.local_words = 4106; raise ic.local_words"):
+        build_images(scene, config, lists_local=True)

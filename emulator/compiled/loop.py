@@ -431,9 +431,10 @@ def issue(c, p, pc, A, W, finfo):
                     cs[p, C_CACHE_MISSES] += 1
                     cs[p, C_GLOBAL_ACC] += 1
             count_region(rg, rmap, rdense, rcnt, pcnt, p, sp, addr, hit)
-            if cs[p, C_RECORD] and sp != SP_LOCAL:  # Engine.record_loads (state.py C_RECORD)
+            if cs[p, C_RECORD] == 2 or (cs[p, C_RECORD] and sp != SP_LOCAL):  # Engine.record_loads (state.py C_RECORD)
                 n = lrec[0] + 1
-                lrec[n] = (addr << 18) | (p << 2) | (2 if hit == 1 else 0) | (1 if sp == SP_RESIDENT else 0)
+                lrec[n] = (addr << 18) | (p << 2) | (3 if sp == SP_LOCAL else
+                                                      (2 if hit == 1 else 0) | (1 if sp == SP_RESIDENT else 0))
                 lrec[0] = n
             srd = ops[p, pc, j, O_RD]
             sw = mem[seg[sg, 0] + addr]

@@ -65,8 +65,9 @@ bundles up to its next FIFO operation touch nothing another part of the machine 
 steps through them at once and then sleeps (C_SLEEP: the cycle it has reached). Meanwhile the
 end-of-run checks see it as stalled for a cause of its own (C_LAST_ISSUED 0, C_CAUSE branch);
 C_AHEAD_ISSUED and C_AHEAD_CAUSE keep the real values until it wakes.
-C_RECORD: 1 when the processor's resident and global loads are recorded (Engine.record_loads):
-each goes into `lrec` as `address << 18 | processor << 2 | hit << 1 | resident`."""
+C_RECORD: 1 when the processor's resident and global loads are recorded (Engine.record_loads),
+2 when its local loads are too: each goes into `lrec` as `address << 18 | processor << 2 |
+hit << 1 | resident` (a local load: the low bits 3)."""
 N_C = len(_C)
 
 # decoded bundles: bun[processor, pc, B_*]; reads up to 8, writes up to 4, (class, count) pairs
@@ -502,7 +503,7 @@ def flatten(machine: Machine) -> State:
         cs[p, C_BUSYMAX] = busy[p].max()
 
         cs[p, C_PRESENT] = core.present
-        cs[p, C_RECORD] = mem.record is not None
+        cs[p, C_RECORD] = 0 if mem.record is None else 2 if mem.record_local else 1
         cs[p, C_NB] = len(core.bundles)
         cs[p, C_WPORTS] = core.write_ports
         cs[p, C_PENALTY] = core.penalty

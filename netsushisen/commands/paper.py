@@ -16,8 +16,9 @@ It answers from the fastest exact path: the golden model's IC reference trace, i
 serial ray order, replayed through a trace-driven resident memory + direct-mapped cache for every
 memory configuration of the figures. `--on-machine` also renders every scene on the emulated
 machine (serial ray-tree mode, `--engine`, default compiled) with the default memory
-configuration and at four sweep points (`paper.MACHINE_POINTS`), and checks IC's counters equal
-the trace-driven path's; it also runs the pre-pass on the machine (its share of the main pass's
+configuration, at four sweep points (`paper.MACHINE_POINTS`), with 4 PEs and in the findings'
+reading (lists in IC's local memory, `--sizing records --lists local`), and checks IC's counters
+equal the trace-driven path's; it also runs the pre-pass on the machine (its share of the main pass's
 cycles is §4.3's finding). Each scene's analysis
 and each machine check is one run on the Dask layer (netsushisen/cluster.py): a LocalCluster of
 `--workers` processes (default one per core; `--jobs` is the old name), or the cluster whose
@@ -131,5 +132,6 @@ def run(args: argparse.Namespace) -> int:
         scenes = list(dict.fromkeys(c["scene"] for c in done.checks))
         print(f"on the machine: IC's counters and per-reference counts equal the trace-driven "
               f"path's for {', '.join(scenes)} ({len(done.checks)} runs: the default memory, "
-              f"{len(MACHINE_POINTS)} sweep points and {PE_CANDIDATE} PEs each)")
+              f"{len(MACHINE_POINTS)} sweep points, {PE_CANDIDATE} PEs and the findings' "
+              "reading each)")
     return 0

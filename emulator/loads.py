@@ -22,19 +22,20 @@ from typing import Callable
 
 import numpy as np
 
-from netsushisen.isa.regions import GLOBAL, RESIDENT
-
-LOCAL = 2
-"""The space of a recorded local load (`record_loads(local=True)`: list cells held in local
-memory, the findings' reading; paper_machine.py)."""
+from netsushisen.isa.regions import GLOBAL, LOCAL, RESIDENT  # noqa: F401 (LOCAL: the API's)
 
 Sink = Callable[[str, np.ndarray], None]
 """Called with (processor name, codes) for each piece of a processor's stream, in order."""
 
 
 def encode(address: int, resident: bool, hit: bool) -> int:
-    """One load's code (the rule both engines apply)."""
+    """One `ldr` or `ldg` load's code (the rule both engines apply)."""
     return (address << 2) | (int(hit) << 1) | int(resident)
+
+
+def encode_local(address: int) -> int:
+    """One local `ld`'s code (recorded with `record_loads(local=True)`): the low bits 3."""
+    return (address << 2) | 3
 
 
 @dataclass

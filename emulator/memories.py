@@ -53,6 +53,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from netsushisen.emulator import cacherule as rule
+from netsushisen.emulator.loads import encode, encode_local
 from netsushisen.isa.config import MachineConfig, MemoryConfig
 from netsushisen.isa.opcodes import OPCODES
 from netsushisen.isa.regions import REGION_NAMES, Region, RegionMap, cache_bytes, resident_words
@@ -243,14 +244,14 @@ class MemorySystem:
         if space == "local":
             word = self.local.read(address)
             if self.record is not None and self.record_local:
-                self.record.append((address << 2) | 3)  # loads.encode_local(address)
+                self.record.append(encode_local(address))
             return word, -1
         if space == "resident":
             if self.resident is None:
                 raise MemoryFault("this processor has no resident memory")
             word = self.resident.read(address)
             if self.record is not None:
-                self.record.append((address << 2) | 1)  # loads.encode(address, True, False)
+                self.record.append(encode(address, True, False))
             return word, -1
         gm = self.global_memory
         if gm is None or self.cache is None:
@@ -258,7 +259,7 @@ class MemorySystem:
         gm.check(address)
         hit, s = self.cache.access(address)
         if self.record is not None:
-            self.record.append((address << 2) | (int(hit) << 1))  # loads.encode(address, False, hit)
+            self.record.append(encode(address, False, hit))
         if not hit:
             self.global_accesses += 1
         if self.global_regions is not None:

@@ -18,9 +18,11 @@ import numpy as np
 
 from netsushisen.isa.config import MemoryConfig
 
-GLOBAL, RESIDENT = 0, 1
+GLOBAL, RESIDENT, LOCAL = 0, 1, 2
 """Where an IC load goes, in an access stream (host/ic_access.py → emulator/tracesim.py): `ldg`
-through the cache to ICGM, or `ldr` to resident memory."""
+through the cache to ICGM, or `ldr` to resident memory; LOCAL, in a stream recorded on the
+machine only (emulator/loads.py): an `ld` of IC's local memory (the list cells, in the findings'
+reading, netsushisen/paper_machine.py)."""
 
 REGION_NAMES = ("voxel_data", "primitive_list", "shape_data", "luminance_data")
 """The databases' names (the paper's four databases; docs/databases.md); a region map may use

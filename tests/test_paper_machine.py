@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from netsushisen.emulator.loads import LoadStream
+from netsushisen.host.catalog import load_scene
 from netsushisen.host.golden import render as golden_render
 from netsushisen.host.ic_access import load_primitives, to_reference
 from netsushisen.isa.config import load_config
@@ -136,7 +137,7 @@ def test_lists_local_render_is_the_same_picture_and_its_counters_are_the_finding
     from netsushisen.pipeline import render
     from netsushisen.paper_machine import FINDINGS_LOCAL_WORDS, findings_config
 
-    config = findings_config(load_scene_named("mount:2"), load_config(None, SMALL))
+    config = findings_config(load_scene("mount:2"), load_config(None, SMALL))
     assert config.ic.local_words == FINDINGS_LOCAL_WORDS and config.ic_memory.cache_share is None
     kw = dict(res=6, slots=1, defines={"SERIAL_TREES": 1}, engine=engine_name)
     default, local = render("mount:2", config, **kw), render("mount:2", config, lists_local=True, **kw)
@@ -158,18 +159,12 @@ def test_lists_local_render_is_the_same_picture_and_its_counters_are_the_finding
     assert refs["ref.resident"] > 0 and 0 < refs["ref.hits"] < refs["ref.cache"]
 
 
-def load_scene_named(name):
-    from netsushisen.host.catalog import load_scene
-
-    return load_scene(name)
-
-
 @pytest.fixture(scope="module")
 def lists_local_run():
     from netsushisen.pipeline import render
     from netsushisen.paper_machine import findings_config
 
-    config = findings_config(load_scene_named("mount:2"), load_config(None, SMALL))
+    config = findings_config(load_scene("mount:2"), load_config(None, SMALL))
     r = render("mount:2", config, res=6, slots=1, defines={"SERIAL_TREES": 1},
                engine="compiled", record_loads=True, lists_local=True)
     golden = golden_render(r.setup.scene, r.setup.config, res=6, keep_trace=True,
@@ -203,7 +198,7 @@ def test_lists_that_do_not_fit_ic_local_memory_are_a_config_error():
     from netsushisen.host.databases import IC_LISTS_BASE, build_images
     from netsushisen.isa.errors import ConfigError
 
-    scene = load_scene_named("mount:2")
+    scene = load_scene("mount:2")
     config = load_config(None, [f"ic.local_words={IC_LISTS_BASE + 10}"])
     assert build_images(scene, config).ic_local is None  # the default build: nothing placed
     with pytest.raises(ConfigError, match=r"the lists \(\d+ words\) at IC local address 4096 do "

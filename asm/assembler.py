@@ -38,7 +38,7 @@ from netsushisen.isa.words import wrap32
 MAX_INCLUDE_DEPTH = 32
 DIRECTIVES = ("proc", "equ", "reg", "include", "if", "ifdef", "ifndef", "elif", "else", "endif",
               "text", "data", "word", "float", "space", "align", "error",
-              "macro", "endm", "rept", "endr", "sched", "endsched", "pipeline", "temps")
+              "macro", "endm", "rept", "endr", "sched", "endsched", "pipeline", "temps", "deadout")
 _REG_RE = re.compile(r"r(\d+)$")
 
 

@@ -22,11 +22,18 @@ The machine's bundle semantics decide the latencies (docs/timing.md T2-T8; docs/
   store -> store L = 0 (a bundle's stores are applied in bundle order). Two accesses through the
   same base register with no write of it between them (or both absolute, base r0) and different
   offsets never alias; resident and global memory are read-only and never conflict.
+- **order** (`.sched inorder` only): every load from resident or global memory after the previous
+  one, L = 1. Those memories are read-only, so the order does not change a result, but it is what
+  the cache sees and what the paper counts: IC reads a shape record's words in address order
+  (docs/databases.md), and a region holding those loads keeps them so.
 - **fifo**: every FIFO operation (send, recv, poll, room, wait) after the previous one, L = 1: one
   per bundle, in order, so words move in the serial order and no bundle waits for a word and a
   slot at once (which could deadlock a ring the serial order does not).
 - **control**: every operation -> the control transfer or halt that ends the block, L = 0 (it may
-  share the last bundle: the operations of a bundle issue whatever the branch decides).
+  share the last bundle: the operations of a bundle issue whatever the branch decides). In a
+  superblock (`.deadout`: blocks joined through the fall-through of branches out of the region)
+  a branch is a side exit: the operations after it keep behind it (L = 1) unless `speculable` —
+  register computations into registers dead at every exit, which may issue above it.
 
 With `loop=True` the operations are one iteration of a single-block loop whose last operation
 is its back edge, and loop-carried edges (d = 1) join iteration j to j+1: registers read before
@@ -48,6 +55,7 @@ from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.processors import ZERO_REGISTER, Processor
 
 FIFO_KINDS = frozenset({"send", "recv", "poll", "room", "wait"})
+ORDERED_SPACES = frozenset({"resident", "global"})  # loads `.sched inorder` keeps in order
 BLOCK_END_KINDS = frozenset({"branch", "jump", "jumpr", "call", "ret", "halt"})
 
 
@@ -132,9 +140,13 @@ class DependenceGraph:
 
 
 def dependences(ops: list[Op] | tuple[Op, ...], proc: Processor, config: MachineConfig,
-                loop: bool = False) -> DependenceGraph:
+                loop: bool = False, inorder: bool = False,
+                deadout: frozenset[int] | None = None) -> DependenceGraph:
     """The dependence graph of `ops` (serial order) on `proc` under `config`; `loop=True` adds
-    the loop-carried edges of a single-block loop whose body is `ops` (module docstring)."""
+    the loop-carried edges of a single-block loop whose body is `ops`, `inorder=True` the order
+    of resident and global loads, `deadout` makes `ops` a superblock: branches inside it are side
+    exits, and an operation after one may move above it only if it is `speculable` under
+    `deadout` (module docstring)."""
     ops = tuple(ops)
     n = len(ops)
     lat = tuple(result_latency(op, proc, config) for op in ops)
@@ -146,6 +158,7 @@ def dependences(ops: list[Op] | tuple[Op, ...], proc: Processor, config: Machine
     base_version: list[int] = []  # per op: the last writer of its memory base before it (-1)
     mem_ops: list[int] = []
     last_fifo = -1
+    last_load = -1
     for j, op in enumerate(ops):
         reads, writes = op.reads(), op.writes()
         for r in set(reads):
@@ -168,6 +181,10 @@ def dependences(ops: list[Op] | tuple[Op, ...], proc: Processor, config: Machine
                         _may_alias(ops, base_version, i, j):
                     edges.add(Edge(i, j, _memory_latency(ops[i], op), 0, "memory"))
             mem_ops.append(j)
+        if inorder and oc.kind == "load" and oc.space in ORDERED_SPACES:
+            if last_load >= 0:
+                edges.add(Edge(last_load, j, 1, 0, "order"))
+            last_load = j
         if oc.kind in FIFO_KINDS:
             if last_fifo >= 0:
                 edges.add(Edge(last_fifo, j, 1, 0, "fifo"))
@@ -181,6 +198,10 @@ def dependences(ops: list[Op] | tuple[Op, ...], proc: Processor, config: Machine
     for end in ends:
         for i in range(end):
             edges.add(Edge(i, end, 0, 0, "control"))
+        if deadout is not None:
+            for j in range(end + 1, n):
+                if not speculable(ops[j], deadout):
+                    edges.add(Edge(end, j, 1, 0, "control"))
 
     if loop and n:
         first_write: dict[int, int] = {}
@@ -206,6 +227,10 @@ def dependences(ops: list[Op] | tuple[Op, ...], proc: Processor, config: Machine
         fifo = [j for j, op in enumerate(ops) if op.opcode.kind in FIFO_KINDS]
         if fifo:
             edges.add(Edge(fifo[-1], fifo[0], 1, 1, "fifo"))
+        loads = [j for j, op in enumerate(ops)
+                 if op.opcode.kind == "load" and op.opcode.space in ORDERED_SPACES]
+        if inorder and loads:
+            edges.add(Edge(loads[-1], loads[0], 1, 1, "order"))
     ordered = tuple(sorted(edges, key=lambda e: (e.src, e.dst, e.distance, e.kind, e.reg or 0)))
     return DependenceGraph(ops, lat, holds, ordered, loop)
 
@@ -244,10 +269,21 @@ def is_fifo(op: Op) -> bool:
     return op.opcode.kind in FIFO_KINDS
 
 
+def speculable(op: Op, deadout: frozenset[int]) -> bool:
+    """Whether `op` may issue above a side exit of a superblock (or in its bundle, which issues
+    whatever the branch decides): it only computes into registers dead at every exit of the
+    region (`.deadout`) — no memory, FIFO or control operation, no write of a live register."""
+    kind = op.opcode.kind
+    if kind in BLOCK_END_KINDS or kind in FIFO_KINDS or kind in ("load", "store", "nop"):
+        return False
+    writes = op.writes()
+    return bool(writes) and all(r in deadout for r in writes)
+
+
 def ends_block(op: Op) -> bool:
     """A control transfer or halt: the last operation of a block (docs/scheduling.md)."""
     return op.opcode.kind in BLOCK_END_KINDS
 
 
-__all__ = ["DependenceGraph", "Edge", "dependences", "ends_block", "is_fifo",
+__all__ = ["DependenceGraph", "Edge", "dependences", "ends_block", "is_fifo", "speculable",
            "issue_hold", "result_latency", "unit_busy"]

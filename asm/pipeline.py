@@ -25,7 +25,8 @@ Registers: every value the body defines gets U/q copies (`q` = how many iteratio
 lifetime spans); the last copy of a register's last definition is the register itself, so
 values live into the loop need no copying in and live-out values are moved back once at exit.
 The scheduler drops register anti and output edges (the renaming honours them: a copy is not
-rewritten before its last read) and keeps true, memory and FIFO edges (asm/dependences.py).
+rewritten before its last read) and keeps true, memory, FIFO and (`.sched inorder`) load-order
+edges (asm/dependences.py).
 """
 
 from __future__ import annotations
@@ -229,13 +230,13 @@ def _join(bundle: list[Placed], items: list[Placed], ops, proc: Processor) -> bo
 
 
 def pipeline_loop(ops: list[Op], proc: Processor, config: MachineConfig, temps: list[int],
-                  report: PipelineReport) -> Layout | None:
+                  report: PipelineReport, inorder: bool = False) -> Layout | None:
     """The pipelined layout of a loop body (serial order, its back edge last), or None with
     `report.reason` saying why not. `report` gets the bounds and what was achieved."""
     report.ops = len(ops)
     shape = analyse(ops)
-    g = dependences(ops, proc, config, loop=True)
-    edges = [e for e in g.edges if e.kind in ("true", "memory", "fifo")]
+    g = dependences(ops, proc, config, loop=True, inorder=inorder)
+    edges = [e for e in g.edges if e.kind in ("true", "memory", "fifo", "order")]
     report.res_mii, report.res_detail = resource_bound(g, proc, config)
     report.port_mii, report.port_detail = port_bound(g, proc)
     report.rec_mii = recurrence_bound(len(ops), edges)
@@ -290,13 +291,13 @@ def pipeline_loop(ops: list[Op], proc: Processor, config: MachineConfig, temps: 
         report.registers = tuple(sorted({r for d in names for r in names[d] if r in temps} |
                                         ({temps[0]} if stages > 1 else set())))
         return _emit(ops, g, reads, time, ii, stages, unroll, names, shape, proc, config,
-                     temps[0] if temps else 0, last_def)
+                     temps[0] if temps else 0, last_def, inorder)
     report.reason = reason
     return None
 
 
 def _emit(ops, g, reads, time, ii, stages, unroll, names, shape: _Loop, proc, config, guard_temp,
-          last_def) -> Layout:
+          last_def, inorder: bool = False) -> Layout:
     n = len(ops)
     br = shape.branch
     out = Layout()
@@ -368,7 +369,7 @@ def _emit(ops, g, reads, time, ii, stages, unroll, names, shape: _Loop, proc, co
             emit_block(items)
     if stages > 1:
         out.add_label("fallback")
-        for b in list_schedule(ops, proc, config):
+        for b in list_schedule(ops, proc, config, dependences(ops, proc, config, inorder=inorder)):
             out.bundles.append([Placed(k, target="fallback" if k == br else "") for k in b])
     out.add_label("done")
     return out

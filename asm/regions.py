@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from netsushisen.asm.checker import check_bundle
-from netsushisen.asm.dependences import ends_block
+from netsushisen.asm.dependences import dependences, ends_block
 from netsushisen.asm.objects import Op, SourceLoc
 from netsushisen.asm.parser import Directive, Loc
 from netsushisen.asm.pipeline import Layout, Placed, PipelineReport, materialize, pipeline_loop
@@ -40,6 +40,8 @@ class Region:
     starts: set[int] = field(default_factory=set)  # region-local indices labels point at
     loops: list[RegionLoop] = field(default_factory=list)
     temps: list[int] = field(default_factory=list)
+    inorder: bool = False  # `.sched inorder`: resident and global loads keep their order
+    deadout: list[int] = field(default_factory=list)  # `.deadout`: dead at every exit
 
 
 def blocks(n: int, ops: list[Op], starts: set[int]) -> list[tuple[int, int]]:
@@ -58,16 +60,40 @@ def blocks(n: int, ops: list[Op], starts: set[int]) -> list[tuple[int, int]]:
     return out
 
 
+def superblocks(spans: list[tuple[int, int]], ops: list[Op], targets: list[int | None],
+                starts: set[int], heads: set[int]) -> list[tuple[int, int]]:
+    """Blocks joined through the fall-through of a conditional branch out of the region into a
+    block no label starts: one superblock, scheduled as one (its branches are side exits). A
+    `.pipeline` loop's block stays alone."""
+    out: list[tuple[int, int]] = []
+    for a, b in spans:
+        if out and out[-1][0] not in heads:
+            pa, pb = out[-1]
+            last = ops[pb - 1]
+            if pb == a and a not in starts and last.opcode.kind == "branch" and targets[pb - 1] is None:
+                out[-1] = (pa, b)
+                continue
+        out.append((a, b))
+    return out
+
+
 def schedule_region(ops: list[Op], targets: list[int | None], starts: set[int],
                     loops: list[RegionLoop], temps: list[int], proc: Processor,
-                    config: MachineConfig) -> tuple[Layout, dict[int, int], list[PipelineReport]]:
+                    config: MachineConfig, inorder: bool = False, deadout: list[int] | None = None
+                    ) -> tuple[Layout, dict[int, int], list[PipelineReport]]:
     """The region's layout, where each block start (region-local index) lands, and a report per
-    `.pipeline` loop. `targets[i]`: the region-local index operation i branches to, if inside."""
+    `.pipeline` loop. `targets[i]`: the region-local index operation i branches to, if inside.
+    `inorder`: resident and global loads keep their serial order (`.sched inorder`); `deadout`:
+    registers dead at every exit of the region, which makes superblocks (`.deadout`)."""
     layout = Layout()
     starts_at: dict[int, int] = {}
     reports = []
     heads = {loop.head: loop for loop in loops}
-    for a, b in blocks(len(ops), ops, starts | set(heads)):
+    spans = blocks(len(ops), ops, starts | set(heads))
+    dead = frozenset(deadout) if deadout else None
+    if dead is not None:
+        spans = superblocks(spans, ops, targets, starts | set(heads), set(heads))
+    for a, b in spans:
         starts_at[a] = len(layout.bundles)
         body = ops[a:b]
         loop = heads.get(a)
@@ -78,7 +104,7 @@ def schedule_region(ops: list[Op], targets: list[int | None], starts: set[int],
                 report.ops = len(body)
                 report.reason = "it is not a single-block loop (its last operation does not branch back to its head)"
             else:
-                sub = pipeline_loop(body, proc, config, temps, report)
+                sub = pipeline_loop(body, proc, config, temps, report, inorder)
                 if sub is not None:
                     prefix = f"{loop.name}."
                     for bundle in sub.bundles:
@@ -86,7 +112,8 @@ def schedule_region(ops: list[Op], targets: list[int | None], starts: set[int],
                     for name, at in sub.labels.items():
                         layout.labels[prefix + name] = starts_at[a] + at
                     continue
-        for bundle in list_schedule(body, proc, config):
+        graph = dependences(body, proc, config, inorder=inorder, deadout=dead)
+        for bundle in list_schedule(body, proc, config, graph):
             layout.bundles.append([Placed(a + i) for i in bundle])
     starts_at[len(ops)] = len(layout.bundles)
     return layout, starts_at, reports
@@ -98,22 +125,30 @@ def _shift(p: Placed, offset: int, prefix: str) -> Placed:
                   p.source + offset if p.source >= 0 else -1)
 
 
+def _word(a) -> str | None:
+    """A directive argument that is a bare name (`inorder`), else None."""
+    return a.value[1] if a.kind == "expr" and a.value[0] == "name" else None
+
+
 class RegionAssembly:
     """The assembler's handling of `.sched` regions (a mixin of `assembler.Assembler`, as
     `macros.MacroExpansion` is: it uses its state `st`, `config`, `_resolve_ops`)."""
 
     def _sched_directive(self, d: Directive) -> None:
-        """`.sched`, `.endsched`, `.pipeline`, `.temps` (docs/scheduling.md)."""
+        """`.sched`, `.endsched`, `.pipeline`, `.temps`, `.deadout` (docs/scheduling.md)."""
         st = self.st
         name, args = d.name, d.args
-        if name != "temps" and args:
-            st.error(f".{name} takes no arguments", d.loc)
+        inorder = name == "sched" and len(args) == 1 and _word(args[0]) == "inorder"
+        if name not in ("temps", "deadout") and args and not inorder:
+            st.error(f".{name} takes no arguments" if name != "sched" else
+                     ".sched takes no argument but `inorder` (resident and global loads keep "
+                     "their order)", d.loc)
             return
         if name == "sched":
             if st.region is not None:
                 st.error(f".sched inside a .sched region (opened at line {st.region.loc.line})", d.loc)
                 return
-            st.region = Region(d.loc, len(st.bundles))
+            st.region = Region(d.loc, len(st.bundles), inorder=inorder)
             st.regions.append(st.region)
             return
         if st.region is None:
@@ -127,15 +162,16 @@ class RegionAssembly:
             st.region = None
         elif name == "pipeline":
             st.pipeline_mark = d.loc
-        else:  # temps: rA-rB or registers, comma-separated
+        else:  # temps / deadout: rA-rB or registers, comma-separated
+            into = st.region.temps if name == "temps" else st.region.deadout
             if not args:
-                st.error(".temps takes registers: .temps r40-r47 or .temps r40, r41", d.loc)
+                st.error(f".{name} takes registers: .{name} r40-r47 or .{name} r40, r41", d.loc)
             for a in args:
                 regs = self._temps_arg(a)
                 if regs is None:
-                    st.error(".temps takes registers: rA-rB (a range) or rA", a.loc)
+                    st.error(f".{name} takes registers: rA-rB (a range) or rA", a.loc)
                     continue
-                st.region.temps.extend(r for r in regs if r not in st.region.temps)
+                into.extend(r for r in regs if r not in into)
 
     def _temps_arg(self, a) -> list[int] | None:
         from netsushisen.asm.assembler import register_index
@@ -177,7 +213,7 @@ class RegionAssembly:
                 t = next((a for o, a in zip(op.opcode.operands, op.args) if o.kind == "label"), None)
                 targets.append(t - r.first if t is not None and r.first <= t < r.end else None)
             layout, starts_at, reports = schedule_region(ops, targets, r.starts, r.loops, r.temps,
-                                                         proc, self.config)
+                                                         proc, self.config, r.inorder, r.deadout)
             self.pipeline_reports.extend(reports)
             for local, off in starts_at.items():
                 old_to_new.setdefault(r.first + local, addr + off)

@@ -1,8 +1,9 @@
 """The list scheduler of linear assembly (`.sched` regions): a block's operations into bundles.
 
 Cycle by cycle, the ready operations (every predecessor placed, its latency elapsed) are placed
-highest priority first — the longest latency-weighted path to the end of the block
-(`DependenceGraph.heights`), then serial order, so the result is deterministic — wherever the
+highest priority first — in a superblock, what its earliest side exit waits for; then the longest
+latency-weighted path to the end of the block (`DependenceGraph.heights`); then serial order, so
+the result is deterministic — wherever the
 processor's resources allow (`Reservations`): unit slots (an unpipelined unit stays busy for its
 latency), distinct register reads within the read ports, register writes within the write ports
 both per bundle and per completion cycle (T5), one control transfer, nothing issued while a load
@@ -18,7 +19,7 @@ from __future__ import annotations
 from collections import Counter
 from dataclasses import dataclass, field
 
-from netsushisen.asm.dependences import DependenceGraph, dependences, unit_busy
+from netsushisen.asm.dependences import BLOCK_END_KINDS, DependenceGraph, dependences, unit_busy
 from netsushisen.asm.objects import Op
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.processors import Processor
@@ -142,7 +143,11 @@ def issue_times(ops: list[Op] | tuple[Op, ...], proc: Processor, config: Machine
     waiting = [sum(1 for e in g.preds(i) if e.distance == 0) for i in range(n)]
     earliest = [0] * n
     ready = {i for i in range(n) if waiting[i] == 0}
-    key = {i: (-g.heights[i], i) for i in range(n)}
+    # a superblock's side exits first: an operation ranks by the first control transfer at or
+    # after it (serial order), so what an exit waits for is placed before what may be hoisted
+    ends = [j for j, op in enumerate(g.ops) if op.opcode.kind in BLOCK_END_KINDS]
+    rank = [next((k for k, j in enumerate(ends) if j >= i), len(ends)) for i in range(n)]
+    key = {i: (rank[i], -g.heights[i], i) for i in range(n)}
     left = n
     cycle = 0
     while left:

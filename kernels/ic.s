@@ -300,6 +300,18 @@ fan_b:      .space FAN_WORDS
 .equ EARLY_K, 0.999755859375    # 1 - 2^-12, exact in fp32 and fp64
 .equ EARLY_LO, 1e-30
 .equ EARLY_HI, 1e30
+# The range rejections (sphere, cylinder; docs/kernels.md, "Range rejection"): after golden's disc,
+# before (or beside) its sqrt, a test whose roots are all out of range (t <= t_min, t beyond
+# L = min(t_exit, best), the cylinder's z outside [0, L]) goes to the next cell. Each bound is
+# exact or compares squares with a relative margin far above the rounding between them: disc
+# (1 -+ 2^-18) (RANGE_LOW, RANGE_K) against h^2, L' = L (1 + 2^-20) > L; the cylinder's z, whose
+# rounding is absolute, by RANGE_M (2^-12) of its terms' size.
+.equ RANGE_M, 0.000244140625    # 2^-12
+.equ RANGE_L, 1.00000095367431640625  # 1 + 2^-20, exact in fp32 and fp64
+.equ RANGE_K, 1.000003814697265625    # 1 + 2^-18
+.equ RANGE_LOW, 0.999996185302734375  # 1 - 2^-18
+.equ RANGE_Z, 1.0009765625      # 1 + 2^-10 (the cylinder's far side)
+.equ RANGE_LO, 2e-30            # a square below it is not compared (no underflow)
 
 # ---- start -----------------------------------------------------------------------------------
 .text

@@ -23,7 +23,7 @@ The machine's bundle semantics decide the latencies (docs/timing.md T2-T8; docs/
   same base register with no write of it between them (or both absolute, base r0) and different
   offsets never alias; resident and global memory are read-only and never conflict.
 - **order** (`.sched inorder` only): every load from resident or global memory after the previous
-  one, L = 1. Those memories are read-only, so the order does not change a result, but it is what
+  one, L = the previous load's issue hold. Those memories are read-only, so the order does not change a result, but it is what
   the cache sees and what the paper counts: IC reads a shape record's words in address order
   (docs/databases.md), and a region holding those loads keeps them so.
 - **fifo**: every FIFO operation (send, recv, poll, room, wait) after the previous one, L = 1: one
@@ -182,8 +182,8 @@ def dependences(ops: list[Op] | tuple[Op, ...], proc: Processor, config: Machine
                     edges.add(Edge(i, j, _memory_latency(ops[i], op), 0, "memory"))
             mem_ops.append(j)
         if inorder and oc.kind == "load" and oc.space in ORDERED_SPACES:
-            if last_load >= 0:
-                edges.add(Edge(last_load, j, 1, 0, "order"))
+            if last_load >= 0:  # (the previous load holds issue that long: heights count it)
+                edges.add(Edge(last_load, j, holds[last_load], 0, "order"))
             last_load = j
         if oc.kind in FIFO_KINDS:
             if last_fifo >= 0:

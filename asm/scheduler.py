@@ -147,7 +147,23 @@ def issue_times(ops: list[Op] | tuple[Op, ...], proc: Processor, config: Machine
     # after it (serial order), so what an exit waits for is placed before what may be hoisted
     ends = [j for j, op in enumerate(g.ops) if op.opcode.kind in BLOCK_END_KINDS]
     rank = [next((k for k, j in enumerate(ends) if j >= i), len(ends)) for i in range(n)]
-    key = {i: (rank[i], -g.heights[i], i) for i in range(n)}
+    height = list(g.heights)
+    if len(ends) > 1:  # ... and within a rank, the longest path to that exit (not past it)
+        for k, end in enumerate(ends):
+            h = [0] * (end + 1)
+            for i in reversed(range(end + 1)):
+                best = 0
+                for e in g.succs(i):
+                    if e.distance == 0 and e.dst <= end:
+                        best = max(best, e.latency + h[e.dst])
+                h[i] = best
+            for i in range(end + 1):
+                if rank[i] == k:
+                    height[i] = h[i]
+    # a load that holds issue goes first among its rank: every cycle it waits is a cycle the
+    # whole machine waits later (T6), which the heights do not see
+    hold = [g.holds[i] > 1 for i in range(n)]
+    key = {i: (rank[i], not hold[i], -height[i], i) for i in range(n)}
     left = n
     cycle = 0
     while left:

@@ -1,6 +1,8 @@
 """IC's early rejection of sphere and cylinder misses (docs/kernels.md, "Early rejection") takes
 effect: in a render, most tests that reach its branch leave there, before golden's division and
-the second half of golden's chain. That it never changes a result is the kernel bench's business
+the second half of golden's chain; so do the range rejections before the sphere's and the
+cylinder's sqrt and the quadrilateral's plane rejection (docs/kernels.md, "Range and plane
+rejections") for a good share of the tests that reach them. That it never changes a result is the kernel bench's business
 (tests/test_kernel_ic.py, with mutants of it) and the renders' against the golden model
 (tests/test_render.py); this checks that it is not dead code that leaves everything to golden's
 chain, which would give the same pictures at the old cost."""
@@ -19,7 +21,7 @@ def _pcs_of(program, text: str) -> list[int]:
 
 
 @pytest.mark.heavy  # [reference] under -m slow (tests/conftest.py)
-@pytest.mark.parametrize("spec,branch", [("rings:2", "bnez c_ego"), ("balls:2", "bnez s_ego")])
+@pytest.mark.parametrize("spec,branch", [("rings:2", "bnez c_q6"), ("balls:2", "bnez s_ego")])
 def test_most_failed_tests_leave_at_the_early_branch(spec, branch, engine_name):
     result = render(spec, load_config(None, []), res=8, engine=engine_name)
     ic = result.setup.programs["ic"]
@@ -30,3 +32,21 @@ def test_most_failed_tests_leave_at_the_early_branch(spec, branch, engine_name):
     stayed = sum(issued.get(pc + 1, 0) for pc in pcs)   # fell through into golden's chain
     assert reached > 100
     assert stayed < 0.5 * reached, f"{stayed} of {reached} tests went on to golden's chain"
+
+
+@pytest.mark.heavy  # [reference] under -m slow (tests/conftest.py)
+@pytest.mark.parametrize("spec,exits,share", [
+    ("rings:2", ("bnez c_mn, cell_loop", "bnez c_mr, list_end"), 0.3),     # cylinder: range
+    ("mount", ("bnez s_mf, cell_loop", "bnez s_R, list_end"), 0.5),        # sphere: range
+    ("balls:2", ("bnez v_qm, cell_loop", "beqz v_qa, list_end"), 0.5),     # quad: plane
+])
+def test_range_and_plane_rejections_take_effect(spec, exits, share, engine_name):
+    result = render(spec, load_config(None, []), res=8, engine=engine_name)
+    ic = result.setup.programs["ic"]
+    issued = {int(k): int(v) for k, v in result.stats["processors"]["pe0.ic"]["bundles_by_pc"].items()}
+    first = _pcs_of(ic, exits[0])
+    assert first, f"no bundle holds {exits[0]!r}"
+    reached = sum(issued.get(pc, 0) for pc in first)
+    left = sum(issued.get(pc, 0) - issued.get(pc + 1, 0) for text in exits for pc in _pcs_of(ic, text))
+    assert reached > 50
+    assert left > share * reached, f"{left} of {reached} tests left at the rejection"

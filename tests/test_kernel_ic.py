@@ -596,11 +596,23 @@ MUTANTS = [
     ("balls:2", 8, 0.5, "ic.s",                              # early rejection with a margin the
      ".equ EARLY_K, 0.999755859375", ".equ EARLY_K, 1.25"),   #   wrong way: hits near the rim lost
     ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # the cylinder's early rejection
-     "fmul c_Ak, c_A, c_k", "fadd c_Ak, c_A, c_A"),          #   rejecting hits (2 q.q > r2)
+     "fadd c_q3, c_r2, c_q3", "fsub c_q3, c_r2, c_q3"),      #   with its margin the wrong way
     ("rings:2", 4, 0.5, "ic_cylinder.inc",                   # ... going on to a next cell
-     "fadd c_Zm, c_thr, c_Zg", "fmov c_Zm, c_Zg"),           #   after the last one
+     "fadd c_q6, c_q3, c_thr", "fmov c_q6, c_q3"),           #   after the last one
     ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # ... rejecting the last cell's
-     "flt c_eno, c_Zg, c_E", "flt c_eno, c_E, c_Zg"),        #   hits
+     "flt c_q5, c_q3, c_q1", "flt c_q5, c_q1, c_q3"),        #   hits
+    ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # the range rejection: zB below the
+     "flt c_zlo, c_zs, c_zlo", "flt c_zlo, c_zlo, c_zs"),    #   base taken the wrong way
+    ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # ... the far side's squares
+     "flt c_mr, c_mr, c_md", "flt c_mr, c_md, c_mr"),        #   compared the wrong way
+    ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # ... -s <= t_min the wrong way
+     "fle c_ztm, c_ns, c_ztm", "fle c_ztm, c_ztm, c_ns"),
+    ("grazing_sphere.nff", 9, 0.0, "ic_sphere.inc",          # the sphere's range rejection:
+     "fle s_a0, s_U, r0", "fle s_a0, r0, s_U"),              #   t0 <= t_min the wrong way
+    ("balls:2", 8, 0.5, "ic_sphere.inc",                     # ... t0 beyond L the wrong way
+     "flt s_cB, s_dK, s_V2", "flt s_cB, s_V2, s_dK"),
+    ("quads4", 9, 0.5, "ic_polygon.inc",                     # the quadrilateral's plane
+     "fle v_qb, tres, lim", "fle v_qb, lim, tres"),          #   rejection: t <= t_exit reversed
     ("quads4", 9, 0.5, "ic_polygon.inc",                     # quads: tie-break dy before dx
      "fsel \\i, \\b, v_w, \\i", "fsel \\i, \\b, \\i, v_w"),
     ("quads4", 9, 0.5, "ic_polygon.inc",                     # quads: the second fan triangle

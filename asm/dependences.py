@@ -23,9 +23,10 @@ The machine's bundle semantics decide the latencies (docs/timing.md T2-T8; docs/
   same base register with no write of it between them (or both absolute, base r0) and different
   offsets never alias; resident and global memory are read-only and never conflict.
 - **order** (`.sched inorder` only): every load from resident or global memory after the previous
-  one, L = the previous load's issue hold. Those memories are read-only, so the order does not change a result, but it is what
-  the cache sees and what the paper counts: IC reads a shape record's words in address order
-  (docs/databases.md), and a region holding those loads keeps them so.
+  one, L = the previous load's issue hold. Those memories are read-only, so the order does not
+  change a result, but it is what the cache sees and what the paper counts: IC reads a shape
+  record's words in address order (docs/databases.md), and a region holding those loads keeps
+  them so.
 - **fifo**: every FIFO operation (send, recv, poll, room, wait) after the previous one, L = 1: one
   per bundle, in order, so words move in the serial order and no bundle waits for a word and a
   slot at once (which could deadlock a ring the serial order does not).

@@ -342,6 +342,14 @@ def _depth(tree, stop: int) -> int:
     return deepest
 
 
+@lru_cache(maxsize=1 << 15)
+def _parse_text(text: str):
+    """Lark's tree of one statement's text. A render assembles the same kernels again and again
+    (every scene, every test), and a macro body is the same text at each expansion, so the trees
+    are kept by text; `_ToAst` builds new objects from a tree and never changes it."""
+    return _lark().parse(text, start="start")
+
+
 def parse_chunk(chunk: Chunk) -> Statement | Diagnostic:
     """Parse one logical statement; a syntax error comes back as a located Diagnostic, and so
     does a statement longer than limits.MAX_STATEMENT_CHARS or an expression deeper than
@@ -352,7 +360,7 @@ def parse_chunk(chunk: Chunk) -> Statement | Diagnostic:
         return Diagnostic(f"statement of {len(chunk.text):,} characters, more than "
                           f"{MAX_STATEMENT_CHARS:,} (limits.MAX_STATEMENT_CHARS)", chunk.file, chunk.line, 1)
     try:
-        tree = _lark().parse(chunk.text, start="start")
+        tree = _parse_text(chunk.text)
     except UnexpectedInput as err:
         line = chunk.line + (getattr(err, "line", 1) or 1) - 1
         col = getattr(err, "column", 1) or 1

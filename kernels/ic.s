@@ -298,7 +298,9 @@ fan_b:      .space FAN_WORDS
 # relative: u.u and v.v at least EARLY_LO (no denormals on the way), v.v below EARLY_HI (no
 # overflow); outside them the test runs golden's chain only.
 .equ EARLY_K, 0.999755859375    # 1 - 2^-12, exact in fp32 and fp64
-.equ EARLY_M, 0.00006103515625  # 2^-14: the cylinder's margin (ic_cylinder.inc), of w.w
+# The cylinder takes the same verdict earlier from C = (w x d).a, exactly q.q * u.u for a unit
+# axis: C^2 + r2 da^2 > r2 + w.w EARLY_M (r2, EARLY_LO < w.w; docs/kernels.md, "Early rejection").
+.equ EARLY_M, 0.00006103515625  # 2^-14, of w.w
 .equ EARLY_LO, 1e-30
 .equ EARLY_HI, 1e30
 # The range rejections (sphere, cylinder; docs/kernels.md, "Range rejection"): after golden's disc,

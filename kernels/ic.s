@@ -314,7 +314,6 @@ fan_b:      .space FAN_WORDS
 .equ RANGE_K, 1.000003814697265625    # 1 + 2^-18
 .equ RANGE_LOW, 0.999996185302734375  # 1 - 2^-18
 .equ RANGE_Z, 1.0009765625      # 1 + 2^-10 (the cylinder's far side)
-.equ RANGE_LO, 2e-30            # a square below it is not compared (no underflow)
 
 # ---- start -----------------------------------------------------------------------------------
 .text

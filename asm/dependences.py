@@ -135,6 +135,16 @@ class DependenceGraph:
             h[i] = best
         return tuple(h)
 
+    def heights_to(self, end: int) -> tuple[int, ...]:
+        """Longest latency-weighted path from each operation up to `end` to operation `end`
+        over edges of distance 0 (0 at `end` itself): a superblock's priority towards one of its
+        side exits, not past it."""
+        h = [0] * (end + 1)
+        for i in reversed(range(end)):
+            h[i] = max((e.latency + h[e.dst] for e in self._succ[i]
+                        if e.distance == 0 and e.dst <= end), default=0)
+        return tuple(h)
+
     def critical_path(self) -> int:
         """Cycles from the first issue to the last result of one pass, ignoring resources."""
         return max(self.heights, default=0)
@@ -231,7 +241,7 @@ def dependences(ops: list[Op] | tuple[Op, ...], proc: Processor, config: Machine
         loads = [j for j, op in enumerate(ops)
                  if op.opcode.kind == "load" and op.opcode.space in ORDERED_SPACES]
         if inorder and loads:
-            edges.add(Edge(loads[-1], loads[0], 1, 1, "order"))
+            edges.add(Edge(loads[-1], loads[0], holds[loads[-1]], 1, "order"))
     ordered = tuple(sorted(edges, key=lambda e: (e.src, e.dst, e.distance, e.kind, e.reg or 0)))
     return DependenceGraph(ops, lat, holds, ordered, loop)
 

@@ -1,9 +1,10 @@
 """The list scheduler of linear assembly (`.sched` regions): a block's operations into bundles.
 
 Cycle by cycle, the ready operations (every predecessor placed, its latency elapsed) are placed
-highest priority first — in a superblock, what its earliest side exit waits for; then the longest
-latency-weighted path to the end of the block (`DependenceGraph.heights`); then serial order, so
-the result is deterministic — wherever the
+highest priority first — in a superblock, what its earliest side exit waits for; then a load
+that holds issue; then the longest latency-weighted path to the end of the block
+(`DependenceGraph.heights`; in a superblock, to the operation's exit); then serial order, so the
+result is deterministic — wherever the
 processor's resources allow (`Reservations`): unit slots (an unpipelined unit stays busy for its
 latency), distinct register reads within the read ports, register writes within the write ports
 both per bundle and per completion cycle (T5), one control transfer, nothing issued while a load
@@ -150,13 +151,7 @@ def issue_times(ops: list[Op] | tuple[Op, ...], proc: Processor, config: Machine
     height = list(g.heights)
     if len(ends) > 1:  # ... and within a rank, the longest path to that exit (not past it)
         for k, end in enumerate(ends):
-            h = [0] * (end + 1)
-            for i in reversed(range(end + 1)):
-                best = 0
-                for e in g.succs(i):
-                    if e.distance == 0 and e.dst <= end:
-                        best = max(best, e.latency + h[e.dst])
-                h[i] = best
+            h = g.heights_to(end)
             for i in range(end + 1):
                 if rank[i] == k:
                     height[i] = h[i]

@@ -2,8 +2,8 @@
 effect: in a render, most tests that reach its branch leave there, before golden's division and
 the second half of golden's chain; so do the range rejections before the sphere's and the
 cylinder's sqrt and the quadrilateral's plane rejection (docs/kernels.md, "Range and plane
-rejections") for a good share of the tests that reach them. That it never changes a result is the kernel bench's business
-(tests/test_kernel_ic.py, with mutants of it) and the renders' against the golden model
+rejections") for a good share of the tests that reach them. That it never changes a result is
+the kernel bench's business (tests/test_kernel_ic.py, with mutants of it) and the renders' against the golden model
 (tests/test_render.py); this checks that it is not dead code that leaves everything to golden's
 chain, which would give the same pictures at the old cost."""
 

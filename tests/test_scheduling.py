@@ -252,10 +252,6 @@ SUPER = ["li r2, 3", "lf r3, 1.5", "fadd r4, r3, r3", "flt r5, r4, r0", "bnez r5
 def test_deadout_hoists_only_dead_register_work_above_an_exit():
     config = load_config(None, [])
     plain = _region(SUPER, ".sched\n.deadout r40-r47", config)
-    where = {}
-    for k, bundle in enumerate(plain.bundles):
-        for op in bundle:
-            where.setdefault(op.mnemonic + " " + ",".join(map(str, op.args)), k)
     branch = next(k for k, b in enumerate(plain.bundles) if any(op.mnemonic == "bnez" for op in b))
     at = {op.args[0]: k for k, b in enumerate(plain.bundles) for op in b if op.mnemonic == "fmul"}
     assert at[40] <= branch and at[42] <= branch        # dead-register work above the exit
@@ -280,9 +276,9 @@ def superblock_programs(draw):
         stmt = draw(statements("ic", loop=False, fifo=False))
         if draw(st.integers(0, 2)) == 0 and stmt[0].split()[0] in ("fadd", "fmul", "fsub", "add", "addi",
                                                                      "flt", "lf", "fmov", "li"):
-            parts = stmt[0].split(None, 1)
-            dest, rest = parts[1].split(",", 1) if "," in parts[1] else (parts[1], "")
-            stmt = [f"{parts[0]} r{draw(st.integers(40, 47))}," + rest]
+            mnemonic, operands = stmt[0].split(None, 1)
+            rest = operands.split(",", 1)[1] if "," in operands else ""
+            stmt = [f"{mnemonic} r{draw(st.integers(40, 47))}," + rest]
         lines += stmt
         roll = draw(st.integers(0, 6))
         if roll == 0:

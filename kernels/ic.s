@@ -15,7 +15,8 @@
 #   start        constants
 #   main         receive a message; VISIT_FIRST -> visit_first (ray record + per-ray setup),
 #                VISIT of a ray not in the registers -> reload (from the slot table)
-#   cell_loop    one list cell: P, S, resident or not, kind word, dispatch to the kind's test
+#   cell_loop    one list cell: P, S, resident or not, kind word, dispatch to the kind's test;
+#                cell_read the same for P and S that the previous test read ahead (PRELOAD)
 #   <kind>_r/_g  the kind's test-word loads (ldr / ldg: the same bundles twice), overlapped with
 #                its first FP operations, then the shared rest (ic_polygon.inc, ic_sphere.inc,
 #                ic_cylinder.inc, ic_cone.inc)
@@ -53,6 +54,22 @@
 # findings' reading `--lists local` (docs/databases.md); OS still sends ICGM addresses.
 .ifndef LISTS_LOCAL
 .equ LISTS_LOCAL, 0
+.endif
+.ifndef SERIAL_TREES
+.equ SERIAL_TREES, 0            # one ray tree at a time (os.s): the paper's exact load stream
+.endif
+# Two ways to read less or earlier than golden's access stream (docs/kernels.md, "Reading ahead,
+# reading less"); both off in serial mode, whose loads are the paper's stream load by load
+# (-D PRELOAD=0 -D LAZY_WORDS=0 gives that order with several rays in flight too):
+# PRELOAD = 1: a sphere (ICGM) or cylinder test reads the next cell's P and S while its FP chain
+#   runs (READ_AHEAD); the last cell reads its own again, an occluded shadow ray one cell more.
+# LAZY_WORDS = 1: words a test's rejections do not use are read only when it goes on: the
+#   cylinder's L, a quadrilateral's v1..v3, a triangle's normal (without patches).
+.ifndef PRELOAD
+.equ PRELOAD, !SERIAL_TREES
+.endif
+.ifndef LAZY_WORDS
+.equ LAZY_WORDS, !SERIAL_TREES
 .endif
 # The generic kernel (every HAS_* = 1, `render --generic`) assembles every path, also those that
 # depend on the scene's numbers rather than its features.
@@ -125,10 +142,16 @@
 .reg pri    = r29               # P of the cell (negative: last cell)
 .reg shp    = r30               # S: shape record address
 .reg kw     = r31               # the record's kind/flags word
-# the winner (surface rays): its cell's P and S, its kind word
+# the winner (surface rays): its cell's P and S, its kind word (PRELOAD: kept in `winner`
+# during the list, loaded here by the hit)
 .reg wpri   = r32
 .reg wshp   = r33
 .reg wkw    = r34
+# PRELOAD, during a list: the next cell's P and S as a test read them ahead, and the address it
+# read them from (the test's own cell when it is the last: a word already loaded)
+.reg npri   = r32
+.reg nshp   = r33
+.reg padr   = r34
 # fan buffers (HAS_PATCHES): the current test's and the winner's
 .reg cbuf   = r35
 .reg wbuf   = r36
@@ -219,6 +242,7 @@
 
 .data
 slot_table: .space SLOTS * SLOT_WORDS   # slot s at slot_table + (s << SLOT_SHIFT)
+winner:     .space 3                    # PRELOAD: the winner's P, S and kind word
 .if HAS_PATCHES
 fan_a:      .space FAN_WORDS
 fan_b:      .space FAN_WORDS
@@ -232,6 +256,32 @@ fan_b:      .space FAN_WORDS
 .endif
 .if HAS_RESIDENT
     \block r, ldr, 0
+.endif
+.endm
+
+# PRELOAD: a test reads the next cell's P and S ahead (after its own words: the load stream keeps
+# cell order) from padr = more ? cell : the test's own cell (the last cell: a word just read);
+# `more` is the flag P >= 0 (fle r0, pri), `cell` has been advanced (padr held the test's own
+# cell). Then padr = P + M for cell_read's memory choice. A test that reads ahead (`ahead` = 1)
+# ends in to_cell1 / to_next1 / to_accept1 (cell_read, next_read, accept_read), one that does not
+# in to_cell0 / to_next0 / to_accept0 (cell_loop, next_cell, accept).
+# A list cell's P and S at `base` (from ICGM; LISTS_LOCAL: from IC's local copy), one load each.
+.macro READ_CELL base, p, s
+.if LISTS_LOCAL
+    ld \p, [\base + (IC_LISTS_BASE + CELL_PRIORITY)]
+    ld \s, [\base + (IC_LISTS_BASE + CELL_SHAPE)]
+.else
+    ldg \p, [\base + CELL_PRIORITY]
+    ldg \s, [\base + CELL_SHAPE]
+.endif
+.endm
+.macro READ_AHEAD more, ahead
+.if PRELOAD && \ahead
+    fsel padr, \more, cell, padr
+    READ_CELL padr, npri, nshp
+.if HAS_RESIDENT && HAS_GLOBAL
+    addi padr, npri, RESIDENT_M
+.endif
 .endif
 .endm
 
@@ -416,20 +466,35 @@ reload:
 # per memory (BOTH), so no copy jumps to shared code.
 visit:
 cell_loop:
-.if LISTS_LOCAL
-    { ld pri, [cell + (IC_LISTS_BASE + CELL_PRIORITY)] }
-    { ld shp, [cell + (IC_LISTS_BASE + CELL_SHAPE)] }
-.else
-    { ldg pri, [cell + CELL_PRIORITY] }
-    { ldg shp, [cell + CELL_SHAPE] }
+to_cell0:
+.if PRELOAD                         # (the list's first cell, or after a test that read no cell
+    READ_CELL cell, npri, nshp      #  ahead: P and S as a test reads them ahead)
+.if HAS_RESIDENT && HAS_GLOBAL
+    { addi padr, npri, RESIDENT_M }
 .endif
+cell_read:                          # P and S read ahead (padr: P + M)
+to_cell1:
+.if HAS_RESIDENT && HAS_GLOBAL
+    { bltu padr, mlim, rec_r ; fmov shp, nshp }                         # |P| <= M: resident
+.else
+    { fmov shp, nshp }
+.endif
+.else
+cell_read:
+to_cell1:
+    READ_CELL cell, pri, shp
 .if HAS_RESIDENT && HAS_GLOBAL
     { addi m_t, pri, RESIDENT_M }
     { bltu m_t, mlim, rec_r }                                           # |P| <= M: resident
 .endif
+.endif
 .macro RECORD m, ld, slow                # slow: 1 for ICGM (a load holds issue t_c = 2 cycles)
 rec_\m:
+.if PRELOAD
+    { \ld kw, [shp + REC_KIND] ; fmov pri, npri ; fmov padr, cell }
+.else
     { \ld kw, [shp + REC_KIND] }
+.endif
     DISPATCH \m
 .if FIRST_CYL
     CYL_BLOCK \m, \ld, \slow
@@ -462,14 +527,49 @@ rec_\m:
 
 # A test's result beat `best` (the check ends every test): a shadow ray is occluded; a surface
 # ray remembers the winner (its kind word stays in a register: word 0 is never read again).
-accept:
+# With PRELOAD the winner goes to `winner` (its registers hold the next cell's P, S and padr).
+.macro ACCEPT
+.if PRELOAD
+    { bnez shadow, occluded ; fmov best, tres }
+    { st pri, [winner] }
+    { st shp, [winner + 1] }
+.if HAS_PATCHES
+    { st kw, [winner + 2] ; fmov wbuf, cbuf }
+    { xori cbuf, cbuf, fan_a ^ fan_b }
+.else
+    { st kw, [winner + 2] }
+.endif
+.else
     { bnez shadow, occluded ; fmov best, tres ; fmov wpri, pri ; fmov wshp, shp }
 .if HAS_PATCHES
     { fmov wkw, kw ; fmov wbuf, cbuf ; xori cbuf, cbuf, fan_a ^ fan_b }   # the winner's fan data
 .else                                                                   #   stays, the next test
     { fmov wkw, kw }                                                    #   writes the other buffer
 .endif
+.endif
+.endm
+.if PRELOAD
+accept_read:                    # ... after a test that read the next cell ahead
+to_accept1:
+    ACCEPT
+next_read:
+to_next1:
+    bge pri, r0, cell_read      # P > 0: not the last cell
+    j list_end
+.endif
+accept:
+to_accept0:
+.if !PRELOAD
+accept_read:
+to_accept1:
+.endif
+    ACCEPT
 next_cell:
+to_next0:
+.if !PRELOAD
+next_read:
+to_next1:
+.endif
     bge pri, r0, cell_loop      # P > 0: not the last cell
 
 # ---- the list is done: answer OS ----------------------------------------------------------------

@@ -11,7 +11,7 @@ With `lists_local` it does so in the reading the findings use (`--sizing records
 local`): the lists in IC's local memory (the kernels' LISTS_LOCAL build), the memories sized
 against the shape records (`findings_config`), the trace side `SweepStream(lists_cached=False)`.
 
-`ray_order_study` renders in the kernels' normal mode (several rays in flight), maps IC's
+`ray_order_study` renders in the kernels' normal mode (several rays in flight, PAPER_ORDER), maps IC's
 recorded stream back to the sweep's reference layout (`host.ic_access.to_reference`) and
 replays it through every configuration of Figures 4–5 (`paper_sweep.replay_figures`), so the
 findings can be recomputed in the machine's own ray order (report.md's "Ray order" section).
@@ -44,6 +44,11 @@ from netsushisen.reports.paper_data import PaperOptions
 
 SERIAL = {"SERIAL_TREES": 1}
 """The kernels' serial ray-tree mode (with one slot)."""
+
+PAPER_ORDER = {"PRELOAD": 0, "LAZY_WORDS": 0}
+"""The kernels' normal mode with the paper's load order, as the serial mode assembles it: every
+test reads its record whole, in address order, and no list cell ahead (kernels/ic.s;
+docs/kernels.md, "Reading ahead, reading less")."""
 
 COMPARED = ("resident", "cache", "global", "regions", "primitives")
 """IC's counters the two paths must agree on (`MemorySystem.stats()` keys)."""
@@ -276,7 +281,8 @@ def machine_chunks(layout, space: np.ndarray, address: np.ndarray, loads_per_chu
 def ray_order_study(scene, res: int, config: MachineConfig, engine: str, corners: bool = False,
                     options: PaperOptions = PaperOptions(), serial: bool = False) -> dict:
     """Render `scene` on the machine in the kernels' normal mode (the default slots, several
-    rays in flight; `serial`: the serial mode instead) with IC's loads recorded, and replay
+    rays in flight, PAPER_ORDER: so only the ray order differs; `serial`: the serial mode
+    instead) with IC's loads recorded, and replay
     that stream through every memory configuration of Figures 4–5 under `options` (the same
     sweep as the trace-driven path's, in the machine's ray order): the figures' rows and the
     run."""
@@ -284,7 +290,7 @@ def ray_order_study(scene, res: int, config: MachineConfig, engine: str, corners
 
     t0 = time.perf_counter()
     r = render(scene, config, res=res, corners=corners, engine=engine, record_loads=True,
-               slots=1 if serial else DEFAULT_SLOTS, defines=SERIAL if serial else None)
+               slots=1 if serial else DEFAULT_SLOTS, defines=SERIAL if serial else PAPER_ORDER)
     setup = r.setup
     out = {"scene": setup.scene.name, "cycles": int(r.run.cycles), "status": r.run.status,
            "slots": setup.defines.get("SLOTS"), "machine_seconds": time.perf_counter() - t0}

@@ -184,4 +184,8 @@ def annotate_sections(stats: dict, proc: str | None = None, top: int | None = No
         listing.columns.pop(col)
         for row in listing.rows:
             row.pop(col)
+    else:  # too wide for the terminal with it: the bundles and their lines, then their counts
+        listing.panels = [["processor", "pc", "location", "bundle", "source lines"],
+                          ["processor", "pc", "location", "issued", "stall cycles", "stalls by cause",
+                           "share", "fill"]]
     return [listing, loops]

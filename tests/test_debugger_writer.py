@@ -480,27 +480,28 @@ def test_info_loop_bound_follows_the_configuration(debug, named):
 
 def test_the_bundled_kernels_names_in_a_scene_session_and_from_an_object_file(debug, cli,
                                                                               tmp_path):
-    """The issue's acceptance: `print pri`, `display pri`, `watch pri`, `info registers pri`
-    on a scene's IC kernel, the listing showing pri/r29 — from source and from an object file."""
-    commands = ["break cell_loop", "continue", "print pri", "display pri", "watch pri",
-                "info registers pri cell", "stepi", "screen"]
+    """The issue's acceptance: `print npri`, `display npri`, `watch npri`, `info registers npri`
+    on a scene's IC kernel (npri: a list cell's P as cell_loop reads it), the listing showing
+    npri/r32 — from source and from an object file."""
+    commands = ["break cell_loop", "continue", "print npri", "display npri", "watch npri",
+                "info registers npri cell", "stepi", "screen"]
     code, out = debug(commands, "tetra:1", "--res", "3", "--proc", "ic", "--width", "120",
                       screen=True)
     assert code == 0, out
     hit = re.search(r"breakpoint 1: pe0\.ic issued pc (\d+) \(cell_loop\)", out)
     assert hit, out
     pc = int(hit.group(1))  # wherever the kernel puts cell_loop
-    assert "pri/r29 = 0" in out and "1: pri/r29 = 0" in out
-    assert "watchpoint 2 on pe0.ic.pri/r29 (now 0)" in out
-    assert " pri/r29 " in out and "*cell/r26 " in out  # info registers pri cell
-    assert "watchpoint 2: pe0.ic.pri/r29: 0 -> " in out
+    assert "npri/r32 = 0" in out and "1: npri/r32 = 0" in out
+    assert "watchpoint 2 on pe0.ic.npri/r32 (now 0)" in out
+    assert " npri/r32 " in out and "*cell/r26 " in out  # info registers npri cell
+    assert "watchpoint 2: pe0.ic.npri/r32: 0 -> " in out
     listing = [line for line in out.split("(nss) screen")[1].splitlines() if "│" in line]
-    assert any("cell_loop" in line and "ldg pri/r2" in line for line in listing)
-    assert any(f"=> {pc + 1}: ldg shp/r30, [cell/r26 + 1]" in line for line in listing)  # whole
+    assert any("cell_loop" in line and "ldg npri/r" in line for line in listing)
+    assert any(f"=> {pc + 1}: ldg nshp/r33, [cell/r26 + 1]" in line for line in listing)  # whole
     code, _, err = cli("asm", "--scene", "tetra:1", "--res", "3", "--proc", "ic",
                        "-o", tmp_path / "ic.o")
     assert code == 0, err
     code, out2 = debug(commands, "tetra:1", "--res", "3", "--proc", "ic", "--ic",
                        tmp_path / "ic.o", "--width", "120")
     assert code == 0, out2
-    assert "watchpoint 2: pe0.ic.pri/r29: 0 -> " in out2 and "1: pri/r29 = 0" in out2
+    assert "watchpoint 2: pe0.ic.npri/r32: 0 -> " in out2 and "1: npri/r32 = 0" in out2

@@ -36,8 +36,8 @@ def test_most_failed_tests_leave_at_the_early_branch(spec, branch, engine_name):
 
 @pytest.mark.heavy  # [reference] under -m slow (tests/conftest.py)
 @pytest.mark.parametrize("spec,exits,share", [
-    ("rings:2", ("bnez c_mn, cell_loop", "bnez c_mr, list_end"), 0.3),     # cylinder: range
-    ("mount", ("bnez s_mf, cell_loop", "bnez s_R, list_end"), 0.5),        # sphere: range
+    ("rings:2", ("bnez c_mn, to_cell1", "bnez c_mr, list_end"), 0.3),     # cylinder: range
+    ("mount", ("bnez s_mf, to_cell0", "bnez s_R, list_end"), 0.5),        # sphere: range
     ("balls:2", ("bnez v_qm, cell_loop", "beqz v_qa, list_end"), 0.5),     # quad: plane
 ])
 def test_range_and_plane_rejections_take_effect(spec, exits, share, engine_name):
@@ -50,3 +50,35 @@ def test_range_and_plane_rejections_take_effect(spec, exits, share, engine_name)
     left = sum(issued.get(pc, 0) - issued.get(pc + 1, 0) for text in exits for pc in _pcs_of(ic, text))
     assert reached > 50
     assert left > share * reached, f"{left} of {reached} tests left at the rejection"
+
+
+def _issued(result, texts: tuple[str, ...]) -> int:
+    ic = result.setup.programs["ic"]
+    issued = result.stats["processors"]["pe0.ic"]["bundles_by_pc"]
+    pcs = {pc for text in texts for pc in _pcs_of(ic, text)}
+    assert pcs, f"no bundle holds {texts!r}"
+    return sum(int(issued.get(str(pc), 0)) for pc in pcs)
+
+
+@pytest.mark.heavy  # [reference] under -m slow (tests/conftest.py)
+def test_reading_ahead_and_reading_less_take_effect(engine_name):
+    """docs/kernels.md, "Reading ahead, reading less": by default most of rings' cells come read
+    ahead by the test before them (cell_read without cell_loop's loads), the cylinder reads L and the
+    triangle its normal only for the tests that go on; in the paper's load order (PRELOAD=0,
+    LAZY_WORDS=0) every cell is read at cell_loop and every test reads its whole record."""
+    config = load_config(None, [])
+    for defines, ahead in (({}, True), ({"PRELOAD": 0, "LAZY_WORDS": 0}, False)):
+        rings = render("rings:2", config, res=8, engine=engine_name, defines=defines)
+        cell_read = rings.setup.programs["ic"].labels["cell_read"][1]
+        cells = int(rings.stats["processors"]["pe0.ic"]["bundles_by_pc"].get(str(cell_read), 0))
+        read = _issued(rings, ("ldg npri, [cell + CELL_PRIORITY]", "ldg pri, [cell + CELL_PRIORITY]"))
+        length, base = (_issued(rings, (f"c_{w}, [shp + CYL_{w2}]",)) for w, w2 in (("len", "LENGTH"),
+                                                                                  ("bx", "BASE")))
+        tetra = render("tetra", config, res=8, engine=engine_name, defines=defines)
+        normal, vertex = (_issued(tetra, (f"[shp + POLY_{w}]", f"[shp + (POLY_{w} + 0)]"))
+                          for w in ("NORMAL", "VERTICES"))  # (first words: linear, hand-bundled)
+        assert cells > 500 and base > 300 and vertex > 100
+        if ahead:
+            assert read < 0.6 * cells and length < 0.6 * base and normal < 0.6 * vertex
+        else:
+            assert read == cells and length == base and normal == vertex

@@ -20,6 +20,7 @@ from netsushisen.isa.config import load_config
 from netsushisen.kernels import KERNELS
 from netsushisen.reports import paper as paper_mod
 from netsushisen.reports.paper import table2
+from netsushisen.paper_machine import PAPER_ORDER
 from netsushisen.emulator.tracesim import TraceMemory
 from netsushisen.host.ic_access import machine_order, ordered_stream_chunks
 from netsushisen.paper import analyse_scene, compare_counters
@@ -69,7 +70,8 @@ def test_trace_driven_path_equals_the_emulator_small(sets):
 def test_serial_mode_ic_loads_follow_machine_order():
     """Stronger than equal counters: in serial mode IC's resident and global loads are, one by
     one, the golden trace's IC access stream in `machine_order` (each pixel's ray tree in level
-    order) — and in normal mode they are not."""
+    order) — and in normal mode with the same kernels' load order (PAPER_ORDER) they are the same
+    loads in another order."""
     _needs_kernels()
     from netsushisen.pipeline import prepare
 
@@ -91,7 +93,7 @@ def test_serial_mode_ic_loads_follow_machine_order():
     want = [(s, a) for space, address in ordered_stream_chunks(setup.images.layout, golden, machine_order(golden))
             for s, a in zip(space.tolist(), address.tolist())]
     assert ic_loads(setup) == want
-    normal = ic_loads(prepare("mount:2", config, res=6, slots=8))
+    normal = ic_loads(prepare("mount:2", config, res=6, slots=8, defines=PAPER_ORDER))
     assert sorted(normal) == sorted(want) and normal != want
 
 

@@ -53,6 +53,7 @@ from netsushisen.host.nff import parse_nff
 from netsushisen.host.prepass import run_prepass
 from netsushisen.host.rays import dot, dtype_of, normalize, primary_rays
 from netsushisen.host.records import record_sizes
+from netsushisen.paper_machine import PAPER_ORDER
 from netsushisen.host.shapes import build_shape_data, ic_rays, surface_normals
 from netsushisen.host.traversal import OSGrid, _next_crossing, trace
 from netsushisen.isa.config import load_config
@@ -420,18 +421,12 @@ def info_of(ray: Rays, r: int) -> int:
 KERNEL_DIR = KERNELS
 
 
-PAPER_ORDER = {"PRELOAD": 0, "LAZY_WORDS": 0}
-"""The kernel's paper load order (kernels/ic.s; docs/kernels.md, "Reading ahead, reading less"):
-its loads are the protocol's stream, load for load. By default IC reads some words later or not
-at all, and list cells ahead."""
-
-
 def assemble(images, generic: bool = False, paper_order: bool = False):
     defines = dict(images.symbols)
     if generic:
         defines.update({k: 1 for k in defines if k.startswith("HAS_")})
     defines["SLOTS"] = 8
-    if paper_order:
+    if paper_order:  # the kernel's loads are then the protocol's stream, load for load
         defines.update(PAPER_ORDER)
     return assemble_file(KERNEL_DIR / "ic.s", proc="ic", defines=defines, include_dirs=[KERNEL_DIR])
 

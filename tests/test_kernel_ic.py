@@ -53,13 +53,13 @@ from netsushisen.host.nff import parse_nff
 from netsushisen.host.prepass import run_prepass
 from netsushisen.host.rays import dot, dtype_of, normalize, primary_rays
 from netsushisen.host.records import record_sizes
-from netsushisen.paper_machine import PAPER_ORDER
 from netsushisen.host.shapes import build_shape_data, ic_rays, surface_normals
 from netsushisen.host.traversal import OSGrid, _next_crossing, trace
 from netsushisen.isa.config import load_config
 from netsushisen.isa.ring import parse_header
 from netsushisen.isa.words import word_format
 from netsushisen.kernels import KERNELS, protocol
+from netsushisen.paper_machine import PAPER_ORDER
 
 PROTO = protocol()
 SCENES = Path(__file__).resolve().parent / "scenes"

@@ -242,7 +242,9 @@
 
 .data
 slot_table: .space SLOTS * SLOT_WORDS   # slot s at slot_table + (s << SLOT_SHIFT)
-winner:     .space 3                    # PRELOAD: the winner's P, S and kind word
+.if PRELOAD
+winner:     .space 3                    # the winner's P, S and kind word (accept)
+.endif
 .if HAS_PATCHES
 fan_a:      .space FAN_WORDS
 fan_b:      .space FAN_WORDS

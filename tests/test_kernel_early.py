@@ -12,6 +12,7 @@ from __future__ import annotations
 import pytest
 
 from netsushisen.isa.config import load_config
+from netsushisen.paper_machine import PAPER_ORDER
 from netsushisen.pipeline import render
 
 
@@ -67,7 +68,7 @@ def test_reading_ahead_and_reading_less_take_effect(engine_name):
     triangle its normal only for the tests that go on; in the paper's load order (PRELOAD=0,
     LAZY_WORDS=0) every cell is read at cell_loop and every test reads its whole record."""
     config = load_config(None, [])
-    for defines, ahead in (({}, True), ({"PRELOAD": 0, "LAZY_WORDS": 0}, False)):
+    for defines, ahead in (({}, True), (PAPER_ORDER, False)):
         rings = render("rings:2", config, res=8, engine=engine_name, defines=defines)
         cell_read = rings.setup.programs["ic"].labels["cell_read"][1]
         cells = int(rings.stats["processors"]["pe0.ic"]["bundles_by_pc"].get(str(cell_read), 0))

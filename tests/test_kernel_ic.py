@@ -508,7 +508,10 @@ def check(case: Case, exp: Expected, out: Outcome) -> None:
     elif out.stream is not None:  # record words: only the protocol's (some not read); cells: at least
         lay = case.images.layout
         got, want = (Counter(zip(st[0].tolist(), st[1].tolist())) for st in (out.stream, exp.stream))
-        in_lists = lambda key: key[0] == GLOBAL and key[1] < lay.shape_base  # noqa: E731
+
+        def in_lists(key) -> bool:  # a list word: ICGM below the first record
+            return key[0] == GLOBAL and key[1] < lay.shape_base
+
         assert all(got[k] <= n for k, n in want.items() if not in_lists(k)), "a record word read too often"
         assert all(k in want or in_lists(k) for k in got), "a word the protocol does not read"
         assert all(got[k] >= n for k, n in want.items() if in_lists(k)), "a list cell not read"

@@ -613,13 +613,14 @@ def test_serial_mode_renders_what_normal_mode_renders(engine_name):
     of the work differs. With the paper's load order (PRELOAD=0, LAZY_WORDS=0, as serial mode
     assembles it) also the same accesses per region, resident and cache; the default kernel reads
     fewer record words (LAZY_WORDS) and some list cells ahead (PRELOAD; docs/kernels.md)."""
-    from netsushisen.pipeline import render
     from netsushisen.isa.config import load_config
+    from netsushisen.paper_machine import PAPER_ORDER
+    from netsushisen.pipeline import render
 
     config = load_config()
     serial = render("mount:2", config, res=6, slots=1, defines={"SERIAL_TREES": 1}, engine=engine_name)
     normal = render("mount:2", config, res=6, slots=8, engine=engine_name)
-    paper = render("mount:2", config, res=6, slots=8, defines={"PRELOAD": 0, "LAZY_WORDS": 0},
+    paper = render("mount:2", config, res=6, slots=8, defines=PAPER_ORDER,
                    engine=engine_name)
     for r in (serial, normal, paper):
         assert r.run.status == "finished", r.run

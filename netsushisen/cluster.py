@@ -111,8 +111,11 @@ def connect(scheduler: str | None, workers: int | None):
             # its scheduler's HTTP endpoint (health, no dashboard) warns when another cluster on
             # this machine holds the default port 8787, then takes another: not the user's concern
             warnings.filterwarnings("ignore", message="Port .* is already in use")
+            # its logs at CRITICAL only: a task's error reaches the command through its future,
+            # and after a Ctrl-C a worker whose scheduler has just closed logs a failed heartbeat
+            # with a traceback (at ERROR) on the shared terminal
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=not IN_PROCESS,
-                                   dashboard_address=None, silence_logs=logging.ERROR)
+                                   dashboard_address=None, silence_logs=logging.CRITICAL)
     finally:
         signal.signal(signal.SIGINT, previous)
     return Client(cluster), cluster

@@ -84,6 +84,7 @@
 # it came (RAY_* offsets of protocol.inc), then IC's per-ray setup.
 .equ SLOT_SHIFT, 5
 .equ SLOT_WORDS, 1 << SLOT_SHIFT
+.equ SLOT_SCALE, SLOT_WORDS     # main: slot << SLOT_SHIFT as slot * 2^SLOT_SHIFT on an FP unit
 .equ SLOT_SHADOW, RAY_WORDS     # 1: shadow ray (kind 3)
 .equ SLOT_SX, RAY_WORDS + 1     # shear d[kx]/d[kz]
 .equ SLOT_SY, RAY_WORDS + 2     # shear d[ky]/d[kz]
@@ -380,7 +381,7 @@ start:
     { li cur, -1 }
     j main
 
-# ---- main: one message from OS ---------------------------------------------------------------
+# main's registers (the message, the slot, the per-ray setup)
 .reg m_hdr = r38
 .reg m_sb  = r39                # slot << SLOT_SHIFT
 .reg m_t   = r40
@@ -416,16 +417,9 @@ start:
 # ---- the hit --------------------------------------------------------------------------------------
 .include "ic_hit.inc"
 
-main:
-    recv m_hdr, ring
-    recv slot, ring
-    recv cell, ring             # the leaf's first cell
-    recv m_texit, ring
-    beq m_hdr, hvf, visit_first
-    { beq slot, cur, visit ; fsel lim, shadow, pinf, m_texit ; fsel best, shadow, tmax, pinf }
-
-# A ray's geometry and kind between its registers and its slot-table entry (m_sb = slot <<
-# SLOT_SHIFT): `op` is ld (reload) or st (write_back), one word a bundle.
+# A ray's geometry and kind from its registers to its slot-table entry (m_sb = slot <<
+# SLOT_SHIFT), one word a bundle: write_back stores them (`op` = st); reload loads the same words
+# in its own order.
 .macro SLOT_RAY op
     { \op ox, [m_sb + (slot_table + RAY_OX)] }
     { \op oy, [m_sb + (slot_table + RAY_OY)] }
@@ -445,19 +439,94 @@ main:
     { \op fz1, [m_sb + (slot_table + SLOT_FZ1)] }
     { \op fz2, [m_sb + (slot_table + SLOT_FZ2)] }
 .endm
-# VISIT of a ray that is not in the registers: load it from the slot table.
-reload:
-    { slli m_sb, slot, SLOT_SHIFT ; fmov cur, slot }
-    SLOT_RAY ld
-.if LAZY_SETUP
-    { fsel best, shadow, tmax, pinf ; fsel lim, shadow, pinf, m_texit ; fmov sx, pinf }
-.elif HAS_POLYGONS
-    { ld sx, [m_sb + (slot_table + SLOT_SX)] }
-    { ld sy, [m_sb + (slot_table + SLOT_SY)] ; fsel best, shadow, tmax, pinf }
-    { ld fx1, [m_sb + (slot_table + SLOT_FX1)] ; fsel lim, shadow, pinf, m_texit }
-    SLOT_AXES ld
+# A test's result beat `best` (the check ends every test): a shadow ray is occluded; a surface
+# ray remembers the winner (its kind word stays in a register: word 0 is never read again).
+# With PRELOAD the winner goes to `winner` (its registers hold the next cell's P, S and padr).
+.macro ACCEPT
+.if PRELOAD
+    { bnez shadow, occluded ; fmov best, tres }
+    { st pri, [winner] }
+    { st shp, [winner + 1] }
+.if HAS_PATCHES
+    { st kw, [winner + 2] ; fmov wbuf, cbuf }
+    { xori cbuf, cbuf, fan_a ^ fan_b }
 .else
-    { fsel best, shadow, tmax, pinf ; fsel lim, shadow, pinf, m_texit }
+    { st kw, [winner + 2] }
+.endif
+.else
+    { bnez shadow, occluded ; fmov best, tres ; fmov wpri, pri ; fmov wshp, shp }
+.if HAS_PATCHES
+    { fmov wkw, kw ; fmov wbuf, cbuf ; xori cbuf, cbuf, fan_a ^ fan_b }   # the winner's fan data
+.else                                                                   #   stays, the next test
+    { fmov wkw, kw }                                                    #   writes the other buffer
+.endif
+.endif
+.endm
+.if PRELOAD
+accept_read:                    # ... after a test that read the next cell ahead
+to_accept1:
+    ACCEPT
+next_read:
+to_next1:
+    bge pri, r0, cell_read      # P > 0: not the last cell
+    j list_end
+.endif
+accept:
+to_accept0:
+.if !PRELOAD
+accept_read:
+to_accept1:
+.endif
+    ACCEPT
+next_cell:
+to_next0:
+.if !PRELOAD
+next_read:
+to_next1:
+.endif
+    bge pri, r0, cell_loop      # P > 0: not the last cell
+
+# ---- the list is done: answer OS ----------------------------------------------------------------
+list_end:
+    { bnez shadow, send_next ; flt m_t, best, pinf }
+    bnez m_t, hit
+send_next:
+    { li m_t, HDR_NEXT ; lf m_sb, SLOT_SCALE }
+    { send ring, m_t ; fmul m_sb, slot, m_sb }                          # (main: slot << SLOT_SHIFT)
+    { send ring, slot }
+    bnez dirty, write_back      # (a ray's first visit; else on to the next message)
+# ---- main: one message from OS ----------------------------------------------------------------
+# The slot's table offset m_sb = slot << SLOT_SHIFT is formed on an FP unit while the message
+# arrives (the integer unit is busy receiving): a slot number is a denormal float, and multiplying
+# it by 2^SLOT_SHIFT is exact (it stays below 2^23), in fp32 and fp64.
+main:
+    recv m_hdr, ring
+    recv slot, ring
+    { recv cell, ring ; lf m_sb, SLOT_SCALE }                           # the leaf's first cell
+    { recv m_texit, ring ; fmul m_sb, slot, m_sb }                      # slot << SLOT_SHIFT
+    beq m_hdr, hvf, visit_first
+    { beq slot, cur, visit ; fsel lim, shadow, pinf, m_texit ; fsel best, shadow, tmax, pinf }
+# VISIT of a ray that is not in the registers: load it from the slot table, its kind and t_max
+# first, so that lim and best are chosen in the bundles of the other loads.
+reload:
+    { ld shadow, [m_sb + (slot_table + SLOT_SHADOW)] ; fmov cur, slot }
+    { ld tmax, [m_sb + (slot_table + RAY_TMAX)] }
+    { ld ox, [m_sb + (slot_table + RAY_OX)] ; fsel lim, shadow, pinf, m_texit }
+.if LAZY_SETUP
+    { ld oy, [m_sb + (slot_table + RAY_OY)] ; fsel best, shadow, tmax, pinf ; fmov sx, pinf }
+.else
+    { ld oy, [m_sb + (slot_table + RAY_OY)] ; fsel best, shadow, tmax, pinf }
+.endif
+    { ld oz, [m_sb + (slot_table + RAY_OZ)] }
+    { ld dx, [m_sb + (slot_table + RAY_DX)] }
+    { ld dy, [m_sb + (slot_table + RAY_DY)] }
+    { ld dz, [m_sb + (slot_table + RAY_DZ)] }
+    { ld tmin, [m_sb + (slot_table + RAY_TMIN)] }
+.if HAS_POLYGONS && !LAZY_SETUP
+    { ld sx, [m_sb + (slot_table + SLOT_SX)] }
+    { ld sy, [m_sb + (slot_table + SLOT_SY)] }
+    { ld fx1, [m_sb + (slot_table + SLOT_FX1)] }
+    SLOT_AXES ld
 .endif
                                                                         # (falls into visit)
 # ---- the list ----------------------------------------------------------------------------------
@@ -527,65 +596,8 @@ rec_\m:
     BOTH CONE_BLOCK
 .endif
 
-# A test's result beat `best` (the check ends every test): a shadow ray is occluded; a surface
-# ray remembers the winner (its kind word stays in a register: word 0 is never read again).
-# With PRELOAD the winner goes to `winner` (its registers hold the next cell's P, S and padr).
-.macro ACCEPT
-.if PRELOAD
-    { bnez shadow, occluded ; fmov best, tres }
-    { st pri, [winner] }
-    { st shp, [winner + 1] }
-.if HAS_PATCHES
-    { st kw, [winner + 2] ; fmov wbuf, cbuf }
-    { xori cbuf, cbuf, fan_a ^ fan_b }
-.else
-    { st kw, [winner + 2] }
-.endif
-.else
-    { bnez shadow, occluded ; fmov best, tres ; fmov wpri, pri ; fmov wshp, shp }
-.if HAS_PATCHES
-    { fmov wkw, kw ; fmov wbuf, cbuf ; xori cbuf, cbuf, fan_a ^ fan_b }   # the winner's fan data
-.else                                                                   #   stays, the next test
-    { fmov wkw, kw }                                                    #   writes the other buffer
-.endif
-.endif
-.endm
-.if PRELOAD
-accept_read:                    # ... after a test that read the next cell ahead
-to_accept1:
-    ACCEPT
-next_read:
-to_next1:
-    bge pri, r0, cell_read      # P > 0: not the last cell
-    j list_end
-.endif
-accept:
-to_accept0:
-.if !PRELOAD
-accept_read:
-to_accept1:
-.endif
-    ACCEPT
-next_cell:
-to_next0:
-.if !PRELOAD
-next_read:
-to_next1:
-.endif
-    bge pri, r0, cell_loop      # P > 0: not the last cell
-
-# ---- the list is done: answer OS ----------------------------------------------------------------
-list_end:
-    { bnez shadow, send_next ; flt m_t, best, pinf }
-    bnez m_t, hit
-send_next:
-    { li m_t, HDR_NEXT }
-    { send ring, m_t }
-    { send ring, slot }
-    beqz dirty, main
 # The ray goes on: write its geometry and setup to the slot table while OS steps to the next leaf.
 write_back:
-    { slli m_sb, slot, SLOT_SHIFT }
     SLOT_RAY st
 .if HAS_POLYGONS
     { st sx, [m_sb + (slot_table + SLOT_SX)] }
@@ -608,8 +620,7 @@ occluded:
 # (mod 3), kx <-> ky if d[kz] < 0; sx = d[kx]/d[kz], sy = d[ky]/d[kz]. The axes become 0/1 flags
 # (fz1 = [kz == 1], ...) for the polygon test's fsel permutation A[k] = f2 ? Az : (f1 ? Ay : Ax).
 # Unswapped: kz = 0 -> (kx, ky) = (1, 2); kz = 1 -> (2, 0); kz = 2 -> (0, 1).
-visit_first:
-    { slli m_sb, slot, SLOT_SHIFT }
+visit_first:                    # (m_sb: main)
     recv m_t, ring
     { st m_t, [m_sb + (slot_table + RAY_PIXEL)] }
     recv m_t, ring

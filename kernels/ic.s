@@ -11,8 +11,14 @@
 #                t); after the list: DONE (to OS) + HIT (to SC), or NEXT.
 #   shadow ray:  the first primitive with t < t_max occludes: DONE at once (no more loads).
 #
-# Layout of the program:
+# Layout of the program (in this order, each part falling into the next where it can):
 #   start        constants
+#   <kind>s      the kinds' includes (hit normals; the test blocks are macros, expanded below)
+#   hit          DONE, the winner's hit words, P = o + t*d, normals, HIT (ic_hit.inc and the
+#                kind's include)
+#   accept       a test's t beat `best`: remember the winner (shadow ray: occluded)
+#   list_end     answer OS: NEXT (write_back: the ray into the slot table), or the hit; a NEXT
+#                without write-back falls into main
 #   main         receive a message; VISIT_FIRST -> visit_first (ray record + per-ray setup),
 #                VISIT of a ray not in the registers -> reload (from the slot table)
 #   cell_loop    one list cell: P, S, resident or not, kind word, dispatch to the kind's test;
@@ -20,10 +26,7 @@
 #   <kind>_r/_g  the kind's test-word loads (ldr / ldg: the same bundles twice), overlapped with
 #                its first FP operations, then the shared rest (ic_polygon.inc, ic_sphere.inc,
 #                ic_cylinder.inc, ic_cone.inc)
-#   accept       a test's t beat `best`: remember the winner (shadow ray: occluded)
-#   list_end     answer OS: NEXT (write_back: the ray into the slot table), or the hit
-#   hit          DONE, the winner's hit words, P = o + t*d, normals, HIT (ic_hit.inc and the
-#                kind's include)
+#   write_back, occluded, visit_first
 #
 # Every test leaves its result in `tres` (+inf: no counting root) and ends with the same check:
 # accept if tres <= lim and tres < best, where a surface ray has lim = t_exit, best = nearest so

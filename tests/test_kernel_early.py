@@ -1,7 +1,8 @@
 """IC's early rejection of sphere and cylinder misses (docs/kernels.md, "Early rejection") takes
 effect: in a render, most tests that reach its branch leave there, before golden's division and
 the second half of golden's chain; so do the range rejections before the sphere's and the
-cylinder's sqrt and the quadrilateral's plane rejection (docs/kernels.md, "Range and plane
+cylinder's sqrt, the cylinder's axial rejection and the quadrilateral's sign rejection beside
+golden's division, and the quadrilateral's plane rejection (docs/kernels.md, "Range and plane
 rejections") for a good share of the tests that reach them. That it never changes a result is
 the kernel bench's business (tests/test_kernel_ic.py, with mutants of it) and the renders' against the golden model
 (tests/test_render.py); this checks that it is not dead code that leaves everything to golden's
@@ -40,6 +41,8 @@ def test_most_failed_tests_leave_at_the_early_branch(spec, branch, engine_name):
     ("rings:2", ("bnez c_mn, to_cell1", "bnez c_mr, list_end"), 0.3),     # cylinder: range
     ("mount", ("bnez s_mf, to_cell0", "bnez s_R, list_end"), 0.5),        # sphere: range
     ("balls:2", ("bnez v_qm, cell_loop", "beqz v_qa, list_end"), 0.5),     # quad: plane
+    ("rings:2", ("bnez c_dg, to_cell1", "bnez c_dV, list_end"), 0.1),      # cylinder: zB, no quotient
+    ("balls:2", ("bnez v_s1, cell_loop", "bnez v_s0, list_end"), 0.5),     # quad: t's sign
 ])
 def test_range_and_plane_rejections_take_effect(spec, exits, share, engine_name):
     result = render(spec, load_config(None, []), res=8, engine=engine_name)

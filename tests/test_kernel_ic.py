@@ -624,6 +624,8 @@ MUTANTS = [
      "flt c_zlo, c_zs, c_zlo", "flt c_zlo, c_zlo, c_zs"),    #   base taken the wrong way
     ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # ... the far side's squares
      "flt c_mr, c_mr, c_md", "flt c_mr, c_md, c_mr"),        #   compared the wrong way
+    ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # ... zB's verdict without the quotient
+     "    flt c_dV, c_dS, c_dV", "    flt c_dV, c_dV, c_dS"),  #   (AXIAL_BEHIND) the wrong way
     ("rings:2", 8, 0.5, "ic_cylinder.inc",                   # ... -s <= t_min the wrong way
      "fle c_ztm, c_ns, c_ztm", "fle c_ztm, c_ztm, c_ns"),
     ("grazing_sphere.nff", 9, 0.0, "ic_sphere.inc",          # the sphere's range rejection:
@@ -632,6 +634,8 @@ MUTANTS = [
      "flt s_cB, s_dK, s_V2", "flt s_cB, s_V2, s_dK"),
     ("quads4", 9, 0.5, "ic_polygon.inc",                     # the quadrilateral's plane
      "fle v_qb, tres, lim", "fle v_qb, lim, tres"),          #   rejection: t <= t_exit reversed
+    ("quads4", 9, 0.5, "ic_polygon.inc",                     # ... its sign rejection (beside the
+     "    flt v_s0, v_sg, r0\n", "    flt v_s0, r0, v_sg\n"),  #   division) the wrong way
     ("quads4", 9, 0.5, "ic_polygon.inc",                     # quads: tie-break dy before dx
      "fsel \\i, \\b, v_w, \\i", "fsel \\i, \\b, \\i, v_w"),
     ("quads4", 9, 0.5, "ic_polygon.inc",                     # quads: the second fan triangle

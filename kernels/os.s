@@ -76,6 +76,15 @@
 .ifndef SERIAL_TREES
 .equ SERIAL_TREES, 0            # one ray tree at a time (-D SERIAL_TREES=1)
 .endif
+# Two leaves per VISIT (docs/kernels.md "Messages"): after a non-empty leaf A, OS steps on to the
+# next one, B, and sends both in one message; the serial mode does not (its reads stay those of
+# the paper's trace): every VISIT's leaf B is then CELL_NONE.
+.ifndef LOOKAHEAD
+.equ LOOKAHEAD, !SERIAL_TREES
+.endif
+.if LOOKAHEAD && SERIAL_TREES
+.error "LOOKAHEAD needs r63, which the serial mode's `alive` takes"
+.endif
 
 # Secondary rays (shadow, reflection, refraction) come back from SC as RAY messages on the
 # ring; a scene without lights and mirrors has none (no ring RAYs, no overflow queue).
@@ -151,6 +160,10 @@ top_rm:     .space 3            # float(res_a - 1): the top level's start-index 
 .if SERIAL_TREES
 .reg alive    = r63
 .endif
+# look-ahead (LOOKAHEAD): the address of nonempty_b, which neaddr holds while OS looks for leaf B
+.if LOOKAHEAD
+.reg neb      = r63
+.endif
 # the ray being traversed (from its slot)
 .reg sp       = r10             # slot base address
 .reg slot     = r11             # slot index (what IC sees)
@@ -212,6 +225,10 @@ top_rm:     .space 3            # float(res_a - 1): the top level's start-index 
 .reg d2       = r48
 .reg dneed    = r53             # words the message needs (cxy)
 .reg dret     = r54             # where it is sent from (cxz)
+# the look-ahead: leaf A, found and saved, while OS steps on to leaf B (no step, drain or send
+# path uses them; setup and sub_enter do, but neither runs during a look-ahead)
+.reg la_cell  = r45             # A's list pointer (its voxel word)
+.reg la_texit = r52             # A's t_exit
 # a ray on its way into a slot (only while it starts)
 .reg one      = r49             # 1.0 for the setup's divisions
 .reg qend     = r45             # (from_queue: the queue's end address)
@@ -237,6 +254,9 @@ start:
     { lf finf, inf ; lf fninf, -inf }
     { lf fnan, nan ; li nfree, SLOTS }
     { li stepaddr, step ; li neaddr, nonempty }
+.if LOOKAHEAD
+    li neb, nonempty_b
+.endif
     { li qcount, 0 ; li qhead, QUEUE_BASE }
     { li qtail, QUEUE_BASE ; li t0, 0 }
 .if SERIAL_TREES
@@ -634,7 +654,11 @@ step_y:
 #   tprev >= lexit: the sub-grid is finished (golden sub_end).
 # One of the two holds whenever lend is set.
 leaf_end:
+.if LOOKAHEAD
+    { flt t0, tprev, lexit ; beq neaddr, neb, la_abort }     # looking for leaf B: stop
+.else
     { flt t0, tprev, lexit }
+.endif
     { fsel t1, t0, tprev, lexit }
     { fle t0, stmax, t1 ; fle t1, lexit, tprev }
     bnez t0, ray_end
@@ -643,6 +667,9 @@ leaf_end:
 
 # The index left the level, or the sub-grid is finished.
 level_out:
+.if LOOKAHEAD
+    beq neaddr, neb, la_abort                       # looking for leaf B: stop
+.endif
 .if HAS_SUBGRIDS
     bnez insub, leave_sub
 .endif
@@ -677,6 +704,72 @@ leave_sub:
 # OS never blocks in `send` (docs/kernels.md "Deadlock freedom"): `room` first; a message that
 # does not fit its send FIFO whole waits in `drain`, which keeps reading the ring meanwhile.
 
+.if LOOKAHEAD
+# Leaf A: save the resume state exactly as a visit does (a NEXT resumes the ray from here), keep
+# A's list pointer and t_exit, and step on ("look-ahead") with neaddr = nonempty_b. m1 and tz
+# stay as the dispatch left them: `step` finishes them into tprev = tcur, as after a NEXT.
+nonempty:
+    { flt lt1, m1, tz ; st kbx, [sp + S_KB] ; st kby, [sp + (S_KB + 1)] }
+.if HAS_SUBGRIDS
+    { fsel tcur, lt1, m1, tz ; fmov la_cell, vw ; blt vw, r0, sub_enter }   # exact exit t
+.else
+    { fsel tcur, lt1, m1, tz ; fmov la_cell, vw }
+.endif
+    # the leaf's t_exit: top level tcur; in a sub-grid numpy's min(tn, T_exit), `tn < T ? tn : T`
+    { flt lt1, tcur, lexit ; st kbz, [sp + (S_KB + 2)] ; st addr, [sp + S_ADDR] }
+    { fsel la_texit, lt1, tcur, lexit ; fmov neaddr, neb ; st tcur, [sp + S_TCUR] ; j step }
+
+# Leaf B found (vw > 0): save the state after B and send both leaves. A divided voxel instead
+# (vw < 0), a leaf end (leaf_end) or the level's end (level_out) stops the look-ahead: la_abort
+# sends A alone (cell_B = CELL_NONE); the slot still holds the state after A, so the NEXT
+# resumes from A and meets that again.
+nonempty_b:
+    { flt lt1, m1, tz ; ld t0, [sp + S_FIRST] ; blt vw, r0, la_abort }
+    { fsel tcur, lt1, m1, tz ; st kbx, [sp + S_KB] ; room t4, ring }
+    { flt lt1, tcur, lexit ; st kby, [sp + (S_KB + 1)] ; st kbz, [sp + (S_KB + 2)] }
+    { fsel m1, lt1, tcur, lexit ; st addr, [sp + S_ADDR] ; st tcur, [sp + S_TCUR] }
+# t0 = the slot's S_FIRST, t4 = room; vw, m1 = cell_B, t_exit_B
+pair_out:
+    { li t1, HDR_VISIT ; slti t2, t4, 1 + LEN_VISIT }
+    { li neaddr, nonempty ; bnez t0, pair_first }
+    bnez t2, pair_full
+pair_send:
+    { send ring, t1 }
+    { send ring, slot }
+    { send ring, la_cell }
+    { send ring, la_texit }
+    { send ring, vw }
+    { send ring, m1 ; j main }
+pair_full:
+    { li dneed, 1 + LEN_VISIT ; li dret, pair_send }
+    j drain
+
+la_abort:
+    { ld t0, [sp + S_FIRST] ; li vw, CELL_NONE }
+    { room t4, ring ; fmov m1, r0 ; j pair_out }
+
+# the first visit carries the ray record (t4 = room)
+pair_first:
+    { li t1, HDR_VISIT_FIRST ; slti t2, t4, 1 + LEN_VISIT_FIRST }
+    bnez t2, first_full
+first_send:
+    { send ring, t1 ; st r0, [sp + S_FIRST] }
+    { send ring, slot ; ld t1, [sp + 0] }
+    { send ring, la_cell }
+    { send ring, la_texit }
+.rept 6                                             # the ray record, words 1..12: t1 and t2
+    { ld t2, [sp + (2 * \+ + 1)] ; send ring, t1 }   #   take turns, one loaded while the
+    { ld t1, [sp + (2 * \+ + 2)] ; send ring, t2 }   #   other is sent
+.endr
+    { send ring, t1 }
+    { send ring, vw }
+    { send ring, m1 ; j main }
+first_full:
+    { li dneed, 1 + LEN_VISIT_FIRST ; li dret, first_send }
+    j drain
+
+.else
+# No look-ahead (the serial mode): one leaf per VISIT, cell_B = CELL_NONE.
 nonempty:
     { flt lt1, m1, tz ; ld t0, [sp + S_FIRST] ; st kbx, [sp + S_KB] }
 .if HAS_SUBGRIDS
@@ -692,7 +785,9 @@ visit_send:
     { send ring, t1 ; st kbz, [sp + (S_KB + 2)] }
     { send ring, slot ; st addr, [sp + S_ADDR] }
     { send ring, vw ; st tcur, [sp + S_TCUR] }
-    { send ring, m1 ; j main }
+    { send ring, m1 ; li t3, CELL_NONE }
+    { send ring, t3 }
+    { send ring, r0 ; j main }
 visit_full:
     { li dneed, 1 + LEN_VISIT ; li dret, visit_send }
     j drain
@@ -711,10 +806,13 @@ first_send:
     { ld t2, [sp + (2 * \+ + 1)] ; send ring, t1 }   #   take turns, one loaded while the
     { ld t1, [sp + (2 * \+ + 2)] ; send ring, t2 }   #   other is sent
 .endr
-    { send ring, t1 ; j main }
+    { send ring, t1 ; li t3, CELL_NONE }
+    { send ring, t3 }
+    { send ring, r0 ; j main }
 first_full:
     { li dneed, 1 + LEN_VISIT_FIRST ; li dret, first_send }
     j drain
+.endif
 
 .if HAS_SUBGRIDS
 # Enter the sub-grid of a divided top voxel (vw = -(header address)). The top level is

@@ -134,7 +134,9 @@
 .equ S_SUB_DS, 47               # 3: sub level: address steps st_x, st_y*mx, st_z*mx*my
 .equ S_SUB_EXIT, 50             # the divided top voxel's exact T_exit
 .equ S_SUB_LIM, 51              # t_max < T_exit ? t_max : T_exit (see `lim`)
-.if S_SUB_LIM >= SLOT_WORDS
+.equ S_LA_CELL, 52              # LOOKAHEAD: leaf A's list pointer and t_exit while OS looks for
+.equ S_LA_TEXIT, 53             #   leaf B
+.if S_LA_TEXIT >= SLOT_WORDS
 .error "the slot record does not fit SLOT_WORDS"
 .endif
 
@@ -225,10 +227,6 @@ top_rm:     .space 3            # float(res_a - 1): the top level's start-index 
 .reg d2       = r48
 .reg dneed    = r53             # words the message needs (cxy)
 .reg dret     = r54             # where it is sent from (cxz)
-# the look-ahead: leaf A, found and saved, while OS steps on to leaf B (no step, drain or send
-# path uses them; setup and sub_enter do, but neither runs during a look-ahead)
-.reg la_cell  = r45             # A's list pointer (its voxel word)
-.reg la_texit = r52             # A's t_exit
 # a ray on its way into a slot (only while it starts)
 .reg one      = r49             # 1.0 for the setup's divisions
 .reg qend     = r45             # (from_queue: the queue's end address)
@@ -618,6 +616,7 @@ step_entry:
     { fmul tz, tz, lcz ; add nax, addr, dsx ; j step_go }
 step:
     { itof tx, kbx ; flt lt1, m1, tz }                    # the previous voxel's exact exit t
+step_1:
     { itof ty, kby ; fsel tprev, lt1, m1, tz }            #   = this voxel's t_enter
     { itof tz, kbz ; fmul tx, tx, lcx }
     { fmul ty, ty, lcy ; fle lend, lim, tprev }           # did the previous leaf end something?
@@ -654,11 +653,7 @@ step_y:
 #   tprev >= lexit: the sub-grid is finished (golden sub_end).
 # One of the two holds whenever lend is set.
 leaf_end:
-.if LOOKAHEAD
-    { flt t0, tprev, lexit ; beq neaddr, neb, la_abort }     # looking for leaf B: stop
-.else
     { flt t0, tprev, lexit }
-.endif
     { fsel t1, t0, tprev, lexit }
     { fle t0, stmax, t1 ; fle t1, lexit, tprev }
     bnez t0, ray_end
@@ -667,9 +662,6 @@ leaf_end:
 
 # The index left the level, or the sub-grid is finished.
 level_out:
-.if LOOKAHEAD
-    beq neaddr, neb, la_abort                       # looking for leaf B: stop
-.endif
 .if HAS_SUBGRIDS
     bnez insub, leave_sub
 .endif
@@ -705,58 +697,71 @@ leave_sub:
 # does not fit its send FIFO whole waits in `drain`, which keeps reading the ring meanwhile.
 
 .if LOOKAHEAD
-# Leaf A: save the resume state exactly as a visit does (a NEXT resumes the ray from here), keep
-# A's list pointer and t_exit, and step on ("look-ahead") with neaddr = nonempty_b. m1 and tz
-# stay as the dispatch left them: `step` finishes them into tprev = tcur, as after a NEXT.
+# Leaf A: save the resume state exactly as a visit does, and A's list pointer and t_exit, then
+# step on ("look-ahead") with neaddr = nonempty_b. m1 and tz stay as the dispatch left them:
+# `step` finishes them into tprev = tcur, as after a NEXT (its first bundle is copied here).
+# The look-ahead goes on through empty voxels, sub_enter and leave_sub, so every step it takes
+# is one the ray needs after a NEXT anyway; it ends at leaf B (nonempty_b: the pair) or where
+# the ray would end at OS (ray_end -> la_abort: A alone).
 nonempty:
     { flt lt1, m1, tz ; st kbx, [sp + S_KB] ; st kby, [sp + (S_KB + 1)] }
 .if HAS_SUBGRIDS
-    { fsel tcur, lt1, m1, tz ; fmov la_cell, vw ; blt vw, r0, sub_enter }   # exact exit t
+    { fsel tcur, lt1, m1, tz ; st vw, [sp + S_LA_CELL] ; blt vw, r0, sub_enter }   # exact exit t
 .else
-    { fsel tcur, lt1, m1, tz ; fmov la_cell, vw }
+    { fsel tcur, lt1, m1, tz ; st vw, [sp + S_LA_CELL] }
 .endif
     # the leaf's t_exit: top level tcur; in a sub-grid numpy's min(tn, T_exit), `tn < T ? tn : T`
     { flt lt1, tcur, lexit ; st kbz, [sp + (S_KB + 2)] ; st addr, [sp + S_ADDR] }
-    { fsel la_texit, lt1, tcur, lexit ; fmov neaddr, neb ; st tcur, [sp + S_TCUR] ; j step }
+    { fsel t3, lt1, tcur, lexit ; fmov neaddr, neb ; st tcur, [sp + S_TCUR] }
+    { itof tx, kbx ; flt lt1, m1, tz ; st t3, [sp + S_LA_TEXIT] ; j step_1 }   # (= step's first)
 
-# Leaf B found (vw > 0): save the state after B and send both leaves. A divided voxel instead
-# (vw < 0), a leaf end (leaf_end) or the level's end (level_out) stops the look-ahead: la_abort
-# sends A alone (cell_B = CELL_NONE); the slot still holds the state after A, so the NEXT
-# resumes from A and meets that again.
+# Leaf B (vw > 0): save the state after B and send both leaves; a divided voxel: enter it.
+# (sub_enter needs tcur. The S_KB store before it does no harm: every end of the look-ahead
+# saves the whole state.)
 nonempty_b:
-    { flt lt1, m1, tz ; ld t0, [sp + S_FIRST] ; blt vw, r0, la_abort }
-    { fsel tcur, lt1, m1, tz ; st kbx, [sp + S_KB] ; room t4, ring }
+    { flt lt1, m1, tz ; room t4, ring ; st kbx, [sp + S_KB] }
+.if HAS_SUBGRIDS
+    { fsel tcur, lt1, m1, tz ; ld t0, [sp + S_FIRST] ; blt vw, r0, sub_enter }
+.else
+    { fsel tcur, lt1, m1, tz ; ld t0, [sp + S_FIRST] }
+.endif
     { flt lt1, tcur, lexit ; st kby, [sp + (S_KB + 1)] ; st kbz, [sp + (S_KB + 2)] }
     { fsel m1, lt1, tcur, lexit ; st addr, [sp + S_ADDR] ; st tcur, [sp + S_TCUR] }
-# t0 = the slot's S_FIRST, t4 = room; vw, m1 = cell_B, t_exit_B
+# t0 = the slot's S_FIRST, t4 = room; vw, m1 = cell_B, t_exit_B (A's words are in the slot)
 pair_out:
     { li t1, HDR_VISIT ; slti t2, t4, 1 + LEN_VISIT }
     { li neaddr, nonempty ; bnez t0, pair_first }
     bnez t2, pair_full
 pair_send:
-    { send ring, t1 }
-    { send ring, slot }
-    { send ring, la_cell }
-    { send ring, la_texit }
+    { send ring, t1 ; ld t3, [sp + S_LA_CELL] }
+    { send ring, slot ; ld t2, [sp + S_LA_TEXIT] }
+    { send ring, t3 }
+    { send ring, t2 }
     { send ring, vw }
     { send ring, m1 ; j main }
 pair_full:
     { li dneed, 1 + LEN_VISIT ; li dret, pair_send }
     j drain
 
+# The look-ahead reached ray_end (the ray would end at OS: a shadow ray's t_max, or it leaves the
+# grid): save the state there (kb, addr and tprev are those `step` began the voxel with, so a
+# NEXT resumes there and comes to ray_end again) and send A alone.
 la_abort:
-    { ld t0, [sp + S_FIRST] ; li vw, CELL_NONE }
-    { room t4, ring ; fmov m1, r0 ; j pair_out }
+    { st kbx, [sp + S_KB] ; st kby, [sp + (S_KB + 1)] }
+    { st kbz, [sp + (S_KB + 2)] ; st addr, [sp + S_ADDR] ; fmov m1, r0 }
+    { st tprev, [sp + S_TCUR] ; ld t0, [sp + S_FIRST] }
+    { room t4, ring ; li vw, CELL_NONE }
+    j pair_out
 
 # the first visit carries the ray record (t4 = room)
 pair_first:
     { li t1, HDR_VISIT_FIRST ; slti t2, t4, 1 + LEN_VISIT_FIRST }
     bnez t2, first_full
 first_send:
-    { send ring, t1 ; st r0, [sp + S_FIRST] }
-    { send ring, slot ; ld t1, [sp + 0] }
-    { send ring, la_cell }
-    { send ring, la_texit }
+    { send ring, t1 ; ld t3, [sp + S_LA_CELL] }
+    { send ring, slot ; ld t2, [sp + S_LA_TEXIT] }
+    { send ring, t3 ; st r0, [sp + S_FIRST] }
+    { send ring, t2 ; ld t1, [sp + 0] }
 .rept 6                                             # the ray record, words 1..12: t1 and t2
     { ld t2, [sp + (2 * \+ + 1)] ; send ring, t1 }   #   take turns, one loaded while the
     { ld t1, [sp + (2 * \+ + 2)] ; send ring, t2 }   #   other is sent
@@ -922,6 +927,9 @@ next_sub:
 .error "ray_end checks one room for MISS and COLOR"
 .endif
 ray_end:
+.if LOOKAHEAD
+    beq neaddr, neb, la_abort                       # looking for leaf B: the ray ends, no B
+.endif
     { ld t0, [sp + RAY_INFO] ; room t4, ring }
     { andi t0, t0, 3 ; slti t4, t4, 1 + LEN_MISS }
     { addi t0, t0, -KIND_SHADOW ; li t1, HDR_MISS }

@@ -415,6 +415,10 @@ start:
 .endif
 
 # ---- the hit --------------------------------------------------------------------------------------
+# The end of leaf B (list_end; m_t = best < inf): a surface ray's hit (falls into `hit`), else NEXT.
+list_end_b:
+    { bnez shadow, send_next }
+    beqz m_t, send_next
 .include "ic_hit.inc"
 
 # A ray's geometry and kind from its registers to its slot-table entry (m_sb = slot <<
@@ -603,12 +607,6 @@ rec_\m:
 .if HAS_CONES && !FIRST_CONE
     BOTH CONE_BLOCK
 .endif
-
-# The end of leaf B (m_t = best < inf): a surface ray's hit, else NEXT.
-list_end_b:
-    { bnez shadow, send_next }
-    bnez m_t, hit
-    j send_next
 
 # The ray goes on: write its geometry and setup to the slot table while OS steps to the next leaf.
 write_back:

@@ -2,7 +2,8 @@
 # docs/databases.md "IC access protocol").
 #
 # IC receives VISIT_FIRST / VISIT messages from OS: a slot (the ray), the ICGM address of a leaf's
-# first list cell and the leaf's t_exit. For every cell of the list it reads the priority P and
+# first list cell and the leaf's t_exit, then the same two words for the ray's next leaf B
+# (CELL_NONE: none), which IC walks after A when the ray goes on. For every cell of the list it reads the priority P and
 # the shape pointer S (ldg), then the primitive's test words from resident memory (ldr, |P| <= M)
 # or through the cache (ldg, |P| > M) — the paper's rule — in ascending address order, and runs
 # the golden model's test for that kind, one IEEE operation for each of golden's, in its order.
@@ -21,7 +22,8 @@
 #                its first FP operations, then the shared rest (ic_polygon.inc, ic_sphere.inc,
 #                ic_cylinder.inc, ic_cone.inc)
 #   accept       a test's t beat `best`: remember the winner (shadow ray: occluded)
-#   list_end     answer OS: NEXT (write_back: the ray into the slot table), or the hit
+#   list_end     leaf B's words (in leaf A): walk B; else answer OS: NEXT (write_back: the ray
+#                into the slot table), or the hit
 #   hit          DONE, the winner's hit words, P = o + t*d, normals, HIT (ic_hit.inc and the
 #                kind's include)
 #

@@ -9,9 +9,10 @@
 #   setup   inv = 1/d, which axes step, the grid-entry slab, t_enter, the start voxel
 #   step    one leaf per step: the three boundary crossings t_x, t_y, t_z of the current voxel
 #           (independent per axis: the three chains share the bundles), its voxel word, the
-#           exit axis, the step along that axis. A non-empty leaf goes to IC as VISIT_FIRST /
-#           VISIT; the ray then sleeps in its slot until IC answers NEXT (go on from the next
-#           leaf) or DONE (free the slot), and OS works on other rays meanwhile.
+#           exit axis, the step along that axis. A non-empty leaf A and the ray's next one, B,
+#           go to IC as one VISIT_FIRST / VISIT (LOOKAHEAD; B = CELL_NONE if the ray ends at OS
+#           first); the ray then sleeps in its slot until IC answers NEXT (go on after the
+#           leaves) or DONE (free the slot), and OS works on other rays meanwhile.
 #   end     a surface ray that leaves (or misses) the grid -> MISS (pixel, w) to SC; a shadow
 #           ray that leaves the grid or whose leaf reaches t_max -> COLOR (pixel, c) to SC.
 #
@@ -45,7 +46,10 @@
 #                    `jr cont` -> step again (empty voxel) or nonempty
 #   leaf_end         the previous leaf reached t_max (shadow ray done) or ended its sub-grid
 #   level_out        the index left the level: leave_sub (back to the top level) or ray_end
-#   nonempty         VISIT / VISIT_FIRST (then back to main), or sub_enter (a divided voxel)
+#   nonempty         leaf A: save the state, look ahead (LOOKAHEAD), or sub_enter (a divided
+#                    voxel); without LOOKAHEAD VISIT / VISIT_FIRST with B = CELL_NONE at once
+#   nonempty_b       leaf B: save the state, VISIT / VISIT_FIRST with both leaves (pair_out);
+#                    la_abort (from ray_end): the ray ends at OS, A alone
 #   on_next          NEXT from IC: reload the ray's state from its slot, on with `step`
 #   ray_end          MISS / COLOR to SC, free the slot
 #   drain            a message does not fit the send FIFO: read the ring meanwhile (OS never

@@ -2,7 +2,8 @@
 # docs/databases.md "IC access protocol").
 #
 # IC receives VISIT_FIRST / VISIT messages from OS: a slot (the ray), the ICGM address of a leaf's
-# first list cell and the leaf's t_exit. For every cell of the list it reads the priority P and
+# first list cell and the leaf's t_exit, then the same two words for the ray's next leaf B
+# (CELL_NONE: none), which IC walks after A when the ray goes on. For every cell of the list it reads the priority P and
 # the shape pointer S (ldg), then the primitive's test words from resident memory (ldr, |P| <= M)
 # or through the cache (ldg, |P| > M) — the paper's rule — in ascending address order, and runs
 # the golden model's test for that kind, one IEEE operation for each of golden's, in its order.
@@ -17,8 +18,8 @@
 #   hit          DONE, the winner's hit words, P = o + t*d, normals, HIT (ic_hit.inc and the
 #                kind's include)
 #   accept       a test's t beat `best`: remember the winner (shadow ray: occluded)
-#   list_end     answer OS: NEXT (write_back: the ray into the slot table), or the hit; a NEXT
-#                without write-back falls into main
+#   list_end     leaf B's words (in leaf A): walk B; else answer OS: NEXT (write_back: the ray
+#                into the slot table), or the hit; a NEXT without write-back falls into main
 #   main         receive a message; VISIT_FIRST -> visit_first (ray record + per-ray setup),
 #                VISIT of a ray not in the registers -> reload (from the slot table)
 #   cell_loop    one list cell: P, S, resident or not, kind word, dispatch to the kind's test;
@@ -418,6 +419,10 @@ start:
 .endif
 
 # ---- the hit --------------------------------------------------------------------------------------
+# The end of leaf B (list_end; m_t = best < inf): a surface ray's hit (falls into `hit`), else NEXT.
+list_end_b:
+    { bnez shadow, send_next }
+    beqz m_t, send_next
 .include "ic_hit.inc"
 
 # A ray's geometry and kind from its registers to its slot-table entry (m_sb = slot <<
@@ -489,12 +494,20 @@ to_next1:
 .endif
     bge pri, r0, cell_loop      # P > 0: not the last cell
 
-# ---- the list is done: answer OS ----------------------------------------------------------------
+# ---- the list is done: answer OS, or walk the message's second leaf ----------------------------
+# A VISIT / VISIT_FIRST ends with a second leaf B (cell_B, t_exit_B; cell_B = CELL_NONE: none).
+# While leaf A is walked those two words still wait in the ring FIFO, and cur = slot; once they
+# are read cur = +inf (never a slot) until the answer (send_next, hit, occluded put cur = slot
+# back). So list_end reads them in leaf A (every surface ray's answer comes through here), and
+# `occluded` (a shadow ray's, from accept) reads them when cur = slot.
 list_end:
-    { bnez shadow, send_next ; flt m_t, best, pinf }
-    bnez m_t, hit
+    { bne cur, slot, list_end_b ; flt m_t, best, pinf }                # B walked: the words are read
+    recv cell, ring                                                     # cell_B
+    { recv m_texit, ring ; fsel m_t, shadow, r0, m_t ; fmov cur, pinf } # t_exit_B; m_t = a hit
+    { bnez m_t, hit ; fsel lim, shadow, pinf, m_texit }                 # (lim, best: as main)
+    { bge cell, r0, visit ; fsel best, shadow, tmax, pinf }             # leaf B: walk it now
 send_next:
-    { li m_t, HDR_NEXT ; lf m_sb, SLOT_SCALE }
+    { li m_t, HDR_NEXT ; lf m_sb, SLOT_SCALE ; fmov cur, slot }
     { send ring, m_t ; fmul m_sb, slot, m_sb }                          # (main: slot << SLOT_SHIFT)
     { send ring, slot }
     bnez dirty, write_back      # (a ray's first visit; else on to the next message)
@@ -611,11 +624,16 @@ write_back:
     { fmov dirty, r0 ; j main }
 
 # An occluded shadow ray ends here.
+# In leaf A (cur = slot) the message's last two words (leaf B) are read first.
 occluded:
-    { li m_t, HDR_DONE }
+    { li m_t, HDR_DONE ; fmov dirty, r0 }
+    { bne cur, slot, occluded_send ; fmov cur, slot }
+    recv m_hdr, ring                                                    # cell_B
+    recv m_hdr, ring                                                    # t_exit_B
+occluded_send:
     { send ring, m_t }
     { send ring, slot }
-    { fmov dirty, r0 ; j main }
+    j main
 # VISIT_FIRST: the 13-word ray record follows. Pixel, info and weight go straight to the slot
 # table (only a HIT needs them); origin, direction, t_min, t_max stay in registers and reach the
 # table only if the ray needs another visit (write_back, after NEXT). Meanwhile the FP units do

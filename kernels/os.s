@@ -9,9 +9,10 @@
 #   setup   inv = 1/d, which axes step, the grid-entry slab, t_enter, the start voxel
 #   step    one leaf per step: the three boundary crossings t_x, t_y, t_z of the current voxel
 #           (independent per axis: the three chains share the bundles), its voxel word, the
-#           exit axis, the step along that axis. A non-empty leaf goes to IC as VISIT_FIRST /
-#           VISIT; the ray then sleeps in its slot until IC answers NEXT (go on from the next
-#           leaf) or DONE (free the slot), and OS works on other rays meanwhile.
+#           exit axis, the step along that axis. A non-empty leaf A and the ray's next one, B,
+#           go to IC as one VISIT_FIRST / VISIT (LOOKAHEAD; B = CELL_NONE if the ray ends at OS
+#           first); the ray then sleeps in its slot until IC answers NEXT (go on after the
+#           leaves) or DONE (free the slot), and OS works on other rays meanwhile.
 #   end     a surface ray that leaves (or misses) the grid -> MISS (pixel, w) to SC; a shadow
 #           ray that leaves the grid or whose leaf reaches t_max -> COLOR (pixel, c) to SC.
 #
@@ -45,7 +46,10 @@
 #                    `jr cont` -> step again (empty voxel) or nonempty
 #   leaf_end         the previous leaf reached t_max (shadow ray done) or ended its sub-grid
 #   level_out        the index left the level: leave_sub (back to the top level) or ray_end
-#   nonempty         VISIT / VISIT_FIRST (then back to main), or sub_enter (a divided voxel)
+#   nonempty         leaf A: save the state, look ahead (LOOKAHEAD), or sub_enter (a divided
+#                    voxel); without LOOKAHEAD VISIT / VISIT_FIRST with B = CELL_NONE at once
+#   nonempty_b       leaf B: save the state, VISIT / VISIT_FIRST with both leaves (pair_out);
+#                    la_abort (from ray_end): the ray ends at OS, A alone
 #   on_next          NEXT from IC: reload the ray's state from its slot, on with `step`
 #   ray_end          MISS / COLOR to SC, free the slot
 #   drain            a message does not fit the send FIFO: read the ring meanwhile (OS never
@@ -75,6 +79,15 @@
 .endif
 .ifndef SERIAL_TREES
 .equ SERIAL_TREES, 0            # one ray tree at a time (-D SERIAL_TREES=1)
+.endif
+# Two leaves per VISIT (docs/kernels.md "Messages"): after a non-empty leaf A, OS steps on to the
+# next one, B, and sends both in one message; the serial mode does not (its reads stay those of
+# the paper's trace): every VISIT's leaf B is then CELL_NONE.
+.ifndef LOOKAHEAD
+.equ LOOKAHEAD, !SERIAL_TREES
+.endif
+.if LOOKAHEAD && SERIAL_TREES
+.error "LOOKAHEAD needs r63, which the serial mode's `alive` takes"
 .endif
 
 # Secondary rays (shadow, reflection, refraction) come back from SC as RAY messages on the
@@ -125,7 +138,9 @@
 .equ S_SUB_DS, 47               # 3: sub level: address steps st_x, st_y*mx, st_z*mx*my
 .equ S_SUB_EXIT, 50             # the divided top voxel's exact T_exit
 .equ S_SUB_LIM, 51              # t_max < T_exit ? t_max : T_exit (see `lim`)
-.if S_SUB_LIM >= SLOT_WORDS
+.equ S_LA_CELL, 52              # LOOKAHEAD: leaf A's list pointer and t_exit while OS looks for
+.equ S_LA_TEXIT, 53             #   leaf B
+.if S_LA_TEXIT >= SLOT_WORDS
 .error "the slot record does not fit SLOT_WORDS"
 .endif
 
@@ -150,6 +165,10 @@ top_rm:     .space 3            # float(res_a - 1): the top level's start-index 
 # serial mode: rays of the current tree not finished (os.s makes no call: the link register is free)
 .if SERIAL_TREES
 .reg alive    = r63
+.endif
+# look-ahead (LOOKAHEAD): the address of nonempty_b, which neaddr holds while OS looks for leaf B
+.if LOOKAHEAD
+.reg neb      = r63
 .endif
 # the ray being traversed (from its slot)
 .reg sp       = r10             # slot base address
@@ -237,6 +256,9 @@ start:
     { lf finf, inf ; lf fninf, -inf }
     { lf fnan, nan ; li nfree, SLOTS }
     { li stepaddr, step ; li neaddr, nonempty }
+.if LOOKAHEAD
+    li neb, nonempty_b
+.endif
     { li qcount, 0 ; li qhead, QUEUE_BASE }
     { li qtail, QUEUE_BASE ; li t0, 0 }
 .if SERIAL_TREES
@@ -598,6 +620,7 @@ step_entry:
     { fmul tz, tz, lcz ; add nax, addr, dsx ; j step_go }
 step:
     { itof tx, kbx ; flt lt1, m1, tz }                    # the previous voxel's exact exit t
+step_1:
     { itof ty, kby ; fsel tprev, lt1, m1, tz }            #   = this voxel's t_enter
     { itof tz, kbz ; fmul tx, tx, lcx }
     { fmul ty, ty, lcy ; fle lend, lim, tprev }           # did the previous leaf end something?
@@ -677,6 +700,85 @@ leave_sub:
 # OS never blocks in `send` (docs/kernels.md "Deadlock freedom"): `room` first; a message that
 # does not fit its send FIFO whole waits in `drain`, which keeps reading the ring meanwhile.
 
+.if LOOKAHEAD
+# Leaf A: save the resume state exactly as a visit does, and A's list pointer and t_exit, then
+# step on ("look-ahead") with neaddr = nonempty_b. m1 and tz stay as the dispatch left them:
+# `step` finishes them into tprev = tcur, as after a NEXT (its first bundle is copied here).
+# The look-ahead goes on through empty voxels, sub_enter and leave_sub, so every step it takes
+# is one the ray needs after a NEXT anyway; it ends at leaf B (nonempty_b: the pair) or where
+# the ray would end at OS (ray_end -> la_abort: A alone).
+nonempty:
+    { flt lt1, m1, tz ; st kbx, [sp + S_KB] ; st kby, [sp + (S_KB + 1)] }
+.if HAS_SUBGRIDS
+    { fsel tcur, lt1, m1, tz ; st vw, [sp + S_LA_CELL] ; blt vw, r0, sub_enter }   # exact exit t
+.else
+    { fsel tcur, lt1, m1, tz ; st vw, [sp + S_LA_CELL] }
+.endif
+    # the leaf's t_exit: top level tcur; in a sub-grid numpy's min(tn, T_exit), `tn < T ? tn : T`
+    { flt lt1, tcur, lexit ; st kbz, [sp + (S_KB + 2)] ; st addr, [sp + S_ADDR] }
+    { fsel t3, lt1, tcur, lexit ; fmov neaddr, neb ; st tcur, [sp + S_TCUR] }
+    { itof tx, kbx ; flt lt1, m1, tz ; st t3, [sp + S_LA_TEXIT] ; j step_1 }   # (= step's first)
+
+# Leaf B (vw > 0): save the state after B and send both leaves; a divided voxel: enter it.
+# (sub_enter needs tcur. The S_KB store before it does no harm: every end of the look-ahead
+# saves the whole state.)
+nonempty_b:
+    { flt lt1, m1, tz ; room t4, ring ; st kbx, [sp + S_KB] }
+.if HAS_SUBGRIDS
+    { fsel tcur, lt1, m1, tz ; ld t0, [sp + S_FIRST] ; blt vw, r0, sub_enter }
+.else
+    { fsel tcur, lt1, m1, tz ; ld t0, [sp + S_FIRST] }
+.endif
+    { flt lt1, tcur, lexit ; st kby, [sp + (S_KB + 1)] ; st kbz, [sp + (S_KB + 2)] }
+    { fsel m1, lt1, tcur, lexit ; st addr, [sp + S_ADDR] ; st tcur, [sp + S_TCUR] }
+# t0 = the slot's S_FIRST, t4 = room; vw, m1 = cell_B, t_exit_B (A's words are in the slot)
+pair_out:
+    { li t1, HDR_VISIT ; slti t2, t4, 1 + LEN_VISIT }
+    { li neaddr, nonempty ; bnez t0, pair_first }
+    bnez t2, pair_full
+pair_send:
+    { send ring, t1 ; ld t3, [sp + S_LA_CELL] }
+    { send ring, slot ; ld t2, [sp + S_LA_TEXIT] }
+    { send ring, t3 }
+    { send ring, t2 }
+    { send ring, vw }
+    { send ring, m1 ; j main }
+pair_full:
+    { li dneed, 1 + LEN_VISIT ; li dret, pair_send }
+    j drain
+
+# The look-ahead reached ray_end (the ray would end at OS: a shadow ray's t_max, or it leaves the
+# grid): save the state there (kb, addr and tprev are those `step` began the voxel with, so a
+# NEXT resumes there and comes to ray_end again) and send A alone.
+la_abort:
+    { st kbx, [sp + S_KB] ; st kby, [sp + (S_KB + 1)] }
+    { st kbz, [sp + (S_KB + 2)] ; st addr, [sp + S_ADDR] ; fmov m1, r0 }
+    { st tprev, [sp + S_TCUR] ; ld t0, [sp + S_FIRST] }
+    { room t4, ring ; li vw, CELL_NONE }
+    j pair_out
+
+# the first visit carries the ray record (t4 = room)
+pair_first:
+    { li t1, HDR_VISIT_FIRST ; slti t2, t4, 1 + LEN_VISIT_FIRST }
+    bnez t2, first_full
+first_send:
+    { send ring, t1 ; ld t3, [sp + S_LA_CELL] }
+    { send ring, slot ; ld t2, [sp + S_LA_TEXIT] }
+    { send ring, t3 ; st r0, [sp + S_FIRST] }
+    { send ring, t2 ; ld t1, [sp + 0] }
+.rept 6                                             # the ray record, words 1..12: t1 and t2
+    { ld t2, [sp + (2 * \+ + 1)] ; send ring, t1 }   #   take turns, one loaded while the
+    { ld t1, [sp + (2 * \+ + 2)] ; send ring, t2 }   #   other is sent
+.endr
+    { send ring, t1 }
+    { send ring, vw }
+    { send ring, m1 ; j main }
+first_full:
+    { li dneed, 1 + LEN_VISIT_FIRST ; li dret, first_send }
+    j drain
+
+.else
+# No look-ahead (the serial mode): one leaf per VISIT, cell_B = CELL_NONE.
 nonempty:
     { flt lt1, m1, tz ; ld t0, [sp + S_FIRST] ; st kbx, [sp + S_KB] }
 .if HAS_SUBGRIDS
@@ -692,7 +794,9 @@ visit_send:
     { send ring, t1 ; st kbz, [sp + (S_KB + 2)] }
     { send ring, slot ; st addr, [sp + S_ADDR] }
     { send ring, vw ; st tcur, [sp + S_TCUR] }
-    { send ring, m1 ; j main }
+    { send ring, m1 ; li t3, CELL_NONE }
+    { send ring, t3 }
+    { send ring, r0 ; j main }
 visit_full:
     { li dneed, 1 + LEN_VISIT ; li dret, visit_send }
     j drain
@@ -711,10 +815,13 @@ first_send:
     { ld t2, [sp + (2 * \+ + 1)] ; send ring, t1 }   #   take turns, one loaded while the
     { ld t1, [sp + (2 * \+ + 2)] ; send ring, t2 }   #   other is sent
 .endr
-    { send ring, t1 ; j main }
+    { send ring, t1 ; li t3, CELL_NONE }
+    { send ring, t3 }
+    { send ring, r0 ; j main }
 first_full:
     { li dneed, 1 + LEN_VISIT_FIRST ; li dret, first_send }
     j drain
+.endif
 
 .if HAS_SUBGRIDS
 # Enter the sub-grid of a divided top voxel (vw = -(header address)). The top level is
@@ -824,6 +931,9 @@ next_sub:
 .error "ray_end checks one room for MISS and COLOR"
 .endif
 ray_end:
+.if LOOKAHEAD
+    beq neaddr, neb, la_abort                       # looking for leaf B: the ray ends, no B
+.endif
     { ld t0, [sp + RAY_INFO] ; room t4, ring }
     { andi t0, t0, 3 ; slti t4, t4, 1 + LEN_MISS }
     { addi t0, t0, -KIND_SHADOW ; li t1, HDR_MISS }

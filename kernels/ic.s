@@ -497,13 +497,14 @@ to_next1:
 # ---- the list is done: answer OS, or walk the message's second leaf ----------------------------
 # A VISIT / VISIT_FIRST ends with a second leaf B (cell_B, t_exit_B; cell_B = CELL_NONE: none).
 # While leaf A is walked those two words still wait in the ring FIFO, and cur = slot; once they
-# are read cur = +inf (never a slot) until the answer (send_next, hit, occluded put cur = slot
+# are read cur = hvf (the VISIT_FIRST header: never a slot, also in the low 32 bits that integer
+# compares see in fp64) until the answer (send_next, hit, occluded put cur = slot
 # back). So list_end reads them in leaf A (every surface ray's answer comes through here), and
 # `occluded` (a shadow ray's, from accept) reads them when cur = slot.
 list_end:
     { bne cur, slot, list_end_b ; flt m_t, best, pinf }                # B walked: the words are read
     recv cell, ring                                                     # cell_B
-    { recv m_texit, ring ; fsel m_t, shadow, r0, m_t ; fmov cur, pinf } # t_exit_B; m_t = a hit
+    { recv m_texit, ring ; fsel m_t, shadow, r0, m_t ; fmov cur, hvf }  # t_exit_B; m_t = a hit
     { bnez m_t, hit ; fsel lim, shadow, pinf, m_texit }                 # (lim, best: as main)
     { bge cell, r0, visit ; fsel best, shadow, tmax, pinf }             # leaf B: walk it now
 send_next:

@@ -3,12 +3,14 @@
 For a scene we take rays as the golden model makes them — eye rays (host/rays.py) and, from the
 eye hits, golden's shadow, reflection and refraction rays (host/golden.py's formulas) — and
 trace them with golden's traversal (host/traversal.py `trace`, visits and references kept).
-Every non-empty leaf a ray visits becomes one VISIT_FIRST / VISIT message to IC, with the leaf's
-list pointer and golden's t_exit (recomputed from the visited voxel indices with traversal's own
-`_next_crossing`). Rays are interleaved over slots so that IC serves visits of one ray while
-others are in flight (slot table reloads). Then, per visit:
+The non-empty leaves a ray visits go to IC two at a time, as OS's look-ahead sends them: one
+VISIT_FIRST / VISIT message per pair, each leaf with its list pointer and golden's t_exit
+(recomputed from the visited voxel indices with traversal's own `_next_crossing`); after a ray's
+last leaf the second is CELL_NONE, or — when the ray ends at IC in the first — a leaf IC must not
+walk. Rays are interleaved over slots so that IC serves visits of one ray while others are in
+flight (slot table reloads). Then, per message:
 
-* IC's answer to OS (NEXT / DONE, class CLS_ANSWER, the slot) is golden's outcome of that leaf;
+* IC's answer to OS (NEXT / DONE, class CLS_ANSWER, the slot) is golden's outcome of its leaves;
 * each HIT carries the ray as sent, golden's t, golden's geometric and shading normals at
   P = o + t*d (host/shapes.py `surface_normals`, patches from golden's fan and barycentrics),
   the luminance pointer and the primitive id — every float compared as a raw word;
@@ -344,8 +346,8 @@ def build_case(spec: str, precision: str = "fp32", res: int = 8, resident: float
 
 @dataclass
 class Expected:
-    messages: list  # the host stream: VISIT_FIRST / VISIT messages for IC
-    answers: list  # (tag, slot) per visit, in message order
+    messages: list  # the host stream: VISIT_FIRST / VISIT messages for IC (two leaves each)
+    answers: list  # (tag, slot) per message, in message order
     hits: list  # HIT payload words, in order
     stream: tuple  # (space, address) of every IC load
     refs: np.ndarray  # references per primitive
@@ -364,50 +366,63 @@ def expected(case: Case, slots: int = 3) -> Expected:
         h, p, ng, ns = hit_points(tr, sd)
         for j, r in enumerate(h.tolist()):
             normals[(ti, r)] = (ng[:, j], ns[:, j])
-    # every ray with at least one visit, interleaved in groups of `slots`
+    # every ray with at least one visit, interleaved in groups of `slots`; a message carries two
+    # of its leaves (A, B) as OS's look-ahead sends them. B is the ray's next leaf; after its last
+    # leaf, none (CELL_NONE) when the ray goes on at OS, or any leaf when it ends at IC in A
+    # (here A's own list: IC must not walk it — its loads would show in the stream)
     jobs = [(ti, r) for ti, tr in enumerate(case.traced) for r in range(len(tr.rays)) if tr.visits[r]]
     for g in range(0, len(jobs), slots):
         group = jobs[g:g + slots]
-        step = 0
+        m = 0
         while True:
-            live = [(k, ti, r) for k, (ti, r) in enumerate(group) if step < len(case.traced[ti].visits[r])]
+            live = [(k, ti, r) for k, (ti, r) in enumerate(group) if 2 * m < len(case.traced[ti].visits[r])]
             if not live:
                 break
             for k, ti, r in live:
                 tr = case.traced[ti]
                 ray = tr.rays
                 slot = (g // slots + 2 * k) % 8
-                leaf, t_exit, prims = tr.visits[r][step]
-                last = step == len(tr.visits[r]) - 1
-                cell = int(lay.leaf_cell[leaf])
-                if step == 0:
+                visits = tr.visits[r]
+                pair = visits[2 * m:2 * m + 2]
+                last = 2 * m + len(pair) == len(visits)
+                hit = int(tr.prim[r]) if last and ray.kind[r] != SHADOW else -1
+                at_ic = last and (hit >= 0 or (ray.kind[r] == SHADOW and tr.occluded[r]))
+                cell = int(lay.leaf_cell[pair[0][0]])
+                if len(pair) == 2:
+                    second = [int(lay.leaf_cell[pair[1][0]]), dt(pair[1][1])]
+                elif at_ic:
+                    second = [cell, dt(pair[0][1])]
+                else:
+                    second = [PROTO["CELL_NONE"], dt(0)]
+                if m == 0:
                     info = int(ray.kind[r]) + (int(ray.depth[r]) << PROTO["INFO_DEPTH_SHIFT"])
-                    fields = [slot, cell, dt(t_exit), int(ray.pixel[r]), info,
+                    fields = [slot, cell, dt(pair[0][1]), int(ray.pixel[r]), info,
                               *[dt(x) for x in ray.o[:, r]], *[dt(x) for x in ray.d[:, r]],
-                              dt(ray.t_min[r]), dt(ray.t_max[r]), *[dt(x) for x in ray.w[:, r]]]
+                              dt(ray.t_min[r]), dt(ray.t_max[r]), *[dt(x) for x in ray.w[:, r]], *second]
                     msgs.append(encode_message(wf, "ic", PROTO["TAG_VISIT_FIRST"], fields))
                 else:
-                    msgs.append(encode_message(wf, "ic", PROTO["TAG_VISIT"], [slot, cell, dt(t_exit)]))
-                hit = int(tr.prim[r]) if last and ray.kind[r] != SHADOW else -1
-                if ray.kind[r] == SHADOW:
-                    answers.append(("DONE" if last and tr.occluded[r] else "NEXT", slot))
-                elif hit >= 0:
+                    msgs.append(encode_message(wf, "ic", PROTO["TAG_VISIT"],
+                                               [slot, cell, dt(pair[0][1]), *second]))
+                if at_ic:
                     answers.append(("DONE", slot))
+                else:
+                    answers.append(("NEXT", slot))
+                if hit >= 0:
                     ngr, nsr = normals[(ti, r)]
                     words = [int(ray.pixel[r]), int(info_of(ray, r))]
                     words += [wf.from_float(dt(x)) for x in (*ray.o[:, r], *ray.d[:, r], *ray.w[:, r],
                                                             tr.t[r], *ngr, *nsr)]
                     words += [int(lay.luminance_pointer[hit]), hit]
                     hits.append(words)
-                else:
-                    answers.append(("NEXT", slot))
-                pr = np.asarray(prims, np.int64)
-                np.add.at(refs, pr, 1)
-                sp, ad = ic_address_stream(lay, pr, np.full(len(pr), leaf), np.array([0, len(pr)]),
-                                           np.array([hit]), np.array([int(tr.fan[r]) if hit >= 0 else 0]))
-                spaces.append(sp)
-                addrs.append(ad)
-            step += 1
+                for q, (leaf, t_exit, prims) in enumerate(pair):
+                    h = hit if last and q == len(pair) - 1 else -1
+                    pr = np.asarray(prims, np.int64)
+                    np.add.at(refs, pr, 1)
+                    sp, ad = ic_address_stream(lay, pr, np.full(len(pr), leaf), np.array([0, len(pr)]),
+                                               np.array([h]), np.array([int(tr.fan[r]) if h >= 0 else 0]))
+                    spaces.append(sp)
+                    addrs.append(ad)
+            m += 1
     stream = (np.concatenate(spaces), np.concatenate(addrs))
     return Expected(msgs, answers, hits, stream, refs)
 

@@ -198,7 +198,8 @@ def weight_words(wf, weight, i) -> list[int]:
 
 
 # ------------------------------------------------------------------------------------------------
-# Stubs: IC answers NEXT and reports the leaf to SC; SC records (and may send rays first)
+# Stubs: IC answers NEXT and reports the leaves (A, and B if the VISIT has one) to SC; SC records
+# (and may send rays first)
 
 TAG_LEAF = 15  # the stubs' own report message (no protocol tag)
 IC_NEXT = f"""
@@ -223,7 +224,14 @@ visit:  ld r7, [r2]
         send ring, r7
         send ring, r3
         send ring, r4
-        li r10, HDR_NEXT
+        recv r3, ring                   # leaf B: list pointer (CELL_NONE: none)
+        recv r4, ring                   #   and t_exit
+        blt r3, r0, next
+        send ring, r10
+        send ring, r7
+        send ring, r3
+        send ring, r4
+next:   li r10, HDR_NEXT
         send ring, r10
         send ring, r2
         j loop
@@ -303,7 +311,8 @@ FIRST_VISIT_CASES = [("tetra:3", 8, "fp32"), ("balls:2", 8, "fp32"), ("rings:2",
 @pytest.mark.parametrize("spec,res,precision", FIRST_VISIT_CASES)
 def test_first_visit_of_every_eye_ray_matches_the_golden_traversal(spec, res, precision, engine_name):
     """Stage bench: IC and SC only record, so each ray gets as far as its first non-empty
-    leaf (VISIT_FIRST: slot, list pointer, t_exit, record) or misses (MISS: pixel, weight)."""
+    leaf (VISIT_FIRST: slot, list pointer, t_exit, record, and the leaf after it, found by OS's
+    look-ahead) or misses (MISS: pixel, weight)."""
     images, messages, o, d, t_min = eye_rays(spec, res, precision)
     wf = word_format(precision)
     n = len(messages)
@@ -311,16 +320,17 @@ def test_first_visit_of_every_eye_ray_matches_the_golden_traversal(spec, res, pr
     run = run_stage("os", os_program(images, slots=n), messages, images.config, images.memory_image(),
                     engine=engine_name)
     assert run.result.status == "finished", run.result.error and run.result.error.format()
-    visits, slots = {}, set()
+    visits, second, slots = {}, {}, set()
     for msg in run.received["ic"]:
         h = parse_header(msg[0])
         assert (h.tag, h.length, h.cls) == (P["TAG_VISIT_FIRST"], P["LEN_VISIT_FIRST"], P["CLS_WORK"])
-        slot, record = wf.to_int(msg[1]), msg[4:]
+        slot, record = wf.to_int(msg[1]), msg[4:4 + P["RAY_WORDS"]]
         assert 0 <= slot < n and slot not in slots
         slots.add(slot)
         pixel = wf.to_int(record[0])
         assert record == messages[pixel][1:], f"ray {pixel}: the record travels unchanged"
         visits[pixel] = (wf.to_int(msg[2]), int(msg[3]))
+        second[pixel] = (wf.to_int(msg[-2]), int(msg[-1]))
     misses = {}
     for msg in run.received["sc"]:
         h = parse_header(msg[0])
@@ -329,6 +339,9 @@ def test_first_visit_of_every_eye_ray_matches_the_golden_traversal(spec, res, pr
     for i in range(n):
         if expected[i]:
             assert visits.get(i) == expected[i][0], f"ray {i}: first leaf"
+            # OS looked ahead: the second leaf, or none (t_exit 0) if the ray has one
+            b = expected[i][1] if len(expected[i]) > 1 else (P["CELL_NONE"], 0)
+            assert second[i] == b, f"ray {i}: second leaf"
         else:
             assert i not in visits and misses.get(i) == [wf.from_float(1.0)] * 3, f"ray {i}: MISS"
     assert len(visits) + len(misses) == n and visits
@@ -455,7 +468,9 @@ rec:    recv r9, ring
         ld r9, [r11 + RAY_INFO]
         st r9, [r60 + 1]
         addi r60, r60, 2
-visit:  ld r7, [r11 + RAY_INFO]
+visit:  recv r9, ring                   # leaf B (never walked: the answer is leaf A's)
+        recv r9, ring
+        ld r7, [r11 + RAY_INFO]
         ld r8, [r11 + RAY_PIXEL]
         andi r9, r7, 3
         li r10, KIND_SHADOW

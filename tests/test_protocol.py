@@ -14,8 +14,8 @@ from netsushisen.kernels import protocol
 def test_headers_decode_to_their_tag_destination_length_and_class():
     p = protocol()
     expect = {  # header: (tag, dest, length, class)
-        "HDR_RAY_TO_OS": (p["TAG_RAY"], "os", 13, 0), "HDR_VISIT_FIRST": (p["TAG_VISIT_FIRST"], "ic", 16, 0),
-        "HDR_VISIT": (p["TAG_VISIT"], "ic", 3, 0), "HDR_NEXT": (p["TAG_NEXT"], "os", 1, 1),
+        "HDR_RAY_TO_OS": (p["TAG_RAY"], "os", 13, 0), "HDR_VISIT_FIRST": (p["TAG_VISIT_FIRST"], "ic", 18, 0),
+        "HDR_VISIT": (p["TAG_VISIT"], "ic", 5, 0), "HDR_NEXT": (p["TAG_NEXT"], "os", 1, 1),
         "HDR_DONE": (p["TAG_DONE"], "os", 1, 1), "HDR_HIT": (p["TAG_HIT"], "sc", 20, 0),
         "HDR_COLOR": (p["TAG_COLOR"], "sc", 4, 0), "HDR_PIXEL": (0, "col", 4, 0),
         "HDR_ID": (p["TAG_ID"], "col", 2, 0), "HDR_MISS": (p["TAG_MISS"], "sc", 4, 0),
@@ -25,6 +25,14 @@ def test_headers_decode_to_their_tag_destination_length_and_class():
         h = parse_header(p[name])
         assert (h.tag, h.dest, h.length, h.cls) == (tag, DESTS[dest], length, cls), name
     assert len({p[k] for k in p if k.startswith("TAG_")}) == 10
+
+
+def test_a_visit_carries_a_second_leaf_or_none():
+    """VISIT / VISIT_FIRST end with a second leaf B (cell_B, t_exit_B), so IC walks two leaves of
+    a ray per message; cell_B = CELL_NONE (no list cell has a negative address) when OS has none."""
+    p = protocol()
+    assert p["LEN_VISIT"] == 3 + 2 and p["LEN_VISIT_FIRST"] == 3 + p["RAY_WORDS"] + 2
+    assert p["CELL_NONE"] < 0
 
 
 def test_shaded_follows_the_rays_sc_sent_before_it():

@@ -389,11 +389,11 @@ next_cell:
 
 # ---- the list is done: answer OS, or walk the message's second leaf ----------------------------
 # (as kernels/ic.s: the VISIT's last two words are leaf B, read here in leaf A, cur = slot; while
-# B is walked cur = +inf, until the answer puts it back)
+# B is walked cur = hvf (never a slot), until the answer puts it back)
 list_end:
     { bne cur, slot, list_end_b ; flt m_t, best, pinf }
     recv cell, ring                                                     # cell_B
-    { recv m_texit, ring ; fsel m_t, shadow, r0, m_t ; fmov cur, pinf } # t_exit_B; m_t = a hit
+    { recv m_texit, ring ; fsel m_t, shadow, r0, m_t ; fmov cur, hvf }  # t_exit_B; m_t = a hit
     { bnez m_t, hit ; fsel lim, shadow, pinf, m_texit }
     { bge cell, r0, visit ; fsel best, shadow, tmax, pinf }             # leaf B: walk it now
 send_next:

@@ -156,7 +156,10 @@
 .equ S_TOP_TT, 63               # SAVE_STEP, 3 x 3: the top level's T, N, P with S_TOP_KB
 .equ S_TOP_NN, 66
 .equ S_TOP_PP, 69
-.if S_LA_TEXIT >= SLOT_WORDS || (SAVE_STEP && S_TOP_PP + 2 >= SLOT_WORDS)
+.equ S_CODE, 72                 # SAVE_STEP: with S_KB: 0 = resume at the next voxel's word, else
+                                #   the leaf or index check fails (resume_slow)
+.equ S_TOP_OOR, 73              # SAVE_STEP: with S_TOP_KB: the top index left the grid
+.if S_LA_TEXIT >= SLOT_WORDS || (SAVE_STEP && S_TOP_OOR >= SLOT_WORDS)
 .error "the slot record does not fit SLOT_WORDS"
 .endif
 
@@ -220,7 +223,7 @@ top_rm:     .space 3            # float(res_a - 1): the top level's start-index 
 .reg tprev    = r42             # the current voxel's t_enter (the previous voxel's exit t)
 .reg cx       = r43             # the exit axis is x: tx <= min(ty, tz)
 .reg lend     = r44             # the previous voxel's exit t reached lim (see leaf_end)
-.reg tb       = r44             # (pair_out: leaf B's t_exit)
+.reg tb       = r43             # (pair_out: leaf B's t_exit; cx is dead there)
 .reg oor      = r45             # (nonempty: the next voxel's index is outside the level)
 .reg tx       = r46             # T: the current voxel's boundary crossings
 .reg ty       = r47
@@ -834,15 +837,43 @@ leaf_y:
 leaf_z:
     { fmov tprev, tz ; j leaf_end }
 
-# V is non-empty (its block's first bundle done: lend, lo + P_a): V's exact exit t (numpy's
-# min(min(tx, ty), tz)), the rest of the step; tprev stays V's t_enter (sub_enter), oor = the next
-# voxel's index is outside the level (the block's level_out test, for nonempty).
+# V is non-empty (its block's first bundle done: lend, lo + P_a): V's exact exit t tcur (numpy's
+# min(min(tx, ty), tz), given the exit axis: x: `tx < tz ? (tx < ty ? tx : ty) : tz`; y: tx >= ty
+# there, so `ty < tz ? ty : tz`; z: ty > tz and tx > tz, so tz), the rest of the step, oor = the
+# next voxel's index is outside the level; tprev stays V's t_enter (sub_enter). Then NE_TAIL.
+
+# The end of ne_x / ne_y / ne_z (region lines). With LOOKAHEAD, leaf A (see nonempty) right
+# here: its words into the slot, labm = 1, then as after a step (tprev = tcur); a divided voxel
+# or leaf B goes to nonempty.
+.if LOOKAHEAD
+.macro NE_TAIL
+    flt t1, tcur, lexit                 # the leaf's t_exit: top level tcur; in a sub-grid
+    fsel t3, t1, tcur, lexit            #   numpy's min(tn, T_exit), `tn < T ? tn : T`
+    slt t2, vw, r0
+    or t2, t2, labm
+    bnez t2, nonempty                   # a divided voxel, or leaf B
+    fmov tprev, tcur
+    li labm, 1
+    st vw, [sp + S_LA_CELL]
+    st t3, [sp + S_LA_TEXIT]
+    bnez lend, leaf_end
+    bnez oor, level_out
+    ld vw, [addr]
+    bnez cx, xblk
+    beqz cyz, zblk
+    j yblk
+.endm
+.else
+.macro NE_TAIL
+    j nonempty
+.endm
+.endif
 .sched
 ne_x:
     flt t1, tx, ty
+    flt t2, tx, tz
     fsel tcur, t1, tx, ty
-    flt t1, tcur, tz
-    fsel tcur, t1, tcur, tz
+    fsel tcur, t2, tcur, tz
     itof kf, knx
     add knx, knx, stx
     fsub ppx, ppx, oox
@@ -852,12 +883,10 @@ ne_x:
     fmul ppx, kf, lcx
     add addr, addr, dsx
     seq oor, knx, kex
-    j nonempty
+    NE_TAIL
 ne_y:
-    flt t1, tx, ty
-    fsel tcur, t1, tx, ty
-    flt t1, tcur, tz
-    fsel tcur, t1, tcur, tz
+    flt t1, ty, tz
+    fsel tcur, t1, ty, tz
     itof kf, kny
     add kny, kny, sty
     fsub ppy, ppy, ooy
@@ -869,12 +898,9 @@ ne_y:
     fmul ppy, kf, lcy
     add addr, addr, dsy
     seq oor, kny, key
-    j nonempty
+    NE_TAIL
 ne_z:
-    flt t1, tx, ty
-    fsel tcur, t1, tx, ty
-    flt t1, tcur, tz
-    fsel tcur, t1, tcur, tz
+    fmov tcur, tz
     itof kf, knz
     add knz, knz, stz
     fsub ppz, ppz, ooz
@@ -886,7 +912,7 @@ ne_z:
     fmul ppz, kf, lcz
     add addr, addr, dsz
     seq oor, knz, kez
-    j nonempty
+    NE_TAIL
 .endsched
 
 # The previous voxel's exit t (tprev) reached lim = min(t_max, lexit). In the golden order:
@@ -921,6 +947,7 @@ leave_sub:
     TOP_LEVEL_OPS
 .if SAVE_STEP
     LOAD_STEP S_TOP_TT, S_TOP_NN, S_TOP_PP
+    ld t0, [sp + S_TOP_OOR]
 .else
     STEP_FROM_KN
 .endif
@@ -930,9 +957,13 @@ leave_sub:
     fmov lexit, finf
     fmov lim, stmax
     FLAGS
+.if SAVE_STEP
+    bnez t0, level_out
+.else
     beq knx, kex, level_out
     beq kny, key, level_out
     beq knz, kez, level_out
+.endif
     ld vw, [addr]
 .endsched
     DISPATCH
@@ -953,20 +984,11 @@ leave_sub:
 # look-ahead goes on through empty voxels, sub_enter and leave_sub, so every step it takes is
 # one the ray needs after a NEXT anyway; it ends at leaf B (nonempty_b: the pair) or where the
 # ray would end at OS (ray_end -> la_abort: A alone). Every end saves the resume state.
-nonempty:
-.if HAS_SUBGRIDS
-    { flt t1, tcur, lexit ; blt vw, r0, sub_enter }
-.else
-    flt t1, tcur, lexit
-.endif
-    # the leaf's t_exit: top level tcur; in a sub-grid numpy's min(tn, T_exit), `tn < T ? tn : T`
-    { fsel t3, t1, tcur, lexit ; bnez labm, nonempty_b }
-    { fmov tprev, tcur ; st vw, [sp + S_LA_CELL] ; st t3, [sp + S_LA_TEXIT] }
-    { li labm, 1 ; bnez lend, leaf_end }
-    bnez oor, level_out
-    ld vw, [addr]
-    DISPATCH
 
+nonempty:                               # (t3 = the leaf's t_exit)
+.if HAS_SUBGRIDS
+    blt vw, r0, sub_enter
+.endif
 # Leaf B (vw > 0, t3 = its t_exit): save the state after B and send both leaves.
 nonempty_b:
 .sched
@@ -981,6 +1003,8 @@ nonempty_b:
     st tcur, [sp + S_TCUR]
 .if SAVE_STEP
     STORE_STEP S_TT, S_NN, S_PP
+    or t2, lend, oor
+    st t2, [sp + S_CODE]
 .endif
 .endsched
 # t0 = the slot's S_FIRST, t4 = room; vw, tb = cell_B, t_exit_B (A's words are in the slot)
@@ -1007,8 +1031,12 @@ la_abort:
     { st knz, [sp + (S_KB + 2)] ; st addr, [sp + S_ADDR] ; fmov tb, r0 }
     { st tprev, [sp + S_TCUR] ; ld t0, [sp + S_FIRST] }
     { room t4, ring ; li vw, CELL_NONE }
-    li labm, 0
-    j pair_out
+.if SAVE_STEP
+    { li t2, 1 ; li labm, 0 }
+    { st t2, [sp + S_CODE] ; j pair_out }
+.else
+    { li labm, 0 ; j pair_out }
+.endif
 
 # the first visit carries the ray record (t4 = room)
 pair_first:
@@ -1041,6 +1069,8 @@ nonempty:
 .endif
 .if SAVE_STEP
     STORE_STEP_B S_TT, S_NN, S_PP
+    or t2, lend, oor
+    st t2, [sp + S_CODE]
 .endif
     # the leaf's t_exit: top level tcur; in a sub-grid numpy's min(tn, T_exit), `tn < T ? tn : T`
     { flt t3, tcur, lexit ; li t1, HDR_VISIT ; bnez t0, visit_first }
@@ -1111,6 +1141,7 @@ sub_enter:
 .sched
 .if SAVE_STEP
     STORE_STEP S_TOP_TT, S_TOP_NN, S_TOP_PP
+    st oor, [sp + S_TOP_OOR]
 .endif
     st addr, [sp + S_TOP_ADDR]
     st knx, [sp + S_TOP_KB]
@@ -1211,15 +1242,18 @@ sub_enter:
 # leaf's exit t; t_max, sub-grid end), the index check, the word, the dispatch.
 
 .macro RESUME
-.if !SAVE_STEP
+.if SAVE_STEP
+    FLAGS
+    bnez t0, resume_slow
+.else
     STEP_FROM_KN
-.endif
     FLAGS
     fle lend, lim, tprev
     bnez lend, leaf_end
     beq knx, kex, level_out
     beq kny, key, level_out
     beq knz, kez, level_out
+.endif
     ld vw, [addr]
 .endm
 
@@ -1245,6 +1279,7 @@ on_next:
     ld tprev, [sp + S_TCUR]
 .if SAVE_STEP
     LOAD_STEP S_TT, S_NN, S_PP
+    ld t0, [sp + S_CODE]
 .else
     ld tcur, [sp + S_TCUR]                  # (the unchanged kernel's reads: the serial mode's trace)
 .endif
@@ -1261,24 +1296,30 @@ on_next:
 .if HAS_SUBGRIDS
 next_sub:
 .sched
-    ld t0, [sp + S_SUB_HDR]
+    ld t1, [sp + S_SUB_HDR]
     ld lexit, [sp + S_SUB_EXIT]
     ld lim, [sp + S_SUB_LIM]
     ld kex, [sp + S_SUB_R]
     ld key, [sp + (S_SUB_R + 1)]
     ld kez, [sp + (S_SUB_R + 2)]
-    ld llox, [t0 + SG_LO]
-    ld lloy, [t0 + (SG_LO + 1)]
-    ld lloz, [t0 + (SG_LO + 2)]
-    ld lcx, [t0 + SG_CELL]
-    ld lcy, [t0 + (SG_CELL + 1)]
-    ld lcz, [t0 + (SG_CELL + 2)]
+    ld llox, [t1 + SG_LO]
+    ld lloy, [t1 + (SG_LO + 1)]
+    ld lloz, [t1 + (SG_LO + 2)]
+    ld lcx, [t1 + SG_CELL]
+    ld lcy, [t1 + (SG_CELL + 1)]
+    ld lcz, [t1 + (SG_CELL + 2)]
     ld dsx, [sp + S_SUB_DS]
     ld dsy, [sp + (S_SUB_DS + 1)]
     ld dsz, [sp + (S_SUB_DS + 2)]
     RESUME
 .endsched
     DISPATCH
+.endif
+.if SAVE_STEP
+resume_slow:                            # (S_CODE != 0) the leaf check, then the index check
+    fle lend, lim, tprev
+    bnez lend, leaf_end
+    j level_out
 .endif
 
 # ---------------------------------------------------------------------------------------------

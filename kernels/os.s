@@ -1115,10 +1115,10 @@ first_full:
 # is tcur, its t_enter tprev:
 #   p = o + t_enter*d; sub index = floor(clamp((p - sub_lo)*sub_inv_cell, 0, sub_res - 1))
 # then the sub-grid's first voxel (LEVEL_START). Linear code, list-scheduled.
-.reg hdr  = r58
-.reg pxx  = r43
-.reg pyy  = r44
-.reg pzz  = r45
+.reg hdr  = r58                         # (temporaries: none of the registers the top level's
+.reg pxx  = r43                         #  state is saved from; the level's kend and ds, lexit
+.reg pyy  = r44                         #  and lim are written after their last use)
+.reg pzz  = r36
 .reg smx  = r53                         # sub_res mx, my, mz
 .reg smy  = r54
 .reg smz  = r8
@@ -1127,18 +1127,42 @@ first_full:
 .reg suz  = r61
 .reg fmx  = r62                         # float(sub_res - 1): the clamp bounds
 .reg fmy  = r49
-.reg fmz  = r50
-.reg mxy  = r51                         # mx*my
-.reg sox  = r52                         # o
-.reg soy  = r55
-.reg soz  = r56
-.reg sicx = r57                         # the sub-grid's inv_cell
-.reg sicy = r46
-.reg sicz = r47
+.reg fmz  = r35
+.reg mxy  = r50                         # mx*my
+.reg sox  = r32                         # o
+.reg soy  = r33
+.reg soz  = r34
+.reg sicx = r29                         # the sub-grid's inv_cell
+.reg sicy = r30
+.reg sicz = r31
 .reg sa1  = r48                         # iy*mx, iz*mx*my
 .reg sa2  = r42
 sub_enter:
 .sched
+    # (the header's loads first: the scheduler keeps a load behind any earlier store through
+    # another base register)
+    sub hdr, r0, vw
+    ld smx, [hdr + SG_RES]
+    ld smy, [hdr + (SG_RES + 1)]
+    ld smz, [hdr + (SG_RES + 2)]
+    ld llox, [hdr + SG_LO]
+    ld lloy, [hdr + (SG_LO + 1)]
+    ld lloz, [hdr + (SG_LO + 2)]
+    ld sicx, [hdr + SG_INV_CELL]
+    ld sicy, [hdr + (SG_INV_CELL + 1)]
+    ld sicz, [hdr + (SG_INV_CELL + 2)]
+    ld lcx, [hdr + SG_CELL]
+    ld lcy, [hdr + (SG_CELL + 1)]
+    ld lcz, [hdr + (SG_CELL + 2)]
+    ld pxx, [sp + RAY_DX]
+    ld pyy, [sp + RAY_DY]
+    ld pzz, [sp + RAY_DZ]
+    ld sox, [sp + RAY_OX]
+    ld soy, [sp + RAY_OY]
+    ld soz, [sp + RAY_OZ]
+    ld sux, [sp + S_UP]
+    ld suy, [sp + (S_UP + 1)]
+    ld suz, [sp + (S_UP + 2)]
 .if SAVE_STEP
     STORE_STEP S_TOP_TT, S_TOP_NN, S_TOP_PP
     st oor, [sp + S_TOP_OOR]
@@ -1147,19 +1171,9 @@ sub_enter:
     st knx, [sp + S_TOP_KB]
     st kny, [sp + (S_TOP_KB + 1)]
     st knz, [sp + (S_TOP_KB + 2)]
-    sub hdr, r0, vw
-    ld pxx, [sp + RAY_DX]
-    ld pyy, [sp + RAY_DY]
-    ld pzz, [sp + RAY_DZ]
     fmul pxx, tprev, pxx
     fmul pyy, tprev, pyy
     fmul pzz, tprev, pzz
-    ld smx, [hdr + SG_RES]
-    ld smy, [hdr + (SG_RES + 1)]
-    ld smz, [hdr + (SG_RES + 2)]
-    ld sox, [sp + RAY_OX]
-    ld soy, [sp + RAY_OY]
-    ld soz, [sp + RAY_OZ]
     addi fmx, smx, -1
     addi fmy, smy, -1
     addi fmz, smz, -1
@@ -1169,21 +1183,12 @@ sub_enter:
     itof fmx, fmx
     itof fmy, fmy
     itof fmz, fmz
-    ld llox, [hdr + SG_LO]
-    ld lloy, [hdr + (SG_LO + 1)]
-    ld lloz, [hdr + (SG_LO + 2)]
     fsub pxx, pxx, llox
     fsub pyy, pyy, lloy
     fsub pzz, pzz, lloz
-    ld sicx, [hdr + SG_INV_CELL]
-    ld sicy, [hdr + (SG_INV_CELL + 1)]
-    ld sicz, [hdr + (SG_INV_CELL + 2)]
     fmul pxx, pxx, sicx
     fmul pyy, pyy, sicy
     fmul pzz, pzz, sicz
-    ld sux, [sp + S_UP]
-    ld suy, [sp + (S_UP + 1)]
-    ld suz, [sp + (S_UP + 2)]
     fmax pxx, pxx, r0                                     # (r0 = +0.0)
     fmin pxx, pxx, fmx
     floor pxx, pxx
@@ -1193,9 +1198,6 @@ sub_enter:
     fmax pzz, pzz, r0
     fmin pzz, pzz, fmz
     floor pzz, pzz
-    fmov lexit, tcur                                      # the divided voxel's T_exit
-    flt lim, stmax, lexit
-    fsel lim, lim, stmax, lexit
     mul mxy, smx, smy                                     # mx*my
     mul sa1, pyy, smx
     mul sa2, pzz, mxy
@@ -1206,6 +1208,9 @@ sub_enter:
     add addr, addr, pxx
     add addr, addr, sa1
     add addr, addr, sa2
+    fmov lexit, tcur                                      # the divided voxel's T_exit
+    flt lim, stmax, lexit
+    fsel lim, lim, stmax, lexit
     # kend = up ? res + 4 : -4; the address steps st_x, st_y*mx, st_z*mx*my
     li fmx, -4
     addi fmy, smx, 4
@@ -1218,9 +1223,6 @@ sub_enter:
     mul dsy, sty, smx
     mul dsz, stz, mxy
     li insub, 1
-    ld lcx, [hdr + SG_CELL]
-    ld lcy, [hdr + (SG_CELL + 1)]
-    ld lcz, [hdr + (SG_CELL + 2)]
     st hdr, [sp + S_SUB_HDR]
     st lexit, [sp + S_SUB_EXIT]
     st kex, [sp + S_SUB_R]

@@ -252,6 +252,9 @@ top_rm:     .space 3            # float(res_a - 1): the top level's start-index 
 .reg dret     = r54             # where it is sent from (myz)
 # a ray on its way into a slot (only while it starts)
 .reg one      = r49             # 1.0 for the setup's divisions
+.reg ivx      = r46             # 1/d (x and y start dividing as the ray arrives)
+.reg ivy      = r47
+.reg ivz      = r48
 .reg qend     = r45             # (from_queue: the queue's end address)
 .reg rpix     = r50             # the 13-word record
 
@@ -362,13 +365,14 @@ on_shaded:
 .endif
 
 # The middle of a RAY message, words 4..11 (o.z, d, t_min, t_max, w.r, w.g), from `port` into the
-# ray registers, one a bundle (a new ray from SC on the ring or from the host).
+# ray registers, one a bundle (a new ray from SC on the ring or from the host); 1/d_x and 1/d_y
+# start dividing (one = 1.0).
 .macro RECV_RAY port
-    recv roz, \port
+    { recv roz, \port ; lf one, 1.0 }
     recv rdx, \port
     recv rdy, \port
-    recv rdz, \port
-    recv rtmin, \port
+    { recv rdz, \port ; fdiv ivx, one, rdx }     # (setup's 1/d: the divider is not
+    { recv rtmin, \port ; fdiv ivy, one, rdy }   #  pipelined, so x and y start here)
     recv rtmax, \port
     recv rwr, \port
     recv rwg, \port
@@ -405,7 +409,7 @@ on_ray:
     { slli sp, slot, SLOT_SHIFT ; recv rox, ring }
     { addi sp, sp, SLOT_TABLE ; recv roy, ring }
     RECV_RAY ring
-    { recv rwb, ring ; lf one, 1.0 ; j setup }
+    { recv rwb, ring ; j setup }
 
 enqueue:
     ENQUEUE t3, t0, t1, main
@@ -415,17 +419,18 @@ queue_overflow:                 # more rays wait than OS memory holds: stop the 
 
 # the oldest queued ray takes a free slot
 from_queue:
-    addi nfree, nfree, -1
-    { ld slot, [nfree + free_stack] ; ld rpix, [qhead + 0] }
-    { ld rinfo, [qhead + 1] ; ld rox, [qhead + 2] }
-    { ld roy, [qhead + 3] ; ld roz, [qhead + 4] }
+    { addi nfree, nfree, -1 ; lf one, 1.0 }
     { ld rdx, [qhead + 5] ; ld rdy, [qhead + 6] }
+    { ld slot, [nfree + free_stack] ; ld rpix, [qhead + 0] }
+    { ld rinfo, [qhead + 1] ; fdiv ivx, one, rdx }
+    { ld rox, [qhead + 2] ; fdiv ivy, one, rdy }
+    { ld roy, [qhead + 3] ; ld roz, [qhead + 4] }
     { ld rdz, [qhead + 7] ; ld rtmin, [qhead + 8] }
     { ld rtmax, [qhead + 9] ; ld rwr, [qhead + 10] }
     { ld rwg, [qhead + 11] ; ld rwb, [qhead + 12] }
     { slli sp, slot, SLOT_SHIFT ; addi qhead, qhead, QUEUE_ENTRY }
     { addi sp, sp, SLOT_TABLE ; li qend, QUEUE_END }
-    { addi qcount, qcount, -1 ; lf one, 1.0 ; bne qhead, qend, setup }
+    { addi qcount, qcount, -1 ; bne qhead, qend, setup }
     { li qhead, QUEUE_BASE ; j setup }
 .endif
 
@@ -440,7 +445,7 @@ from_host:
     { addi sp, sp, SLOT_TABLE ; recv rox, host }
     recv roy, host
     RECV_RAY host
-    { recv rwb, host ; lf one, 1.0 }
+    recv rwb, host
 
 # ---------------------------------------------------------------------------------------------
 # The step's state (see `step` below) as linear code for `.sched` regions
@@ -573,9 +578,6 @@ from_host:
 # follows the divider: it is not pipelined, so x and y divide first, and the slabs and x's
 # class are worked out on the other FP unit while z divides.
 
-.reg ivx  = r46                 # 1/d
-.reg ivy  = r47
-.reg ivz  = r48
 .reg tent = r49                 # t_enter (r49 is `one` until the divisions are issued)
 .reg stpx = r29                 # the axis steps (later inv_cell)
 .reg stpy = r30
@@ -611,70 +613,121 @@ from_host:
 .reg rmz  = r34
 
 setup:
-    { fdiv ivx, one, rdx ; fdiv ivy, one, rdy ; st rdx, [sp + RAY_DX] ; st rdy, [sp + RAY_DY] }
+.sched
+    st rdx, [sp + RAY_DX]
+    st rdy, [sp + RAY_DY]
     # while x and y divide: the record into the slot, the grid's corners, t_max (surface rays
     # get NaN: no compare with it is ever true)
-    { ld llox, [VOXEL_BASE + VD_LO] ; st rpix, [sp + RAY_PIXEL] }
-    { ld lloy, [VOXEL_BASE + (VD_LO + 1)] ; st rwb, [sp + RAY_WB] }
-    { ld lloz, [VOXEL_BASE + (VD_LO + 2)] ; st rwr, [sp + RAY_WR] }
-    { ld hx, [VOXEL_BASE + VD_HI] ; st rwg, [sp + RAY_WG] }
-    { ld hy, [VOXEL_BASE + (VD_HI + 1)] ; andi s0, rinfo, 3 }
-    { ld hz, [VOXEL_BASE + (VD_HI + 2)] ; addi s0, s0, -KIND_SHADOW }
-    { sel stmax, s0, fnan, rtmax ; st rinfo, [sp + RAY_INFO] }
-    { li s0, 1 ; st rox, [sp + RAY_OX] }
-    { st roy, [sp + RAY_OY] ; st roz, [sp + RAY_OZ] }
-    { st rdz, [sp + RAY_DZ] ; st rtmin, [sp + RAY_TMIN] }
-    { st rtmax, [sp + RAY_TMAX] ; st stmax, [sp + S_STMAX] }
-    { fdiv ivz, one, rdz ; fsub taz, lloz, roz }
+    ld llox, [VOXEL_BASE + VD_LO]
+    st rpix, [sp + RAY_PIXEL]
+    ld lloy, [VOXEL_BASE + (VD_LO + 1)]
+    st rwb, [sp + RAY_WB]
+    ld lloz, [VOXEL_BASE + (VD_LO + 2)]
+    st rwr, [sp + RAY_WR]
+    ld hx, [VOXEL_BASE + VD_HI]
+    st rwg, [sp + RAY_WG]
+    ld hy, [VOXEL_BASE + (VD_HI + 1)]
+    andi s0, rinfo, 3
+    ld hz, [VOXEL_BASE + (VD_HI + 2)]
+    addi s0, s0, -KIND_SHADOW
+    sel stmax, s0, fnan, rtmax
+    st rinfo, [sp + RAY_INFO]
+    li s0, 1
+    st rox, [sp + RAY_OX]
+    st roy, [sp + RAY_OY]
+    st roz, [sp + RAY_OZ]
+    st rdz, [sp + RAY_DZ]
+    st rtmin, [sp + RAY_TMIN]
+    st rtmax, [sp + RAY_TMAX]
+    st stmax, [sp + S_STMAX]
+    fdiv ivz, one, rdz
+    fsub taz, lloz, roz
     # while z divides, on the other FP unit: the slab distances lo - o, hi - o; x's class
     # (steps iff 0 < |1/d| < inf; up iff it steps and 1/d > 0) and slab ends
-    { fsub tbz, hz, roz ; st s0, [sp + S_FIRST] }
-    { fsub tax, llox, rox ; st r0, [sp + S_INSUB] }
-    { fsub tbx, hx, rox ; li insub, 0 }
-    { fsub tay, lloy, roy }
-    { fsub tby, hy, roy }
-    { fabs aa, ivx }
-    { flt ngx, ivx, r0 }                                   # (r0 reads as +0.0)
-    { flt stpx, r0, aa ; ld lcx, [VOXEL_BASE + VD_CELL] }
-    { flt aa, aa, finf ; ld lcy, [VOXEL_BASE + (VD_CELL + 1)] }
-    { fmul tax, tax, ivx ; and stpx, stpx, aa }
-    { fmul tbx, tbx, ivx ; slt upx, ngx, stpx }
+    fsub tbz, hz, roz
+    st s0, [sp + S_FIRST]
+    fsub tax, llox, rox
+    st r0, [sp + S_INSUB]
+    fsub tbx, hx, rox
+    fsub tay, lloy, roy
+    fsub tby, hy, roy
+    fabs aa, ivx
+    flt ngx, ivx, r0
+    flt stpx, r0, aa
+    ld lcx, [VOXEL_BASE + VD_CELL]
+    flt aa, aa, finf
+    ld lcy, [VOXEL_BASE + (VD_CELL + 1)]
+    fmul tax, tax, ivx
+    and stpx, stpx, aa
+    fmul tbx, tbx, ivx
+    slt upx, ngx, stpx
     # z's 1/d is ready: both units
-    { fmul taz, taz, ivz ; fmul tbz, tbz, ivz }
-    { fmul tay, tay, ivy ; fmul tby, tby, ivy }
-    { fabs aa, ivy ; sel oox, stpx, rox, fninf }          # the loop's o and 1/d: -inf and +inf
-    { flt ngy, ivy, r0 ; sel iix, stpx, ivx, finf }       #   on a non-stepping axis
-    { ld lcz, [VOXEL_BASE + (VD_CELL + 2)] ; st oox, [sp + S_OO] }
-    { ld nx, [VOXEL_BASE + VD_RES] ; st iix, [sp + S_II] }
-    { fmin tax, tax, tbx ; fmax tbx, tax, tbx }           # x: (t_lo, t_hi)
-    { flt stpy, r0, aa ; fabs az, ivz }
-    { flt aa, aa, finf ; flt ngz, ivz, r0 }
-    { fmin taz, taz, tbz ; fmax tbz, taz, tbz }           # z: (t_lo, t_hi)
-    { fmin tay, tay, tby ; fmax tby, tay, tby }           # y: (t_lo, t_hi)
-    { flt stpz, r0, az ; flt az, az, finf }
-    { flt s0, tay, tax ; and stpy, stpy, aa }             # t_enter, first max(t_lo_x, t_lo_y)
-    { sel tent, s0, tax, tay ; and stpz, stpz, az }
-    { and all, stpx, stpy ; slt upy, ngy, stpy }
-    { and all, all, stpz ; slt upz, ngz, stpz }
-    { sel ooy, stpy, roy, fninf ; beqz all, setup_nonstep }
+    fmul taz, taz, ivz
+    fmul tbz, tbz, ivz
+    fmul tay, tay, ivy
+    fmul tby, tby, ivy
+    fabs aa, ivy
+    sel oox, stpx, rox, fninf
+    flt ngy, ivy, r0
+    sel iix, stpx, ivx, finf
+    ld lcz, [VOXEL_BASE + (VD_CELL + 2)]
+    st oox, [sp + S_OO]
+    ld nx, [VOXEL_BASE + VD_RES]
+    st iix, [sp + S_II]
+    fmin kf, tax, tbx
+    fmax tbx, tax, tbx
+    fmov tax, kf
+    flt stpy, r0, aa
+    fabs az, ivz
+    flt aa, aa, finf
+    flt ngz, ivz, r0
+    fmin insub, taz, tbz
+    fmax tbz, taz, tbz
+    fmov taz, insub
+    fmin lim, tay, tby
+    fmax tby, tay, tby
+    fmov tay, lim
+    flt stpz, r0, az
+    flt az, az, finf
+    flt s0, tay, tax
+    and stpy, stpy, aa
+    sel tent, s0, tax, tay
+    and stpz, stpz, az
+    and all, stpx, stpy
+    slt upy, ngy, stpy
+    and all, all, stpz
+    slt upz, ngz, stpz
+    sel ooy, stpy, roy, fninf
+    beqz all, setup_nonstep
+.endsched
 setup_tz:
+.sched
+.deadout r12-r62                                          # (dead at ray_end)
     # t_enter = max(max(max(t_lo_x, t_lo_y), t_lo_z), t_min), numpy's max `a > b ? a : b`;
     # t_far = min(min(t_hi_x, t_hi_y), t_hi_z): only compared, fmin will do
-    { flt s0, taz, tent ; fmin tbx, tbx, tby }
-    { sel tent, s0, tent, taz ; fmin tbx, tbx, tbz }
-    { flt s0, rtmin, tent ; sel iiy, stpy, ivy, finf }
-    { sel tent, s0, tent, rtmin ; and stpx, stpx, ngx }   # (stepping down, for the steps)
-    # start voxel: p = o + t_enter*d; i = floor(clamp((p - lo)*inv_cell, 0, res-1)). Clamping
-    # before the floor gives the golden floor-then-clamp integer (the bounds are integers).
-    { fmul tax, tent, rdx ; fmul tay, tent, rdy }
-    { fmul taz, tent, rdz ; fle s0, tent, tbx }           # t_enter <= t_far
-    { fle tbz, stmax, tent ; sel ooz, stpz, roz, fninf }  # t_enter >= t_max (surface: NaN: never)
-    { slt s0, tbz, s0 ; sel iiz, stpz, ivz, finf }        # alive = the first and not the second
-    { fadd tax, rox, tax ; and stpy, stpy, ngy ; beqz s0, ray_end }   # the ray misses the grid
-    # the rest is linear code, list-scheduled: the start voxel (p = o + t_enter*d; i =
-    # floor(clamp((p - lo)*inv_cell, 0, res-1)): clamping before the floor gives the golden
-    # floor-then-clamp integer, the bounds being integers), then the level's first voxel (LEVEL_START)
-.sched
+    flt s0, taz, tent
+    fmin tbx, tbx, tby
+    sel tent, s0, tent, taz
+    fmin tbx, tbx, tbz
+    flt s0, rtmin, tent
+    sel iiy, stpy, ivy, finf
+    sel tent, s0, tent, rtmin
+    and stpx, stpx, ngx                                   # (stepping down, for the steps)
+    fle s0, tent, tbx                                     # t_enter <= t_far
+    fle tbz, stmax, tent                                  # t_enter >= t_max (surface: NaN: never)
+    slt s0, tbz, s0                                       # alive = the first and not the second
+    beqz s0, ray_end                                      # the ray misses the grid
+    # start voxel: p = o + t_enter*d; i = floor(clamp((p - lo)*inv_cell, 0, res-1)): clamping
+    # before the floor gives the golden floor-then-clamp integer (the bounds are integers); then
+    # the level's first voxel (LEVEL_START)
+    sel ooz, stpz, roz, fninf
+    sel iiz, stpz, ivz, finf
+    fmul tax, tent, rdx
+    fmul tay, tent, rdy
+    fmul taz, tent, rdz
+    fadd tax, rox, tax
+    and stpy, stpy, ngy
+    li insub, 0
     fadd tay, roy, tay
     and stpz, stpz, ngz
     fadd taz, roz, taz

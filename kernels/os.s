@@ -853,6 +853,7 @@ setup_nonstep:
 
 xblk:
     { fle lend, lim, tx ; fadd ppx, llox, ppx ; bnez vw, ne_x }
+xblk_1:
     { itof kf, knx ; add knx, knx, stx ; bnez lend, leaf_x }
     { fsub ppx, ppx, oox ; fmov tprev, tx ; beq knx, kex, level_out }
     fmov tx, nnx
@@ -862,6 +863,7 @@ xblk:
     beqz cyz, zblk
 yblk:
     { fle lend, lim, ty ; fadd ppy, lloy, ppy ; bnez vw, ne_y }
+yblk_1:
     { itof kf, kny ; add kny, kny, sty ; bnez lend, leaf_y }
     { fsub ppy, ppy, ooy ; fmov tprev, ty ; beq kny, key, level_out }
     fmin myz, nny, tz
@@ -872,6 +874,7 @@ yblk:
     bnez cyz, yblk
 zblk:
     { fle lend, lim, tz ; fadd ppz, lloz, ppz ; bnez vw, ne_z }
+zblk_1:
     { itof kf, knz ; add knz, knz, stz ; bnez lend, leaf_z }
     { fsub ppz, ppz, ooz ; fmov tprev, tz ; beq knz, kez, level_out }
     fmin myz, ty, nnz
@@ -890,39 +893,42 @@ leaf_y:
 leaf_z:
     { fmov tprev, tz ; j leaf_end }
 
-# V is non-empty (its block's first bundle done: lend, lo + P_a): V's exact exit t tcur (numpy's
-# min(min(tx, ty), tz), given the exit axis: x: `tx < tz ? (tx < ty ? tx : ty) : tz`; y: tx >= ty
-# there, so `ty < tz ? ty : tz`; z: ty > tz and tx > tz, so tz), the rest of the step, oor = the
-# next voxel's index is outside the level; tprev stays V's t_enter (sub_enter). Then NE_TAIL.
-
-# The end of ne_x / ne_y / ne_z (region lines). With LOOKAHEAD, leaf A (see nonempty) right
-# here: its words into the slot, labm = 1, then as after a step (tprev = tcur); a divided voxel
-# or leaf B goes to nonempty.
+# V is non-empty (its block's first bundle done: lend, lo + P_a). V's exact exit t tcur is numpy's
+# min(min(tx, ty), tz); knowing the exit axis: x: `tx < tz ? (tx < ty ? tx : ty) : tz`; y: tx >= ty
+# there, so `ty < tz ? ty : tz`; z: ty > tz and tx > tz, so tz. The leaf's t_exit t3: top level
+# tcur; in a sub-grid numpy's min(tn, T_exit), `tn < T ? tn : T`.
 .if LOOKAHEAD
-.macro NE_TAIL
-    flt t1, tcur, lexit                 # the leaf's t_exit: top level tcur; in a sub-grid
-    fsel t3, t1, tcur, lexit            #   numpy's min(tn, T_exit), `tn < T ? tn : T`
-    slt t2, vw, r0
-    or t2, t2, labm
-    bnez t2, nonempty                   # a divided voxel, or leaf B
-    fmov tprev, tcur
-    li labm, 1
-    st vw, [sp + S_LA_CELL]
-    st t3, [sp + S_LA_TEXIT]
-    bnez lend, leaf_end
-    bnez oor, level_out
-    ld vw, [addr]
-    bnez cx, xblk
-    beqz cyz, zblk
-    j yblk
-.endm
-.else
-.macro NE_TAIL
-    j nonempty
-.endm
-.endif
-.sched
+# Leaf A (labm = 0, vw > 0): its list pointer and t_exit into the slot, labm = 1, and back into
+# the block: the rest of the step, the leaf check (lend: V's exit t reached lim), the index check,
+# the next word ("look-ahead"; see nonempty). Leaf B or a divided voxel: ne_xf / ne_yf / ne_zf.
 ne_x:
+    { flt t1, tx, ty ; flt t2, tx, tz ; bnez labm, ne_xf }
+    { fsel tcur, t1, tx, ty ; blt vw, r0, ne_xf }
+    { fsel tcur, t2, tcur, tz ; st vw, [sp + S_LA_CELL] ; li labm, 1 }
+    flt t1, tcur, lexit
+    fsel t3, t1, tcur, lexit
+    { st t3, [sp + S_LA_TEXIT] ; j xblk_1 }
+ne_y:
+    { flt t1, ty, tz ; bnez labm, ne_yf }
+    { fsel tcur, t1, ty, tz ; blt vw, r0, ne_yf }
+    { flt t1, tcur, lexit ; st vw, [sp + S_LA_CELL] ; li labm, 1 }
+    fsel t3, t1, tcur, lexit
+    { st t3, [sp + S_LA_TEXIT] ; j yblk_1 }
+ne_z:
+    { flt t1, tz, lexit ; bnez labm, ne_zf }
+    { fsel t3, t1, tz, lexit ; blt vw, r0, ne_zf }
+    { st vw, [sp + S_LA_CELL] ; st t3, [sp + S_LA_TEXIT] }
+    { li labm, 1 ; j zblk_1 }
+.endif
+
+# The whole step past a non-empty V (leaf B, a divided voxel, or any leaf without LOOKAHEAD):
+# tcur, the rest of the step, t3, oor = the next voxel's index is outside the level; tprev
+# stays V's t_enter (sub_enter). Then nonempty.
+.sched
+.if !LOOKAHEAD
+ne_x:
+.endif
+ne_xf:
     flt t1, tx, ty
     flt t2, tx, tz
     fsel tcur, t1, tx, ty
@@ -936,8 +942,13 @@ ne_x:
     fmul ppx, kf, lcx
     add addr, addr, dsx
     seq oor, knx, kex
-    NE_TAIL
+    flt t1, tcur, lexit
+    fsel t3, t1, tcur, lexit
+    j nonempty
+.if !LOOKAHEAD
 ne_y:
+.endif
+ne_yf:
     flt t1, ty, tz
     fsel tcur, t1, ty, tz
     itof kf, kny
@@ -951,8 +962,13 @@ ne_y:
     fmul ppy, kf, lcy
     add addr, addr, dsy
     seq oor, kny, key
-    NE_TAIL
+    flt t1, tcur, lexit
+    fsel t3, t1, tcur, lexit
+    j nonempty
+.if !LOOKAHEAD
 ne_z:
+.endif
+ne_zf:
     fmov tcur, tz
     itof kf, knz
     add knz, knz, stz
@@ -965,7 +981,9 @@ ne_z:
     fmul ppz, kf, lcz
     add addr, addr, dsz
     seq oor, knz, kez
-    NE_TAIL
+    flt t1, tcur, lexit
+    fsel t3, t1, tcur, lexit
+    j nonempty
 .endsched
 
 # The previous voxel's exit t (tprev) reached lim = min(t_max, lexit). In the golden order:
@@ -1032,12 +1050,11 @@ leave_sub:
 # does not fit its send FIFO whole waits in `drain`, which keeps reading the ring meanwhile.
 
 .if LOOKAHEAD
-# Leaf A: its list pointer and t_exit into the slot, then step on ("look-ahead") with labm = 1,
-# as after a NEXT: the leaf check with tprev = tcur, the index check, the next word. The
-# look-ahead goes on through empty voxels, sub_enter and leave_sub, so every step it takes is
-# one the ray needs after a NEXT anyway; it ends at leaf B (nonempty_b: the pair) or where the
-# ray would end at OS (ray_end -> la_abort: A alone). Every end saves the resume state.
-
+# Leaf A (ne_x / ne_y / ne_z) went into the slot, and the ray stepped on ("look-ahead", labm = 1)
+# as after a NEXT. The look-ahead goes on through empty voxels, sub_enter and leave_sub, so every
+# step it takes is one the ray needs after a NEXT anyway; it ends at leaf B (nonempty_b: the
+# pair) or where the ray would end at OS (ray_end -> la_abort: A alone). Every end saves the
+# resume state. Here: a divided voxel (A or B), or leaf B.
 nonempty:                               # (t3 = the leaf's t_exit)
 .if HAS_SUBGRIDS
     blt vw, r0, sub_enter

@@ -314,7 +314,24 @@ init_free:                              # free_stack[i] = i
 
 main:
     { poll t0, ring ; ld t1, [NDEFER] }
-    { bnez t0, ring_msg ; sltu t2, r0, nfree }     # t2 = a slot is free
+    { beqz t0, no_ring ; sltu t2, r0, nfree }      # t2 = a slot is free
+# a ring message: NEXT and DONE known by their whole header word
+ring_msg:
+    { recv t0, ring ; li t1, HDR_NEXT }             # header
+    { recv t3, ring ; li t2, HDR_DONE }             # first payload word
+    beq t0, t1, on_next
+    { srli t0, t0, HDR_TAG_SHIFT ; beq t0, t2, on_done }
+.if SERIAL_TREES
+    addi t1, t0, -TAG_SHADED
+    beqz t1, on_shaded
+.endif
+.if SECONDARY
+    j on_ray
+.else
+    j main                                          # (nothing else reaches OS here)
+.endif
+
+no_ring:
     bge t1, t2, defer_or_ring   # NEXTs put aside while OS waited to send (drain), or no free slot
 .if SECONDARY
     bnez qcount, from_queue
@@ -329,17 +346,7 @@ main:
 
 defer_or_ring:
     bnez t1, from_defer
-ring_msg:
-    RING_MSG t0, t3, t1, t2, on_next, on_done
-.if SERIAL_TREES
-    addi t1, t0, -TAG_SHADED
-    beqz t1, on_shaded
-.endif
-.if SECONDARY
-    j on_ray
-.else
-    j main                                          # (nothing else reaches OS here)
-.endif
+    j ring_msg
 
 # a deferred NEXT (t1 = ndefer > 0): resume the ray as if its NEXT had just arrived
 from_defer:

@@ -1066,24 +1066,52 @@ nonempty:                               # (t3 = the leaf's t_exit)
 .if HAS_SUBGRIDS
     blt vw, r0, sub_enter
 .endif
-# Leaf B (vw > 0, t3 = its t_exit): save the state after B and send both leaves.
+# Leaf B (vw > 0, t3 = its t_exit): save the state after B (the crossings, whose registers the
+# drain takes, first; the rest while the VISIT goes out) and send both leaves.
 nonempty_b:
-.sched
-    fmov tb, t3
-    room t4, ring
-    ld t0, [sp + S_FIRST]
-    li labm, 0
-    st knx, [sp + S_KB]
-    st kny, [sp + (S_KB + 1)]
-    st knz, [sp + (S_KB + 2)]
-    st addr, [sp + S_ADDR]
-    st tcur, [sp + S_TCUR]
+    { room t4, ring ; ld t0, [sp + S_FIRST] }
 .if SAVE_STEP
-    STORE_STEP S_TT, S_NN, S_PP
-    or t2, lend, oor
-    st t2, [sp + S_CODE]
+    { st tx, [sp + S_TT] ; st ty, [sp + (S_TT + 1)] ; fmov tb, t3 }
+    { st tz, [sp + (S_TT + 2)] ; slti t2, t4, 1 + LEN_VISIT }
+.else
+    { slti t2, t4, 1 + LEN_VISIT ; fmov tb, t3 }
 .endif
-.endsched
+    { li t1, HDR_VISIT ; bnez t0, nb_first }
+    { li labm, 0 ; bnez t2, nb_full }
+nb_send:
+    { send ring, t1 ; ld t2, [sp + S_LA_CELL] }
+    { send ring, slot ; ld t4, [sp + S_LA_TEXIT] }
+    { send ring, t2 ; st knx, [sp + S_KB] }
+    { send ring, t4 ; st kny, [sp + (S_KB + 1)] }
+    { send ring, vw ; st knz, [sp + (S_KB + 2)] }
+    { send ring, tb ; st addr, [sp + S_ADDR] }
+.if SAVE_STEP
+    { st tcur, [sp + S_TCUR] ; or t3, lend, oor }
+    { st nnx, [sp + S_NN] ; st nny, [sp + (S_NN + 1)] }
+    { st nnz, [sp + (S_NN + 2)] ; st ppx, [sp + S_PP] }
+    { st ppy, [sp + (S_PP + 1)] ; st ppz, [sp + (S_PP + 2)] }
+    { st t3, [sp + S_CODE] ; j main }
+.else
+    { st tcur, [sp + S_TCUR] ; j main }
+.endif
+nb_full:
+    { li dneed, 1 + LEN_VISIT ; li dret, nb_send }
+    j drain
+# the ray's first visit: the state, then VISIT_FIRST (t4 = room)
+nb_first:
+    { st knx, [sp + S_KB] ; st kny, [sp + (S_KB + 1)] }
+    { st knz, [sp + (S_KB + 2)] ; st addr, [sp + S_ADDR] }
+.if SAVE_STEP
+    { st tcur, [sp + S_TCUR] ; st nnx, [sp + S_NN] }
+    { st nny, [sp + (S_NN + 1)] ; st nnz, [sp + (S_NN + 2)] }
+    { st ppx, [sp + S_PP] ; st ppy, [sp + (S_PP + 1)] }
+    { st ppz, [sp + (S_PP + 2)] ; or t3, lend, oor }
+    { st t3, [sp + S_CODE] ; li labm, 0 }
+    j pair_first
+.else
+    { st tcur, [sp + S_TCUR] ; li labm, 0 ; j pair_first }
+.endif
+
 # t0 = the slot's S_FIRST, t4 = room; vw, tb = cell_B, t_exit_B (A's words are in the slot)
 pair_out:
     { li t1, HDR_VISIT ; slti t2, t4, 1 + LEN_VISIT }

@@ -563,9 +563,12 @@ from_host:
     ld dsz, [sp + (S_TOP_DS + 2)]
 .endm
 
-# V's exit axis: its block (after a level's first voxel and a resumed ray)
-.macro DISPATCH
+# V's exit axis: its block (after a level's first voxel and a resumed ray): the region's last
+# line (with the word's load), then DISPATCH
+.macro DISPATCH_X
     bnez cx, xblk
+.endm
+.macro DISPATCH
     beqz cyz, zblk
     j yblk
 .endm
@@ -620,22 +623,25 @@ from_host:
 .reg rmz  = r34
 
 setup:
+    # while x and y divide (both FP units busy: the divider is not pipelined), integer work only:
+    # the grid's corners, the record into the slot (hx, hy and s0 take rpix, rwr and rwb: stored
+    # first); then list-scheduled from 1/d_z on
+    { ld llox, [VOXEL_BASE + VD_LO] ; st rpix, [sp + RAY_PIXEL] }
+    { ld hx, [VOXEL_BASE + VD_HI] ; st rwr, [sp + RAY_WR] }
+    { ld lloy, [VOXEL_BASE + (VD_LO + 1)] ; st rwb, [sp + RAY_WB] }
+    { ld hy, [VOXEL_BASE + (VD_HI + 1)] ; st rdx, [sp + RAY_DX] }
 .sched
-    st rdx, [sp + RAY_DX]
+    # t_max (surface rays get NaN: no compare with it is ever true), the slabs and the stepping
+    # classes (steps iff 0 < |1/d| < inf; up iff it steps and 1/d > 0)
+    fdiv ivz, one, rdz
     st rdy, [sp + RAY_DY]
-    # while x and y divide: the record into the slot, the grid's corners, t_max (surface rays
-    # get NaN: no compare with it is ever true)
-    ld llox, [VOXEL_BASE + VD_LO]
-    st rpix, [sp + RAY_PIXEL]
-    ld lloy, [VOXEL_BASE + (VD_LO + 1)]
-    st rwb, [sp + RAY_WB]
-    ld lloz, [VOXEL_BASE + (VD_LO + 2)]
-    st rwr, [sp + RAY_WR]
-    ld hx, [VOXEL_BASE + VD_HI]
     st rwg, [sp + RAY_WG]
-    ld hy, [VOXEL_BASE + (VD_HI + 1)]
-    andi s0, rinfo, 3
+    ld lloz, [VOXEL_BASE + (VD_LO + 2)]
     ld hz, [VOXEL_BASE + (VD_HI + 2)]
+    fsub tax, llox, rox
+    fsub tbx, hx, rox
+    fsub tay, lloy, roy
+    andi s0, rinfo, 3
     addi s0, s0, -KIND_SHADOW
     sel stmax, s0, fnan, rtmax
     st rinfo, [sp + RAY_INFO]
@@ -647,17 +653,11 @@ setup:
     st rtmin, [sp + RAY_TMIN]
     st rtmax, [sp + RAY_TMAX]
     st stmax, [sp + S_STMAX]
-    fdiv ivz, one, rdz
     fsub taz, lloz, roz
-    # while z divides, on the other FP unit: the slab distances lo - o, hi - o; x's class
-    # (steps iff 0 < |1/d| < inf; up iff it steps and 1/d > 0) and slab ends
     fsub tbz, hz, roz
-    st s0, [sp + S_FIRST]
-    fsub tax, llox, rox
-    st r0, [sp + S_INSUB]
-    fsub tbx, hx, rox
-    fsub tay, lloy, roy
     fsub tby, hy, roy
+    st s0, [sp + S_FIRST]
+    st r0, [sp + S_INSUB]
     fabs aa, ivx
     flt ngx, ivx, r0
     flt stpx, r0, aa
@@ -806,6 +806,7 @@ setup_tz:
     st dsy, [sp + (S_TOP_DS + 1)]
     st dsz, [sp + (S_TOP_DS + 2)]
     LEVEL_START
+    DISPATCH_X
 .endsched
     DISPATCH
 
@@ -1043,6 +1044,7 @@ leave_sub:
     beq knz, kez, level_out
 .endif
     ld vw, [addr]
+    DISPATCH_X
 .endsched
     DISPATCH
 .endif
@@ -1339,6 +1341,7 @@ sub_enter:
     st lim, [sp + S_SUB_LIM]
     st insub, [sp + S_INSUB]
     LEVEL_START
+    DISPATCH_X
 .endsched
     DISPATCH
 .endif
@@ -1398,6 +1401,7 @@ on_next:
     fmov lexit, finf
     fmov lim, stmax
     RESUME
+    DISPATCH_X
 .endsched
     DISPATCH
 .if HAS_SUBGRIDS
@@ -1419,6 +1423,7 @@ next_sub:
     ld dsy, [sp + (S_SUB_DS + 1)]
     ld dsz, [sp + (S_SUB_DS + 2)]
     RESUME
+    DISPATCH_X
 .endsched
     DISPATCH
 .endif

@@ -931,7 +931,17 @@ ne_z:
 
 # The whole step past a non-empty V (leaf B, a divided voxel, or any leaf without LOOKAHEAD):
 # tcur, the rest of the step, t3, oor = the next voxel's index is outside the level; tprev
-# stays V's t_enter (sub_enter). Then nonempty.
+# stays V's t_enter (sub_enter). Then nonempty (with LOOKAHEAD: sub_enter or nonempty_b).
+.macro NE_END
+.if LOOKAHEAD
+.if HAS_SUBGRIDS
+    blt vw, r0, sub_enter
+.endif
+    j nonempty_b
+.else
+    j nonempty
+.endif
+.endm
 .sched
 .if !LOOKAHEAD
 ne_x:
@@ -952,7 +962,7 @@ ne_xf:
     seq oor, knx, kex
     flt t1, tcur, lexit
     fsel t3, t1, tcur, lexit
-    j nonempty
+    NE_END
 .if !LOOKAHEAD
 ne_y:
 .endif
@@ -972,7 +982,7 @@ ne_yf:
     seq oor, kny, key
     flt t1, tcur, lexit
     fsel t3, t1, tcur, lexit
-    j nonempty
+    NE_END
 .if !LOOKAHEAD
 ne_z:
 .endif
@@ -991,7 +1001,7 @@ ne_zf:
     seq oor, knz, kez
     flt t1, tcur, lexit
     fsel t3, t1, tcur, lexit
-    j nonempty
+    NE_END
 .endsched
 
 # The previous voxel's exit t (tprev) reached lim = min(t_max, lexit). In the golden order:
@@ -1063,11 +1073,7 @@ leave_sub:
 # as after a NEXT. The look-ahead goes on through empty voxels, sub_enter and leave_sub, so every
 # step it takes is one the ray needs after a NEXT anyway; it ends at leaf B (nonempty_b: the
 # pair) or where the ray would end at OS (ray_end -> la_abort: A alone). Every end saves the
-# resume state. Here: a divided voxel (A or B), or leaf B.
-nonempty:                               # (t3 = the leaf's t_exit)
-.if HAS_SUBGRIDS
-    blt vw, r0, sub_enter
-.endif
+# resume state.
 # Leaf B (vw > 0, t3 = its t_exit): save the state after B (the crossings, whose registers the
 # drain takes, first; the rest while the VISIT goes out) and send both leaves.
 nonempty_b:

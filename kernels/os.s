@@ -910,21 +910,33 @@ leaf_z:
 # the block: the rest of the step, the leaf check (lend: V's exit t reached lim), the index check,
 # the next word ("look-ahead"; see nonempty). Leaf B or a divided voxel: ne_xf / ne_yf / ne_zf.
 ne_x:
-    { flt t1, tx, ty ; flt t2, tx, tz ; bnez labm, ne_xf }
-    { fsel tcur, t1, tx, ty ; blt vw, r0, ne_xf }
+.if HAS_SUBGRIDS
+    { flt t1, tx, ty ; flt t2, tx, tz ; blt vw, r0, ne_xs }
+.else
+    { flt t1, tx, ty ; flt t2, tx, tz }
+.endif
+    { fsel tcur, t1, tx, ty ; bnez labm, ne_xf }
     { fsel tcur, t2, tcur, tz ; st vw, [sp + S_LA_CELL] ; li labm, 1 }
     flt t1, tcur, lexit
     fsel t3, t1, tcur, lexit
     { st t3, [sp + S_LA_TEXIT] ; j xblk_1 }
 ne_y:
-    { flt t1, ty, tz ; bnez labm, ne_yf }
-    { fsel tcur, t1, ty, tz ; blt vw, r0, ne_yf }
+.if HAS_SUBGRIDS
+    { flt t1, ty, tz ; blt vw, r0, ne_ys }
+.else
+    { flt t1, ty, tz }
+.endif
+    { fsel tcur, t1, ty, tz ; bnez labm, ne_yf }
     { flt t1, tcur, lexit ; st vw, [sp + S_LA_CELL] ; li labm, 1 }
     fsel t3, t1, tcur, lexit
     { st t3, [sp + S_LA_TEXIT] ; j yblk_1 }
 ne_z:
-    { flt t1, tz, lexit ; bnez labm, ne_zf }
-    { fsel t3, t1, tz, lexit ; blt vw, r0, ne_zf }
+.if HAS_SUBGRIDS
+    { flt t1, tz, lexit ; blt vw, r0, ne_zs }
+.else
+    { flt t1, tz, lexit }
+.endif
+    { fsel t3, t1, tz, lexit ; bnez labm, ne_zf }
     { st vw, [sp + S_LA_CELL] ; st t3, [sp + S_LA_TEXIT] }
     { li labm, 1 ; j zblk_1 }
 .endif
@@ -1250,8 +1262,7 @@ first_full:
 .reg sicz = r31
 .reg sa1  = r48                         # iy*mx, iz*mx*my
 .reg sa2  = r42
-sub_enter:
-.sched
+.macro SUB_BODY
     # (the header's loads first: the scheduler keeps a load behind any earlier store through
     # another base register)
     sub hdr, r0, vw
@@ -1348,8 +1359,64 @@ sub_enter:
     st insub, [sp + S_INSUB]
     LEVEL_START
     DISPATCH_X
+.endm
+
+sub_enter:
+.sched
+    SUB_BODY
 .endsched
     DISPATCH
+
+.if LOOKAHEAD
+# The same from ne_x / ne_y / ne_z (a divided top voxel): the top step (its flags are not needed:
+# leave_sub recomputes them) and the sub-grid's entry in one region
+.sched
+ne_xs:
+    flt t1, tx, ty
+    flt t2, tx, tz
+    fsel tcur, t1, tx, ty
+    fsel tcur, t2, tcur, tz
+    itof kf, knx
+    add knx, knx, stx
+    fsub ppx, ppx, oox
+    fmov tx, nnx
+    fmul nnx, ppx, iix
+    fmul ppx, kf, lcx
+    add addr, addr, dsx
+    seq oor, knx, kex
+    SUB_BODY
+.endsched
+    DISPATCH
+.sched
+ne_ys:
+    flt t1, ty, tz
+    fsel tcur, t1, ty, tz
+    itof kf, kny
+    add kny, kny, sty
+    fsub ppy, ppy, ooy
+    fmov ty, nny
+    fmul nny, ppy, iiy
+    fmul ppy, kf, lcy
+    add addr, addr, dsy
+    seq oor, kny, key
+    SUB_BODY
+.endsched
+    DISPATCH
+.sched
+ne_zs:
+    fmov tcur, tz
+    itof kf, knz
+    add knz, knz, stz
+    fsub ppz, ppz, ooz
+    fmov tz, nnz
+    fmul nnz, ppz, iiz
+    fmul ppz, kf, lcz
+    add addr, addr, dsz
+    seq oor, knz, kez
+    SUB_BODY
+.endsched
+    DISPATCH
+.endif
 .endif
 
 # ---------------------------------------------------------------------------------------------

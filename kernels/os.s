@@ -48,7 +48,7 @@
 #   level_out        the index left the level: leave_sub (back to the top level) or ray_end
 #   nonempty         leaf A: save the state, look ahead (LOOKAHEAD), or sub_enter (a divided
 #                    voxel); without LOOKAHEAD VISIT / VISIT_FIRST with B = CELL_NONE at once
-#   nonempty_b       leaf B: save the state, VISIT / VISIT_FIRST with both leaves (pair_out);
+#   B_VISIT          leaf B: save the state, VISIT / VISIT_FIRST with both leaves (pair_out);
 #                    la_abort (from ray_end): the ray ends at OS, A alone
 #   on_next          NEXT from IC: reload the ray's state from its slot, on with `step`
 #   ray_end          MISS / COLOR to SC, free the slot
@@ -915,7 +915,7 @@ ne_x:
 .else
     { flt t1, tx, ty ; flt t2, tx, tz }
 .endif
-    { fsel tcur, t1, tx, ty ; bnez labm, ne_xf }
+    { fsel tcur, t1, tx, ty ; bnez labm, ne_xb }
     { fsel tcur, t2, tcur, tz ; st vw, [sp + S_LA_CELL] ; li labm, 1 }
     flt t1, tcur, lexit
     fsel t3, t1, tcur, lexit
@@ -926,7 +926,7 @@ ne_y:
 .else
     { flt t1, ty, tz }
 .endif
-    { fsel tcur, t1, ty, tz ; bnez labm, ne_yf }
+    { fsel tcur, t1, ty, tz ; bnez labm, ne_yb }
     { flt t1, tcur, lexit ; st vw, [sp + S_LA_CELL] ; li labm, 1 }
     fsel t3, t1, tcur, lexit
     { st t3, [sp + S_LA_TEXIT] ; j yblk_1 }
@@ -936,29 +936,53 @@ ne_z:
 .else
     { flt t1, tz, lexit }
 .endif
-    { fsel t3, t1, tz, lexit ; bnez labm, ne_zf }
+    { fsel t3, t1, tz, lexit ; bnez labm, ne_zb }
     { st vw, [sp + S_LA_CELL] ; st t3, [sp + S_LA_TEXIT] }
     { li labm, 1 ; j zblk_1 }
 .endif
 
-# The whole step past a non-empty V (leaf B, a divided voxel, or any leaf without LOOKAHEAD):
-# tcur, the rest of the step, t3, oor = the next voxel's index is outside the level; tprev
-# stays V's t_enter (sub_enter). Then nonempty (with LOOKAHEAD: sub_enter or nonempty_b).
-.macro NE_END
+# Leaf B's VISIT (region lines; tb = B's t_exit): the state after B (before the drain, which takes
+# the crossings' registers), then both leaves (pair_send after a drain; pair_first: VISIT_FIRST).
+.macro B_VISIT
+    room t4, ring
+    ld t0, [sp + S_FIRST]
+    st knx, [sp + S_KB]
+    st kny, [sp + (S_KB + 1)]
+    st knz, [sp + (S_KB + 2)]
+    st addr, [sp + S_ADDR]
+    st tcur, [sp + S_TCUR]
+.if SAVE_STEP
+    STORE_STEP S_TT, S_NN, S_PP
+    or t3, lend, oor
+    st t3, [sp + S_CODE]
+.endif
+    slti t2, t4, 1 + LEN_VISIT
+    li t1, HDR_VISIT
+    li labm, 0
+    bnez t0, pair_first
+    bnez t2, pair_full
+    ld t3, [sp + S_LA_CELL]
+    ld t2, [sp + S_LA_TEXIT]
+    send ring, t1
+    send ring, slot
+    send ring, t3
+    send ring, t2
+    send ring, vw
+    send ring, tb
+    j main
+.endm
+
 .if LOOKAHEAD
-.if HAS_SUBGRIDS
-    blt vw, r0, sub_enter
-.endif
-    j nonempty_b
-.else
-    j nonempty
-.endif
+# Leaf B (ne_xb / ne_yb / ne_zb, labm = 1, vw > 0): the step past it (its flags are not needed:
+# a resumed ray recomputes them), its t_exit tb, then the VISIT with both leaves (B_VISIT); a
+# divided voxel: ne_xs / ne_ys / ne_zs (below sub_enter).
+.macro NE_END
+    flt t1, tcur, lexit
+    fsel tb, t1, tcur, lexit
+    B_VISIT
 .endm
 .sched
-.if !LOOKAHEAD
-ne_x:
-.endif
-ne_xf:
+ne_xb:
     flt t1, tx, ty
     flt t2, tx, tz
     fsel tcur, t1, tx, ty
@@ -966,55 +990,82 @@ ne_xf:
     itof kf, knx
     add knx, knx, stx
     fsub ppx, ppx, oox
-    fle cx, nnx, myz
     fmov tx, nnx
     fmul nnx, ppx, iix
     fmul ppx, kf, lcx
     add addr, addr, dsx
     seq oor, knx, kex
-    flt t1, tcur, lexit
-    fsel t3, t1, tcur, lexit
     NE_END
-.if !LOOKAHEAD
-ne_y:
-.endif
-ne_yf:
+ne_yb:
     flt t1, ty, tz
     fsel tcur, t1, ty, tz
     itof kf, kny
     add kny, kny, sty
     fsub ppy, ppy, ooy
-    fmin myz, nny, tz
-    fle cyz, nny, tz
     fmov ty, nny
-    fle cx, tx, myz
     fmul nny, ppy, iiy
     fmul ppy, kf, lcy
     add addr, addr, dsy
     seq oor, kny, key
-    flt t1, tcur, lexit
-    fsel t3, t1, tcur, lexit
     NE_END
-.if !LOOKAHEAD
-ne_z:
-.endif
-ne_zf:
+ne_zb:
     fmov tcur, tz
     itof kf, knz
     add knz, knz, stz
     fsub ppz, ppz, ooz
-    fmin myz, ty, nnz
-    fle cyz, ty, nnz
     fmov tz, nnz
-    fle cx, tx, myz
     fmul nnz, ppz, iiz
     fmul ppz, kf, lcz
     add addr, addr, dsz
     seq oor, knz, kez
-    flt t1, tcur, lexit
-    fsel t3, t1, tcur, lexit
     NE_END
 .endsched
+.else
+# Without LOOKAHEAD: the whole step past a non-empty V (tcur, oor = the next voxel's index is
+# outside the level; tprev stays V's t_enter for sub_enter; no flags), then nonempty.
+.macro NE_END
+    j nonempty
+.endm
+.sched
+ne_x:
+    flt t1, tx, ty
+    flt t2, tx, tz
+    fsel tcur, t1, tx, ty
+    fsel tcur, t2, tcur, tz
+    itof kf, knx
+    add knx, knx, stx
+    fsub ppx, ppx, oox
+    fmov tx, nnx
+    fmul nnx, ppx, iix
+    fmul ppx, kf, lcx
+    add addr, addr, dsx
+    seq oor, knx, kex
+    NE_END
+ne_y:
+    flt t1, ty, tz
+    fsel tcur, t1, ty, tz
+    itof kf, kny
+    add kny, kny, sty
+    fsub ppy, ppy, ooy
+    fmov ty, nny
+    fmul nny, ppy, iiy
+    fmul ppy, kf, lcy
+    add addr, addr, dsy
+    seq oor, kny, key
+    NE_END
+ne_z:
+    fmov tcur, tz
+    itof kf, knz
+    add knz, knz, stz
+    fsub ppz, ppz, ooz
+    fmov tz, nnz
+    fmul nnz, ppz, iiz
+    fmul ppz, kf, lcz
+    add addr, addr, dsz
+    seq oor, knz, kez
+    NE_END
+.endsched
+.endif
 
 # The previous voxel's exit t (tprev) reached lim = min(t_max, lexit). In the golden order:
 #   the leaf's t_exit = min(tprev, lexit) (top level: lexit = +inf) >= t_max: a shadow ray is
@@ -1083,55 +1134,9 @@ leave_sub:
 .if LOOKAHEAD
 # Leaf A (ne_x / ne_y / ne_z) went into the slot, and the ray stepped on ("look-ahead", labm = 1)
 # as after a NEXT. The look-ahead goes on through empty voxels, sub_enter and leave_sub, so every
-# step it takes is one the ray needs after a NEXT anyway; it ends at leaf B (nonempty_b: the
-# pair) or where the ray would end at OS (ray_end -> la_abort: A alone). Every end saves the
-# resume state.
-# Leaf B (vw > 0, t3 = its t_exit): save the state after B (the crossings, whose registers the
-# drain takes, first; the rest while the VISIT goes out) and send both leaves.
-nonempty_b:
-    { room t4, ring ; ld t0, [sp + S_FIRST] }
-.if SAVE_STEP
-    { st tx, [sp + S_TT] ; st ty, [sp + (S_TT + 1)] ; fmov tb, t3 }
-    { st tz, [sp + (S_TT + 2)] ; slti t2, t4, 1 + LEN_VISIT }
-.else
-    { slti t2, t4, 1 + LEN_VISIT ; fmov tb, t3 }
-.endif
-    { li t1, HDR_VISIT ; bnez t0, nb_first }
-    { li labm, 0 ; bnez t2, nb_full }
-nb_send:
-    { send ring, t1 ; ld t2, [sp + S_LA_CELL] }
-    { send ring, slot ; ld t4, [sp + S_LA_TEXIT] }
-    { send ring, t2 ; st knx, [sp + S_KB] }
-    { send ring, t4 ; st kny, [sp + (S_KB + 1)] }
-    { send ring, vw ; st knz, [sp + (S_KB + 2)] }
-    { send ring, tb ; st addr, [sp + S_ADDR] }
-.if SAVE_STEP
-    { st tcur, [sp + S_TCUR] ; or t3, lend, oor }
-    { st nnx, [sp + S_NN] ; st nny, [sp + (S_NN + 1)] }
-    { st nnz, [sp + (S_NN + 2)] ; st ppx, [sp + S_PP] }
-    { st ppy, [sp + (S_PP + 1)] ; st ppz, [sp + (S_PP + 2)] }
-    { st t3, [sp + S_CODE] ; j main }
-.else
-    { st tcur, [sp + S_TCUR] ; j main }
-.endif
-nb_full:
-    { li dneed, 1 + LEN_VISIT ; li dret, nb_send }
-    j drain
-# the ray's first visit: the state, then VISIT_FIRST (t4 = room)
-nb_first:
-    { st knx, [sp + S_KB] ; st kny, [sp + (S_KB + 1)] }
-    { st knz, [sp + (S_KB + 2)] ; st addr, [sp + S_ADDR] }
-.if SAVE_STEP
-    { st tcur, [sp + S_TCUR] ; st nnx, [sp + S_NN] }
-    { st nny, [sp + (S_NN + 1)] ; st nnz, [sp + (S_NN + 2)] }
-    { st ppx, [sp + S_PP] ; st ppy, [sp + (S_PP + 1)] }
-    { st ppz, [sp + (S_PP + 2)] ; or t3, lend, oor }
-    { st t3, [sp + S_CODE] ; li labm, 0 }
-    j pair_first
-.else
-    { st tcur, [sp + S_TCUR] ; li labm, 0 ; j pair_first }
-.endif
-
+# step it takes is one the ray needs after a NEXT anyway; it ends at leaf B (B_VISIT in ne_xb /
+# ne_yb / ne_zb: the pair) or where the ray would end at OS (ray_end -> la_abort: A alone).
+# Every end saves the resume state.
 # t0 = the slot's S_FIRST, t4 = room; vw, tb = cell_B, t_exit_B (A's words are in the slot)
 pair_out:
     { li t1, HDR_VISIT ; slti t2, t4, 1 + LEN_VISIT }

@@ -906,9 +906,10 @@ leaf_z:
 # there, so `ty < tz ? ty : tz`; z: ty > tz and tx > tz, so tz. The leaf's t_exit t3: top level
 # tcur; in a sub-grid numpy's min(tn, T_exit), `tn < T ? tn : T`.
 .if LOOKAHEAD
-# Leaf A (labm = 0, vw > 0): its list pointer and t_exit into the slot, labm = 1, and back into
-# the block: the rest of the step, the leaf check (lend: V's exit t reached lim), the index check,
-# the next word ("look-ahead"; see nonempty). Leaf B or a divided voxel: ne_xf / ne_yf / ne_zf.
+# Leaf A (labm = 0, vw > 0): its list pointer and t_exit into the slot, labm = 1, then the rest
+# of its block (the step, the leaf check with tprev = V's exit t, the index check, the next word:
+# "look-ahead", see nonempty), one region per axis (.deadout: the registers the region writes
+# after an exit are dead at leaf_end and level_out). Leaf B or a divided voxel: ne_xb / ne_xs ...
 ne_x:
 .if HAS_SUBGRIDS
     { flt t1, tx, ty ; flt t2, tx, tz ; blt vw, r0, ne_xs }
@@ -916,10 +917,30 @@ ne_x:
     { flt t1, tx, ty ; flt t2, tx, tz }
 .endif
     { fsel tcur, t1, tx, ty ; bnez labm, ne_xb }
-    { fsel tcur, t2, tcur, tz ; st vw, [sp + S_LA_CELL] ; li labm, 1 }
+.sched
+.deadout r8, r43, r46, r50, r55
+    fsel tcur, t2, tcur, tz
     flt t1, tcur, lexit
     fsel t3, t1, tcur, lexit
-    { st t3, [sp + S_LA_TEXIT] ; j xblk_1 }
+    st vw, [sp + S_LA_CELL]
+    st t3, [sp + S_LA_TEXIT]
+    li labm, 1
+    itof kf, knx
+    add knx, knx, stx
+    fmov tprev, tx
+    bnez lend, leaf_end
+    beq knx, kex, level_out
+    fsub ppx, ppx, oox
+    fle cx, nnx, myz
+    fmov tx, nnx
+    fmul nnx, ppx, iix
+    fmul ppx, kf, lcx
+    add addr, addr, dsx
+    ld vw, [addr]
+    bnez cx, xblk
+.endsched
+    beqz cyz, zblk
+    j yblk
 ne_y:
 .if HAS_SUBGRIDS
     { flt t1, ty, tz ; blt vw, r0, ne_ys }
@@ -927,9 +948,31 @@ ne_y:
     { flt t1, ty, tz }
 .endif
     { fsel tcur, t1, ty, tz ; bnez labm, ne_yb }
-    { flt t1, tcur, lexit ; st vw, [sp + S_LA_CELL] ; li labm, 1 }
+.sched
+.deadout r8, r43, r47, r51, r53, r54, r56
+    flt t1, tcur, lexit
     fsel t3, t1, tcur, lexit
-    { st t3, [sp + S_LA_TEXIT] ; j yblk_1 }
+    st vw, [sp + S_LA_CELL]
+    st t3, [sp + S_LA_TEXIT]
+    li labm, 1
+    itof kf, kny
+    add kny, kny, sty
+    fmov tprev, ty
+    bnez lend, leaf_end
+    beq kny, key, level_out
+    fsub ppy, ppy, ooy
+    fmin myz, nny, tz
+    fle cyz, nny, tz
+    fmov ty, nny
+    fle cx, tx, myz
+    fmul nny, ppy, iiy
+    fmul ppy, kf, lcy
+    add addr, addr, dsy
+    ld vw, [addr]
+    bnez cx, xblk
+.endsched
+    bnez cyz, yblk
+    j zblk
 ne_z:
 .if HAS_SUBGRIDS
     { flt t1, tz, lexit ; blt vw, r0, ne_zs }
@@ -937,8 +980,29 @@ ne_z:
     { flt t1, tz, lexit }
 .endif
     { fsel t3, t1, tz, lexit ; bnez labm, ne_zb }
-    { st vw, [sp + S_LA_CELL] ; st t3, [sp + S_LA_TEXIT] }
-    { li labm, 1 ; j zblk_1 }
+.sched
+.deadout r8, r43, r48, r52, r53, r54, r57
+    st vw, [sp + S_LA_CELL]
+    st t3, [sp + S_LA_TEXIT]
+    li labm, 1
+    itof kf, knz
+    add knz, knz, stz
+    fmov tprev, tz
+    bnez lend, leaf_end
+    beq knz, kez, level_out
+    fsub ppz, ppz, ooz
+    fmin myz, ty, nnz
+    fle cyz, ty, nnz
+    fmov tz, nnz
+    fle cx, tx, myz
+    fmul nnz, ppz, iiz
+    fmul ppz, kf, lcz
+    add addr, addr, dsz
+    ld vw, [addr]
+    bnez cx, xblk
+.endsched
+    beqz cyz, zblk
+    j yblk
 .endif
 
 # Leaf B's VISIT (region lines; tb = B's t_exit): the state after B (before the drain, which takes

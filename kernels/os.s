@@ -318,7 +318,7 @@ main:
 # a ring message: NEXT and DONE known by their whole header word
 ring_msg:
     { recv t0, ring ; li t1, HDR_NEXT }             # header
-    { recv t3, ring ; li t2, HDR_DONE }             # first payload word
+    { recv slot, ring ; li t2, HDR_DONE }           # first payload word (NEXT, DONE: the slot)
     beq t0, t1, on_next
     { srli t0, t0, HDR_TAG_SHIFT ; beq t0, t2, on_done }
 .if SERIAL_TREES
@@ -350,21 +350,21 @@ defer_or_ring:
 
 # a deferred NEXT (t1 = ndefer > 0): resume the ray as if its NEXT had just arrived
 from_defer:
-    { ld t3, [t1 + (DEFERRED - 1)] ; addi t1, t1, -1 }
+    { ld slot, [t1 + (DEFERRED - 1)] ; addi t1, t1, -1 }
     { st t1, [NDEFER] ; j on_next }
 
-# DONE (t3 = slot): the ray ended at IC (a hit, or an occluded shadow ray)
+# DONE (slot): the ray ended at IC (a hit, or an occluded shadow ray)
 on_done:
-    { st t3, [nfree + free_stack] ; addi nfree, nfree, 1 }
+    { st slot, [nfree + free_stack] ; addi nfree, nfree, 1 }
 .if SERIAL_TREES
-    slli t1, t3, SLOT_SHIFT                         # serial mode: an occluded shadow ray ends
+    slli t1, slot, SLOT_SHIFT                         # serial mode: an occluded shadow ray ends
     ld t1, [t1 + (SLOT_TABLE + RAY_INFO)]           #   here; a surface ray's hit ends with
     andi t1, t1, 3                                  #   its SHADED
     addi t1, t1, -KIND_SHADOW
     bnez t1, main
     { addi alive, alive, -1 ; j main }
 
-# SHADED (serial mode; t3 = pixel): SC has shaded a hit and sent every ray it spawned
+# SHADED (serial mode; slot = pixel): SC has shaded a hit and sent every ray it spawned
 on_shaded:
     { addi alive, alive, -1 ; j main }
 .else
@@ -405,13 +405,13 @@ on_shaded:
 .endm
 
 .if SECONDARY
-# RAY from SC (t3 = its pixel word): start it in a free slot, or queue it
+# RAY from SC (slot = its pixel word): start it in a free slot, or queue it
 on_ray:
 .if SERIAL_TREES
     { addi alive, alive, 1 ; bnez qcount, enqueue } # serial mode: strictly first come, first served
 .endif
     beqz nfree, enqueue
-    { addi nfree, nfree, -1 ; mov rpix, t3 }
+    { addi nfree, nfree, -1 ; mov rpix, slot }
     { ld slot, [nfree + free_stack] ; recv rinfo, ring }
     { slli sp, slot, SLOT_SHIFT ; recv rox, ring }
     { addi sp, sp, SLOT_TABLE ; recv roy, ring }
@@ -419,7 +419,7 @@ on_ray:
     { recv rwb, ring ; j setup }
 
 enqueue:
-    ENQUEUE t3, t0, t1, main
+    ENQUEUE slot, t0, t1, main
 
 queue_overflow:                 # more rays wait than OS memory holds: stop the run with a
     ld t0, [r0 - 1]             # memory fault whose report names this label
@@ -1489,7 +1489,7 @@ ne_zs:
 .endif
 
 # ---------------------------------------------------------------------------------------------
-# NEXT (t3 = slot): IC found no hit in the leaf(s). Reload the ray and its place (SAVE_STEP: its
+# NEXT (slot): IC found no hit in the leaf(s). Reload the ray and its place (SAVE_STEP: its
 # crossings too, else recomputed from kn), then as after a step: the leaf check (tprev = the
 # leaf's exit t; t_max, sub-grid end), the index check, the word, the dispatch.
 
@@ -1511,8 +1511,7 @@ ne_zs:
 
 on_next:
 .sched
-    slli sp, t3, SLOT_SHIFT
-    mov slot, t3
+    slli sp, slot, SLOT_SHIFT
     addi sp, sp, SLOT_TABLE
     ld oox, [sp + S_OO]
     ld ooy, [sp + (S_OO + 1)]

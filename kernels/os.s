@@ -166,6 +166,9 @@
 .data
 free_stack: .space SLOTS        # indices of the free slots: nfree of them
 top_rm:     .space 3            # float(res_a - 1): the top level's start-index clamp bounds
+.if SAVE_STEP
+top_ke:     .space 6            # the top level's kend per axis: stepping down (or not), up
+.endif
 .text
 
 # ---------------------------------------------------------------------------------------------
@@ -294,6 +297,15 @@ init_free:                              # free_stack[i] = i
     { itof t2, t2 }
     { st t0, [top_rm] ; st t1, [top_rm + 1] }
     { st t2, [top_rm + 2] ; st r0, [NDEFER] }
+.if SAVE_STEP
+    { ld t0, [VOXEL_BASE + VD_RES] ; ld t1, [VOXEL_BASE + (VD_RES + 1)] }
+    { ld t2, [VOXEL_BASE + (VD_RES + 2)] ; li t3, -4 }
+    { addi t0, t0, 4 ; addi t1, t1, 4 }
+    { addi t2, t2, 4 ; st t3, [top_ke] }
+    { st t0, [top_ke + 1] ; st t3, [top_ke + 2] }
+    { st t1, [top_ke + 3] ; st t3, [top_ke + 4] }
+    st t2, [top_ke + 5]
+.endif
 
 # ---------------------------------------------------------------------------------------------
 # The main loop: the ring first (a ring message is never refused), then NEXTs the drain put
@@ -765,11 +777,16 @@ setup_tz:
     fmin taz, taz, rmz
     floor taz, taz
     mul dsz, stz, nxy
+    # kend = up ? res + 4 : -4 (kn = kb + 3 st meets it when the index leaves 0..res-1; SAVE_STEP:
+    # from top_ke); the voxel word's address TOP_VOXELS + ix + iy*nx + iz*nx*ny; the top level's
+    # address steps (st_x, st_y*nx, st_z*nx*ny); kb = index + up (in place of up)
+.if SAVE_STEP
+    ld kex, [upx + top_ke]
+    ld key, [upy + (top_ke + 2)]
+    ld kez, [upz + (top_ke + 4)]
+.else
     ld ny, [VOXEL_BASE + (VD_RES + 1)]
     ld nz, [VOXEL_BASE + (VD_RES + 2)]
-    # kend = up ? res + 4 : -4 (kn = kb + 3 st meets it when the index leaves 0..res-1); the
-    # voxel word's address TOP_VOXELS + ix + iy*nx + iz*nx*ny; the top level's address steps
-    # (st_x, st_y*nx, st_z*nx*ny); kb = index + up (in place of up)
     li s0, -4
     addi hz, nx, 4
     sel kex, upx, hz, s0
@@ -777,6 +794,7 @@ setup_tz:
     sel key, upy, hz, s0
     addi hz, nz, 4
     sel kez, upz, hz, s0
+.endif
     mul hx, tay, nx
     mul hy, taz, nxy
     mul dsy, sty, nx

@@ -911,13 +911,6 @@ zblk_1:
     beqz cyz, zblk
     j yblk
 
-# V's exit t (T_a, not yet moved) reached lim
-leaf_x:
-    { fmov tprev, tx ; j leaf_end }
-leaf_y:
-    { fmov tprev, ty ; j leaf_end }
-leaf_z:
-    { fmov tprev, tz ; j leaf_end }
 
 # V is non-empty (its block's first bundle done: lend, lo + P_a). V's exact exit t tcur is numpy's
 # min(min(tx, ty), tz); knowing the exit axis: x: `tx < tz ? (tx < ty ? tx : ty) : tz`; y: tx >= ty
@@ -1149,16 +1142,33 @@ ne_z:
 .endsched
 .endif
 
-# The previous voxel's exit t (tprev) reached lim = min(t_max, lexit). In the golden order:
+# The previous voxel's exit t (tprev) reached lim = min(t_max, lexit) (lend). In the golden order:
 #   the leaf's t_exit = min(tprev, lexit) (top level: lexit = +inf) >= t_max: a shadow ray is
 #     done, unoccluded (surface rays: t_max is NaN, never);
 #   tprev >= lexit: the sub-grid is finished (golden sub_end).
-# One of the two holds whenever lend is set (so the second is not tested: level_out).
-leaf_end:
-    { flt t0, tprev, lexit }
-    { fsel t1, t0, tprev, lexit }
-    { fle t0, stmax, t1 }
+# Given lend the first holds exactly when t_max <= lexit (t_max < lexit: lim = t_max <= tprev,
+# and both operands of the min are >= t_max; else lim = lexit <= tprev and the min is lexit), and
+# otherwise the second does: so the leaf check is t_max <= lexit, then level_out.
+# leaf_x / leaf_y / leaf_z: from the blocks, V's exit t is T_a (not yet moved) -> tprev.
+.macro LEAF_TAIL
     bnez t0, ray_end
+.if HAS_SUBGRIDS
+    bnez insub, leave_sub
+.endif
+    j ray_end
+.endm
+leaf_x:
+    { fmov tprev, tx ; fle t0, stmax, lexit }
+    LEAF_TAIL
+leaf_y:
+    { fmov tprev, ty ; fle t0, stmax, lexit }
+    LEAF_TAIL
+leaf_z:
+    { fmov tprev, tz ; fle t0, stmax, lexit }
+    LEAF_TAIL
+leaf_end:
+    fle t0, stmax, lexit
+    LEAF_TAIL
 
 # The index left the level, or the sub-grid is finished.
 level_out:

@@ -7,12 +7,13 @@
 #
 # Per ray, exactly as host/traversal.py does it for a whole wavefront:
 #   setup   inv = 1/d, which axes step, the grid-entry slab, t_enter, the start voxel
-#   step    one leaf per step: the three boundary crossings t_x, t_y, t_z of the current voxel
-#           (independent per axis: the three chains share the bundles), its voxel word, the
-#           exit axis, the step along that axis. A non-empty leaf A and the ray's next one, B,
-#           go to IC as one VISIT_FIRST / VISIT (LOOKAHEAD; B = CELL_NONE if the ray ends at OS
-#           first); the ray then sleeps in its slot until IC answers NEXT (go on after the
-#           leaves) or DONE (free the slot), and OS works on other rays meanwhile.
+#   step    one leaf per step: its voxel word, the exit axis from the three boundary crossings
+#           t_x, t_y, t_z of the voxel, the step along that axis. The crossings are kept a step
+#           ahead per axis (see `step`): a step moves the stepped axis's next crossing in and
+#           starts the one after; the other two axes' are unchanged. A non-empty leaf A and the
+#           ray's next one, B, go to IC as one VISIT_FIRST / VISIT (LOOKAHEAD; B = CELL_NONE if
+#           the ray ends at OS first); the ray then sleeps in its slot until IC answers NEXT (go
+#           on after the leaves) or DONE (free the slot), and OS works on other rays meanwhile.
 #   end     a surface ray that leaves (or misses) the grid -> MISS (pixel, w) to SC; a shadow
 #           ray that leaves the grid or whose leaf reaches t_max -> COLOR (pixel, c) to SC.
 #
@@ -26,9 +27,11 @@
 # Three exact tricks keep the step short:
 #   * a non-stepping axis gets o = -inf and inv = +inf in the loop: its crossing
 #     (b - (-inf)) * inf is +inf, the golden "+inf where the axis does not step", with no select;
-#   * the loop keeps kb = index + up (up = 1 on an axis stepping up): the boundary a voxel is
-#     left through is then always lo + float(kb)*cell (golden: index + 1 up, index down), and
-#     "the index is still in 0..res-1 after a step" is the one unsigned compare kb <u res + up;
+#   * the boundary a voxel is left through is always lo + float(kb)*cell with kb = index + up
+#     (up = 1 on an axis stepping up; golden: index + 1 up, index down); the loop keeps kn =
+#     kb + 3 st (the index of the next crossing it will start), and "the index left 0..res-1"
+#     after a step (one step from inside) is the one compare kn == kend, kend = res + up + 3
+#     stepping up, -4 stepping down (never met on a non-stepping axis);
 #   * the voxel word's address is kept and moved by +-1, +-nx, +-nx*ny per step.
 #
 # The OS VLIW issues 2 integer + 2 FP operations a cycle but has only 2 register write ports:
@@ -40,17 +43,19 @@
 #   main             the loop: ring first (ring_msg: on_next / on_done / on_ray -> enqueue),
 #                    then a deferred NEXT (from_defer), then a queued ray (from_queue), then a
 #                    host ray (from_host); else `wait`
-#   setup            a new ray: 1/d, stepping classes, grid entry, start voxel (setup_nonstep:
-#                    the golden inside test for axes that do not step); ends in its first step
-#   step             one leaf: crossings, voxel word, exit axis (step_x / step_y / step_z),
-#                    `jr cont` -> step again (empty voxel) or nonempty
-#   leaf_end         the previous leaf reached t_max (shadow ray done) or ended its sub-grid
+#   setup            a new ray: 1/d (x and y start dividing as the ray is received), stepping
+#                    classes, grid entry, start voxel (setup_nonstep: the golden inside test
+#                    for axes that do not step), the level's first voxel (LEVEL_START)
+#   xblk, yblk, zblk the step loop, one block per exit axis (see `step`)
+#   leaf_x.., leaf_end  the previous leaf reached t_max (shadow ray done) or ended its sub-grid
 #   level_out        the index left the level: leave_sub (back to the top level) or ray_end
-#   nonempty         leaf A: save the state, look ahead (LOOKAHEAD), or sub_enter (a divided
-#                    voxel); without LOOKAHEAD VISIT / VISIT_FIRST with B = CELL_NONE at once
+#   ne_x, ne_y, ne_z a non-empty voxel: leaf A (look ahead, LOOKAHEAD), leaf B (ne_xb...:
+#                    B_VISIT), a divided voxel (ne_xs...: sub_enter); without LOOKAHEAD
+#                    nonempty: VISIT / VISIT_FIRST with B = CELL_NONE at once
 #   B_VISIT          leaf B: save the state, VISIT / VISIT_FIRST with both leaves (pair_out);
 #                    la_abort (from ray_end): the ray ends at OS, A alone
-#   on_next          NEXT from IC: reload the ray's state from its slot, on with `step`
+#   on_next          NEXT from IC: reload the ray's state from its slot (SAVE_STEP: its
+#                    crossings too), on with the dispatch
 #   ray_end          MISS / COLOR to SC, free the slot
 #   drain            a message does not fit the send FIFO: read the ring meanwhile (OS never
 #                    blocks in `send`, so the ring cannot deadlock; docs/kernels.md)
@@ -62,11 +67,12 @@
 # (a hit) changes nothing: it ends with its SHADED. A host ray is taken only when alive = 0. A
 # RAY from SC also waits in the queue while older rays wait there (strict FIFO: with one slot
 # IC then sees each tree in level order, whatever the timing). Without SERIAL_TREES none of this
-# is assembled.
+# is assembled. The serial mode also recomputes a resumed ray's crossings instead of saving them
+# (SAVE_STEP = 0), so that OS's local-memory reads and writes stay those of the paper's trace.
 #
-# Cost (emulator, IC answering at once; SLOTS=8, balls:2): ~88 cycles per ray setup, 16-18
-# per step (the three crossing chains are ~14 cycles deep), ~16 per visit sent, ~21 to resume
-# after NEXT, ~42 to enter a sub-grid, 11 to leave it.
+# Cost (balls, 32x32): ~105 cycles per ray setup (with its first voxel's crossings), 8-11 per
+# empty voxel (8 for a step along x after one along x), ~22 from leaf B to its VISIT sent, ~30
+# to resume after NEXT, ~77 to enter a sub-grid (with the top step), ~20 to leave it.
 
 .proc os
 .include "protocol.inc"
@@ -867,19 +873,19 @@ setup_nonstep:
 # the exact min is formed where it leaves OS or becomes a bound (tcur, in ne_x / ne_y / ne_z).
 #
 # A block (xblk, yblk, zblk: V's exit axis is x, y, z), in the golden order:
-#   V non-empty -> ne_a: finish the step, then nonempty (visit, look-ahead, sub-grid)
-#   V's exit t >= lim -> leaf_x / leaf_y / leaf_z -> leaf_end (t_max reached, sub-grid finished)
+#   V non-empty -> ne_x / ne_y / ne_z: the rest of the step there (leaf A, B, or a sub-grid)
+#   V's exit t >= lim -> leaf_x / leaf_y / leaf_z (t_max reached, or the sub-grid finished)
 #   the next voxel's index is outside the level (kn_a = kend_a) -> level_out
 #   the next voxel's word; its exit axis -> its block.
 # A level's first voxel (setup, sub_enter: LEVEL_START; leave_sub) and a resumed ray (on_next)
-# come in through DISPATCH with all of this set up and the voxel's word read.
+# come in through DISPATCH_X / DISPATCH with all of this set up and the voxel's word read; each
+# is one voxel's check (leaf, index) before its word, like the blocks'.
 # The blocks are scheduled for the two write ports (at most two results written per bundle and
 # completing per cycle; a step writes 12 registers along x, 14 along y or z). A step along x
 # takes 8 cycles when the next is along x too.
 
 xblk:
     { fle lend, lim, tx ; fadd ppx, llox, ppx ; bnez vw, ne_x }
-xblk_1:
     { itof kf, knx ; add knx, knx, stx ; bnez lend, leaf_x }
     { fsub ppx, ppx, oox ; fmov tprev, tx ; beq knx, kex, level_out }
     fmov tx, nnx
@@ -889,7 +895,6 @@ xblk_1:
     beqz cyz, zblk
 yblk:
     { fle lend, lim, ty ; fadd ppy, lloy, ppy ; bnez vw, ne_y }
-yblk_1:
     { itof kf, kny ; add kny, kny, sty ; bnez lend, leaf_y }
     { fsub ppy, ppy, ooy ; fmov tprev, ty ; beq kny, key, level_out }
     fmin myz, nny, tz
@@ -900,7 +905,6 @@ yblk_1:
     bnez cyz, yblk
 zblk:
     { fle lend, lim, tz ; fadd ppz, lloz, ppz ; bnez vw, ne_z }
-zblk_1:
     { itof kf, knz ; add knz, knz, stz ; bnez lend, leaf_z }
     { fsub ppz, ppz, ooz ; fmov tprev, tz ; beq knz, kez, level_out }
     fmin myz, ty, nnz

@@ -878,8 +878,8 @@ setup_nonstep:
 #   the next voxel's index is outside the level (kn_a = kend_a) -> level_out
 #   the next voxel's word; its exit axis -> its block.
 # A level's first voxel (setup, sub_enter: LEVEL_START; leave_sub) and a resumed ray (on_next)
-# come in through DISPATCH_X / DISPATCH with all of this set up and the voxel's word read; each
-# is one voxel's check (leaf, index) before its word, like the blocks'.
+# come in through DISPATCH_X / DISPATCH with all of this set up and the voxel's word read (after
+# a resumed ray's leaf and index checks, and leave_sub's index check).
 # The blocks are scheduled for the two write ports (at most two results written per bundle and
 # completing per cycle; a step writes 12 registers along x, 14 along y or z). A step along x
 # takes 8 cycles when the next is along x too.

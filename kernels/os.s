@@ -107,27 +107,31 @@
 #   OS_FREE_BASE ..           slot table: SLOTS records of SLOT_WORDS words
 #   QUEUE_BASE .. QUEUE_END   overflow queue: rays from SC that found every slot busy (a ring
 #                             buffer of QUEUE_ENTRY-word entries filling the rest of memory)
+#   EXT_TABLE ..              SAVE_STEP: the slots' extensions, SLOTS records of SLOT_WORDS words
+#                             (a slot's extension is at the same distance EXT from its record)
 #   NDEFER, DEFERRED ..       the last SLOTS + 1 words: the deferred NEXTs (see drain): their
 #                             count, then the slots (one NEXT per slot at most)
 
-# Save / restore the step's crossings (T, N, P of every axis, see `step`) in the slot when a ray
-# waits for IC and when it enters a sub-grid (the default); the serial mode recomputes them from
-# kn instead, so that its local-memory reads and writes stay those of the paper's trace.
+# Save / restore the step's crossings (T, N, P of every axis, see `step`) in the slot's extension
+# when a ray waits for IC and when it enters a sub-grid (the default); the serial mode recomputes
+# them from kn instead, so that its local-memory reads and writes stay those of the paper's trace.
 .ifndef SAVE_STEP
 .equ SAVE_STEP, !SERIAL_TREES
 .endif
-.if SAVE_STEP
-.equ SLOT_SHIFT, 7
-.else
 .equ SLOT_SHIFT, 6
-.endif
 .equ SLOT_WORDS, 1 << SLOT_SHIFT
 .equ SLOT_TABLE, OS_FREE_BASE
 .equ QUEUE_BASE, SLOT_TABLE + SLOTS * SLOT_WORDS
 .equ QUEUE_ENTRY, 16
 .equ NDEFER, OS_LOCAL_WORDS - SLOTS - 1
 .equ DEFERRED, NDEFER + 1
-.equ QUEUE_CAP, (NDEFER - QUEUE_BASE) / QUEUE_ENTRY
+.if SAVE_STEP
+.equ EXT_TABLE, NDEFER - SLOTS * SLOT_WORDS
+.else
+.equ EXT_TABLE, NDEFER
+.endif
+.equ EXT, EXT_TABLE - SLOT_TABLE                # [sp + EXT + k]: word k of the slot's extension
+.equ QUEUE_CAP, (EXT_TABLE - QUEUE_BASE) / QUEUE_ENTRY
 .equ QUEUE_END, QUEUE_BASE + QUEUE_CAP * QUEUE_ENTRY
 .if QUEUE_CAP < 1
 .error "OS local memory is full: no room for the slot table and the ray queue"
@@ -156,16 +160,17 @@
 .equ S_SUB_LIM, 51              # t_max < T_exit ? t_max : T_exit (see `lim`)
 .equ S_LA_CELL, 52              # LOOKAHEAD: leaf A's list pointer and t_exit while OS looks for
 .equ S_LA_TEXIT, 53             #   leaf B
-.equ S_TT, 54                   # SAVE_STEP, 3 x 3: the step's T, N, P (see `step`) with S_KB
-.equ S_NN, 57
-.equ S_PP, 60
-.equ S_TOP_TT, 63               # SAVE_STEP, 3 x 3: the top level's T, N, P with S_TOP_KB
-.equ S_TOP_NN, 66
-.equ S_TOP_PP, 69
-.equ S_CODE, 72                 # SAVE_STEP: with S_KB: 0 = resume at the next voxel's word, else
-                                #   the leaf or index check fails (resume_slow)
-.equ S_TOP_OOR, 73              # SAVE_STEP: with S_TOP_KB: the top index left the grid
-.if S_LA_TEXIT >= SLOT_WORDS || (SAVE_STEP && S_TOP_OOR >= SLOT_WORDS)
+# the slot's extension (SAVE_STEP; offsets from sp too):
+.equ S_TT, EXT + 0              # 3 x 3: the step's T, N, P (see `step`) with S_KB
+.equ S_NN, EXT + 3
+.equ S_PP, EXT + 6
+.equ S_TOP_TT, EXT + 9          # 3 x 3: the top level's T, N, P with S_TOP_KB
+.equ S_TOP_NN, EXT + 12
+.equ S_TOP_PP, EXT + 15
+.equ S_CODE, EXT + 18           # with S_KB: 0 = resume at the next voxel's word, else the leaf or
+                                #   index check fails (resume_slow)
+.equ S_TOP_OOR, EXT + 19        # with S_TOP_KB: the top index left the grid
+.if S_LA_TEXIT >= SLOT_WORDS || (SAVE_STEP && S_TOP_OOR - EXT >= SLOT_WORDS)
 .error "the slot record does not fit SLOT_WORDS"
 .endif
 

@@ -898,7 +898,7 @@ xblk:
     { fmul ppx, kf, lcx ; add addr, addr, dsx }
     { ld vw, [addr] ; bnez cx, xblk }
     beqz cyz, zblk
-yblk:
+.macro Y_BLOCK
     { fle lend, lim, ty ; fadd ppy, lloy, ppy ; bnez vw, ne_y }
     { itof kf, kny ; add kny, kny, sty ; bnez lend, leaf_y }
     { fsub ppy, ppy, ooy ; fmov tprev, ty ; beq kny, key, level_out }
@@ -908,6 +908,9 @@ yblk:
     { fmul ppy, kf, lcy ; add addr, addr, dsy }
     { ld vw, [addr] ; bnez cx, xblk }
     bnez cyz, yblk
+.endm
+yblk:
+    Y_BLOCK
 zblk:
     { fle lend, lim, tz ; fadd ppz, lloz, ppz ; bnez vw, ne_z }
     { itof kf, knz ; add knz, knz, stz ; bnez lend, leaf_z }
@@ -918,7 +921,8 @@ zblk:
     { fmul ppz, kf, lcz ; add addr, addr, dsz }
     { ld vw, [addr] ; bnez cx, xblk }
     beqz cyz, zblk
-    j yblk
+    Y_BLOCK                                 # (a second y block: z -> y falls through)
+    j zblk
 
 
 # V is non-empty (its block's first bundle done: lend, lo + P_a). V's exact exit t tcur is numpy's

@@ -9,7 +9,8 @@ from pathlib import Path
 KERNELS = Path(__file__).resolve().parent
 
 KERNEL_SETS = {"classic": "the 1992-style kernels as first written: hand-packed bundles, one list "
-                          "cell at a time (kernels/classic/: IC's; OS and SC are today's)"}
+                          "cell at a time, every traversal step afresh, one leaf per VISIT (kernels/classic/: "
+                          "OS's and IC's, with their protocol; SC is today's)"}
 """Other bundled kernel sets, by name: `render --kernels classic` runs them (docs/kernels.md). A
 set keeps only the stages and includes it changes; the rest are the bundled kernels'."""
 

@@ -387,17 +387,12 @@ accept:
 next_cell:
     bge pri, r0, cell_loop      # P > 0: not the last cell
 
-# ---- the list is done: answer OS, or walk the message's second leaf ----------------------------
-# (as kernels/ic.s: the VISIT's last two words are leaf B, read here in leaf A, cur = slot; while
-# B is walked cur = hvf (never a slot), until the answer puts it back)
+# ---- the list is done: answer OS ----------------------------------------------------------------
 list_end:
-    { bne cur, slot, list_end_b ; flt m_t, best, pinf }
-    recv cell, ring                                                     # cell_B
-    { recv m_texit, ring ; fsel m_t, shadow, r0, m_t ; fmov cur, hvf }  # t_exit_B; m_t = a hit
-    { bnez m_t, hit ; fsel lim, shadow, pinf, m_texit }
-    { bge cell, r0, visit ; fsel best, shadow, tmax, pinf }             # leaf B: walk it now
+    { bnez shadow, send_next ; flt m_t, best, pinf }
+    bnez m_t, hit
 send_next:
-    { li m_t, HDR_NEXT ; fmov cur, slot }
+    { li m_t, HDR_NEXT }
     { send ring, m_t }
     { send ring, slot }
     beqz dirty, main
@@ -415,14 +410,10 @@ write_back:
 
 # An occluded shadow ray ends here.
 occluded:
-    { li m_t, HDR_DONE ; fmov dirty, r0 }
-    { bne cur, slot, occluded_send ; fmov cur, slot }
-    recv m_hdr, ring                                                    # leaf B's words
-    recv m_hdr, ring
-occluded_send:
+    { li m_t, HDR_DONE }
     { send ring, m_t }
     { send ring, slot }
-    j main
+    { fmov dirty, r0 ; j main }
 
 # ---- the tests ------------------------------------------------------------------------------------
 .if HAS_POLYGONS
@@ -439,7 +430,4 @@ occluded_send:
 .endif
 
 # ---- the hit --------------------------------------------------------------------------------------
-list_end_b:                     # the end of leaf B (m_t = best < inf)
-    { bnez shadow, send_next }
-    beqz m_t, send_next
 .include "ic_hit.inc"

@@ -538,17 +538,18 @@ from_host:
     ld vw, [addr]
 .endm
 
-# SAVE_STEP: the crossings into / from the slot (words t, n, p: 3 each)
-.macro STORE_STEP t, n, p
-    st tx, [sp + \t]
-    st ty, [sp + (\t + 1)]
-    st tz, [sp + (\t + 2)]
-    st nnx, [sp + \n]
-    st nny, [sp + (\n + 1)]
-    st nnz, [sp + (\n + 2)]
-    st ppx, [sp + \p]
-    st ppy, [sp + (\p + 1)]
-    st ppz, [sp + (\p + 2)]
+# SAVE_STEP: the crossings into / from the slot (words t, n, p: 3 each): `op` = st or ld, one
+# word a line (STORE_STEP_B: the stores two a bundle, for hand-bundled code)
+.macro STEP_WORDS op, t, n, p
+    \op tx, [sp + \t]
+    \op ty, [sp + (\t + 1)]
+    \op tz, [sp + (\t + 2)]
+    \op nnx, [sp + \n]
+    \op nny, [sp + (\n + 1)]
+    \op nnz, [sp + (\n + 2)]
+    \op ppx, [sp + \p]
+    \op ppy, [sp + (\p + 1)]
+    \op ppz, [sp + (\p + 2)]
 .endm
 .macro STORE_STEP_B t, n, p
     { st tx, [sp + \t] ; st ty, [sp + (\t + 1)] }
@@ -556,17 +557,6 @@ from_host:
     { st nny, [sp + (\n + 1)] ; st nnz, [sp + (\n + 2)] }
     { st ppx, [sp + \p] ; st ppy, [sp + (\p + 1)] }
     st ppz, [sp + (\p + 2)]
-.endm
-.macro LOAD_STEP t, n, p
-    ld tx, [sp + \t]
-    ld ty, [sp + (\t + 1)]
-    ld tz, [sp + (\t + 2)]
-    ld nnx, [sp + \n]
-    ld nny, [sp + (\n + 1)]
-    ld nnz, [sp + (\n + 2)]
-    ld ppx, [sp + \p]
-    ld ppy, [sp + (\p + 1)]
-    ld ppz, [sp + (\p + 2)]
 .endm
 
 # The top level's traversal state into the level registers: its lo corner and cell size (the
@@ -1040,7 +1030,7 @@ ne_z:
     st addr, [sp + S_ADDR]
     st tcur, [sp + S_TCUR]
 .if SAVE_STEP
-    STORE_STEP S_TT, S_NN, S_PP
+    STEP_WORDS st, S_TT, S_NN, S_PP
     or t3, lend, oor
     st t3, [sp + S_CODE]
 .endif
@@ -1060,6 +1050,38 @@ ne_z:
     j main
 .endm
 
+# The step past a non-empty voxel V along its exit axis, for the paths that leave the loop
+# (linear assembly, in their regions): V's exact exit t (tcur: numpy's min of its crossings,
+# `a < b ? a : b`; x, y, z in the exit-axis rule's order), then AXIS_STEP: the axis's crossings
+# move on (T = N, N finished with golden's operations, the next P started), its index and the
+# word address; oor = the index left the level.
+.macro AXIS_STEP a
+    itof kf, kn\a
+    add kn\a, kn\a, st\a
+    fsub pp\a, pp\a, oo\a
+    fmov t\a, nn\a
+    fmul nn\a, pp\a, ii\a
+    fmul pp\a, kf, lc\a
+    add addr, addr, ds\a
+    seq oor, kn\a, ke\a
+.endm
+.macro STEP_PAST_X
+    flt t1, tx, ty
+    flt t2, tx, tz
+    fsel tcur, t1, tx, ty
+    fsel tcur, t2, tcur, tz
+    AXIS_STEP x
+.endm
+.macro STEP_PAST_Y
+    flt t1, ty, tz
+    fsel tcur, t1, ty, tz
+    AXIS_STEP y
+.endm
+.macro STEP_PAST_Z
+    fmov tcur, tz
+    AXIS_STEP z
+.endm
+
 .if LOOKAHEAD
 # Leaf B (ne_xb / ne_yb / ne_zb, labm = 1, vw > 0): the step past it (its flags are not needed:
 # a resumed ray recomputes them), its t_exit tb, then the VISIT with both leaves (B_VISIT); a
@@ -1071,41 +1093,13 @@ ne_z:
 .endm
 .sched
 ne_xb:
-    flt t1, tx, ty
-    flt t2, tx, tz
-    fsel tcur, t1, tx, ty
-    fsel tcur, t2, tcur, tz
-    itof kf, knx
-    add knx, knx, stx
-    fsub ppx, ppx, oox
-    fmov tx, nnx
-    fmul nnx, ppx, iix
-    fmul ppx, kf, lcx
-    add addr, addr, dsx
-    seq oor, knx, kex
+    STEP_PAST_X
     NE_END
 ne_yb:
-    flt t1, ty, tz
-    fsel tcur, t1, ty, tz
-    itof kf, kny
-    add kny, kny, sty
-    fsub ppy, ppy, ooy
-    fmov ty, nny
-    fmul nny, ppy, iiy
-    fmul ppy, kf, lcy
-    add addr, addr, dsy
-    seq oor, kny, key
+    STEP_PAST_Y
     NE_END
 ne_zb:
-    fmov tcur, tz
-    itof kf, knz
-    add knz, knz, stz
-    fsub ppz, ppz, ooz
-    fmov tz, nnz
-    fmul nnz, ppz, iiz
-    fmul ppz, kf, lcz
-    add addr, addr, dsz
-    seq oor, knz, kez
+    STEP_PAST_Z
     NE_END
 .endsched
 .else
@@ -1116,41 +1110,13 @@ ne_zb:
 .endm
 .sched
 ne_x:
-    flt t1, tx, ty
-    flt t2, tx, tz
-    fsel tcur, t1, tx, ty
-    fsel tcur, t2, tcur, tz
-    itof kf, knx
-    add knx, knx, stx
-    fsub ppx, ppx, oox
-    fmov tx, nnx
-    fmul nnx, ppx, iix
-    fmul ppx, kf, lcx
-    add addr, addr, dsx
-    seq oor, knx, kex
+    STEP_PAST_X
     NE_END
 ne_y:
-    flt t1, ty, tz
-    fsel tcur, t1, ty, tz
-    itof kf, kny
-    add kny, kny, sty
-    fsub ppy, ppy, ooy
-    fmov ty, nny
-    fmul nny, ppy, iiy
-    fmul ppy, kf, lcy
-    add addr, addr, dsy
-    seq oor, kny, key
+    STEP_PAST_Y
     NE_END
 ne_z:
-    fmov tcur, tz
-    itof kf, knz
-    add knz, knz, stz
-    fsub ppz, ppz, ooz
-    fmov tz, nnz
-    fmul nnz, ppz, iiz
-    fmul ppz, kf, lcz
-    add addr, addr, dsz
-    seq oor, knz, kez
+    STEP_PAST_Z
     NE_END
 .endsched
 .endif
@@ -1203,7 +1169,7 @@ leave_sub:
     ld addr, [sp + S_TOP_ADDR]
     TOP_LEVEL_OPS
 .if SAVE_STEP
-    LOAD_STEP S_TOP_TT, S_TOP_NN, S_TOP_PP
+    STEP_WORDS ld, S_TOP_TT, S_TOP_NN, S_TOP_PP
     ld t0, [sp + S_TOP_OOR]
 .else
     STEP_FROM_KN
@@ -1398,7 +1364,7 @@ first_full:
     ld suy, [sp + (S_UP + 1)]
     ld suz, [sp + (S_UP + 2)]
 .if SAVE_STEP
-    STORE_STEP S_TOP_TT, S_TOP_NN, S_TOP_PP
+    STEP_WORDS st, S_TOP_TT, S_TOP_NN, S_TOP_PP
     st oor, [sp + S_TOP_OOR]
 .endif
     st addr, [sp + S_TOP_ADDR]
@@ -1482,47 +1448,19 @@ sub_enter:
 # leave_sub recomputes them) and the sub-grid's entry in one region
 .sched
 ne_xs:
-    flt t1, tx, ty
-    flt t2, tx, tz
-    fsel tcur, t1, tx, ty
-    fsel tcur, t2, tcur, tz
-    itof kf, knx
-    add knx, knx, stx
-    fsub ppx, ppx, oox
-    fmov tx, nnx
-    fmul nnx, ppx, iix
-    fmul ppx, kf, lcx
-    add addr, addr, dsx
-    seq oor, knx, kex
+    STEP_PAST_X
     SUB_BODY
 .endsched
     DISPATCH
 .sched
 ne_ys:
-    flt t1, ty, tz
-    fsel tcur, t1, ty, tz
-    itof kf, kny
-    add kny, kny, sty
-    fsub ppy, ppy, ooy
-    fmov ty, nny
-    fmul nny, ppy, iiy
-    fmul ppy, kf, lcy
-    add addr, addr, dsy
-    seq oor, kny, key
+    STEP_PAST_Y
     SUB_BODY
 .endsched
     DISPATCH
 .sched
 ne_zs:
-    fmov tcur, tz
-    itof kf, knz
-    add knz, knz, stz
-    fsub ppz, ppz, ooz
-    fmov tz, nnz
-    fmul nnz, ppz, iiz
-    fmul ppz, kf, lcz
-    add addr, addr, dsz
-    seq oor, knz, kez
+    STEP_PAST_Z
     SUB_BODY
 .endsched
     DISPATCH
@@ -1570,7 +1508,7 @@ on_next:
     ld addr, [sp + S_ADDR]
     ld tprev, [sp + S_TCUR]
 .if SAVE_STEP
-    LOAD_STEP S_TT, S_NN, S_PP
+    STEP_WORDS ld, S_TT, S_NN, S_PP
     ld t0, [sp + S_CODE]
 .else
     ld tcur, [sp + S_TCUR]                  # (the unchanged kernel's reads: the serial mode's trace)

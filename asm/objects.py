@@ -15,6 +15,7 @@ import json
 import math
 import re
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 from typing import Any, Union
 
@@ -41,20 +42,11 @@ class Op:
 
     def reads(self) -> tuple[int, ...]:
         """Registers this op reads at issue (r0 excluded: it is a constant, not a port read)."""
-        regs = []
-        for operand, arg in zip(self.opcode.operands, self.args):
-            if operand.kind == "rs":
-                regs.append(arg)
-            elif operand.kind == "mem":
-                regs.append(arg[0])
-        regs.extend(self.opcode.implicit_reads)
-        return tuple(r for r in regs if r != ZERO_REGISTER)
+        return _reads(self.mnemonic, self.args)
 
     def writes(self) -> tuple[int, ...]:
         """Registers this op writes (r0 excluded: writes to it are discarded)."""
-        regs = [arg for operand, arg in zip(self.opcode.operands, self.args) if operand.kind == "rd"]
-        regs.extend(self.opcode.implicit_writes)
-        return tuple(r for r in regs if r != ZERO_REGISTER)
+        return _writes(self.mnemonic, self.args)
 
     def format(self, code_labels: dict[int, str] | None = None, reg_names: dict[int, str] | None = None) -> str:
         """Assembly text of this op; branch targets shown as labels where one names the address."""
@@ -62,6 +54,29 @@ class Op:
         for operand, arg in zip(self.opcode.operands, self.args):
             parts.append(format_arg(operand.kind, arg, code_labels, reg_names))
         return f"{self.mnemonic} {', '.join(parts)}".rstrip()
+
+
+# An op's register reads and writes depend on its mnemonic and operands only (Op is frozen); the
+# schedulers ask for them tens of thousands of times per kernel, so they are computed once.
+@lru_cache(maxsize=1 << 16)
+def _reads(mnemonic: str, args: tuple) -> tuple[int, ...]:
+    opcode = OPCODES[mnemonic]
+    regs = []
+    for operand, arg in zip(opcode.operands, args):
+        if operand.kind == "rs":
+            regs.append(arg)
+        elif operand.kind == "mem":
+            regs.append(arg[0])
+    regs.extend(opcode.implicit_reads)
+    return tuple(r for r in regs if r != ZERO_REGISTER)
+
+
+@lru_cache(maxsize=1 << 16)
+def _writes(mnemonic: str, args: tuple) -> tuple[int, ...]:
+    opcode = OPCODES[mnemonic]
+    regs = [arg for operand, arg in zip(opcode.operands, args) if operand.kind == "rd"]
+    regs.extend(opcode.implicit_writes)
+    return tuple(r for r in regs if r != ZERO_REGISTER)
 
 
 def format_float(x: float) -> str:

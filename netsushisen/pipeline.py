@@ -146,6 +146,28 @@ def assemble_kernels(defines: dict[str, int | float], kernel_dir: str | Path | N
     return programs
 
 
+_BUNDLED: dict = {}
+_BUNDLED_MAX = 64
+
+
+def _bundled_kernels(key: tuple, defines, kernel_dir, overrides, config) -> dict[str, Program]:
+    """`assemble_kernels`, kept per process for the bundled kernels (no `overrides`, the bundled
+    folder or a bundled set), which cannot change while it runs: a program depends only on the
+    symbols and the scheduler's view of the configuration (`key`), and assembling the three
+    kernels takes longer than many small renders (the test suite renders hundreds). Programs are
+    never modified after assembly, so one object serves every render."""
+    folder = kernel_folder(kernel_dir).resolve()
+    if overrides or not (folder == KERNELS.resolve() or folder.parent == KERNELS.resolve()):
+        return assemble_kernels(defines, kernel_dir, overrides, config)
+    programs = _BUNDLED.get(key)
+    if programs is None:
+        programs = assemble_kernels(defines, kernel_dir, overrides, config)
+        if len(_BUNDLED) >= _BUNDLED_MAX:
+            _BUNDLED.pop(next(iter(_BUNDLED)))
+        _BUNDLED[key] = programs
+    return programs
+
+
 def eye_ray_messages(scene: Scene, res: int, corners: bool, wf: WordFormat) -> np.ndarray:
     """The host stream: one RAY message (header + 13-word ray record) per eye sample, in sample
     order, with the golden model's eye rays (host/rays.py)."""
@@ -258,7 +280,7 @@ def prepare(scene: Scene | str, config: MachineConfig, res: int = 32, corners: b
            schedule_key(config))
     programs = (memo.get((name, *key), lambda: assemble_kernels(defines, kernel_dir, kernels, config))
                 if memo is not None and name is not None
-                else assemble_kernels(defines, kernel_dir, kernels, config))
+                else _bundled_kernels(key, defines, kernel_dir, kernels, config))
     images.check_programs(programs)
     wf = word_format(config.precision)
     return RenderSetup(scene, config, res, corners, generic, images, prepass, programs, defines,

@@ -72,3 +72,20 @@ def test_a_kernel_error_comes_back_located(tmp_path, cli):
     code, _, err = cli("render", "tetra:1", "--res", "2", "--kernels", tmp_path, "-o", tmp_path / "x.png")
     assert code == 1 and "Traceback" not in err
     assert "sc.s:3:3: error: 'fadd' takes 3 operands" in err
+
+
+def test_bundled_kernels_are_assembled_once_per_symbols_and_scheduler_view(tmp_path):
+    """pipeline._bundled_kernels: equal symbols and configuration give the same programs (one
+    assembly); a configuration the scheduler reads differently reschedules; a folder of one's own
+    is assembled afresh every time (its files may change between runs)."""
+    from netsushisen.kernels import KERNELS
+    from netsushisen.pipeline import prepare
+    config = load_config(None, [])
+    a, b = (prepare("tetra:3", config, res=4).programs for _ in range(2))
+    assert a is b
+    slow = prepare("tetra:3", load_config(None, ["ic.latency.fmul=6"]), res=4).programs
+    assert slow is not a and slow["ic"].bundles != a["ic"].bundles
+    for f in KERNELS.glob("*.[si]*"):
+        (tmp_path / f.name).write_text(f.read_text())
+    own = [prepare("tetra:3", config, res=4, kernel_dir=tmp_path).programs for _ in range(2)]
+    assert own[0] is not own[1] and own[0]["ic"].bundles == a["ic"].bundles

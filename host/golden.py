@@ -30,7 +30,7 @@ from netsushisen.host.scenes import Scene
 from netsushisen.host.shapes import ShapeData, build_shape_data, ic_rays, surface_normals
 from netsushisen.host.traversal import OSGrid, trace
 from netsushisen.isa.config import MachineConfig
-from netsushisen.isa.libm import c_pow_array
+from netsushisen.isa.libm import machine_pow_array
 
 EYE, REFLECTION, REFRACTION, SHADOW = 0, 1, 2, 3
 KIND_NAMES = ("eye", "reflection", "refraction", "shadow")
@@ -333,7 +333,7 @@ def _shade(batch: RayBatch, h: np.ndarray, tr, sd: ShapeData, lum: Luminance, sc
         ld = lv / dist
         ndl = dot(nsh, ld)
         face = np.flatnonzero(ndl > 0)
-        spec = c_pow_array(np.maximum(dot(refl[:, face], ld[:, face]), dt(0)), shine[face])  # C pow, as fpow
+        spec = machine_pow_array(np.maximum(dot(refl[:, face], ld[:, face]), dt(0)), shine[face])  # as fpow
         contrib = ((kdc[:, face] * ndl[face] + ks[face] * spec) * lum.light_int[li][:, None]) * w[:, face]
         parts.append((face, li, ld[:, face], dist[face], contrib))
     if parts and sum(len(x[0]) for x in parts):

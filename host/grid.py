@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from netsushisen.host.rays import dtype_of
+from netsushisen.host.rays import dtype_of, rowdot
 from netsushisen.host.scenes import Kind, Scene
 from netsushisen.isa.config import GridConfig, MachineConfig
 
@@ -234,7 +234,7 @@ def triangle_box(tri: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     for e in edges:
         for ax in (np.stack([zero, -e[:, 2], e[:, 1]], 1), np.stack([e[:, 2], zero, -e[:, 0]], 1),
                    np.stack([-e[:, 1], e[:, 0], zero], 1)):
-            p = np.einsum("kj,kij->ki", ax, v)
+            p = rowdot(ax[:, None, :], v)  # per vertex i of triangle k: ax[k] · v[k, i]
             r = (h * np.abs(ax)).sum(axis=1)
             sep |= (p.min(axis=1) > r) | (p.max(axis=1) < -r)
     return ~sep

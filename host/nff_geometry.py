@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from netsushisen.isa.errors import Diagnostic
+from netsushisen.host.rays import rowdot, rownorm
 from netsushisen.host.scenes import Scene
 
 MAX_COORD = 1e18
@@ -92,13 +93,13 @@ class GeometryChecks:
             v = np.array([xyz for _, _, xyz in polys], dtype=np.float64).reshape(len(polys), n, 3)
             edges = v[:, 1:] - v[:, :1]
             area = np.cross(edges[:, :-1], edges[:, 1:]).sum(axis=1) * 0.5
-            size = np.linalg.norm(edges, axis=2).max(axis=1)
-            norm = np.linalg.norm(area, axis=1)
+            size = rownorm(edges).max(axis=1)
+            norm = rownorm(area)
             flat = (norm <= 1e-12 * size * size) | (size == 0.0)
             off = np.zeros(len(polys))
             if n > 3:
                 unit = area / np.where(flat, 1.0, norm)[:, None]
-                off = np.abs(np.einsum("pvk,pk->pv", edges, unit)).max(axis=1)
+                off = np.abs(rowdot(edges, unit[:, None, :])).max(axis=1)
             bent = ~flat & (off > 1e-4 * size)
             for i in np.flatnonzero(flat | bent):
                 found.append((polys[i][0], polys[i][1], bool(flat[i]), float(off[i]),

@@ -27,7 +27,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from netsushisen.host.golden import OFFSET_ULPS, SIZE_ULPS
-from netsushisen.host.rays import dtype_of
+from netsushisen.host.rays import dot, dtype_of, rowdot, rownorm
 from netsushisen.host.scenes import Kind, Scene
 from netsushisen.host.shapes import polygon_normals64
 
@@ -94,8 +94,8 @@ def _polygon(v: np.ndarray, n: np.ndarray, two: bool, o, d, t_min):
     if not np.any(n):
         return np.full(o.shape[0], np.inf)
     with np.errstate(divide="ignore", invalid="ignore"):  # a ray in the plane: 0/0, no hit
-        den = d @ n
-        t = ((v[0] - o) @ n) / den
+        den = rowdot(d, n)
+        t = rowdot(v[0] - o, n) / den
         p = o + t[:, None] * d
     drop = int(np.argmax(np.abs(n)))
     a, b = [k for k in range(3) if k != drop]
@@ -118,9 +118,9 @@ def _polygon(v: np.ndarray, n: np.ndarray, two: bool, o, d, t_min):
 
 def _sphere(s: np.ndarray, two: bool, o, d, t_min):
     oc = o - s[:3]
-    b = np.einsum("ij,ij->i", oc, d)
+    b = rowdot(oc, d)
     q = oc - b[:, None] * d
-    disc = s[3] * s[3] - np.einsum("ij,ij->i", q, q)
+    disc = s[3] * s[3] - rowdot(q, q)
     with np.errstate(invalid="ignore"):
         h = np.sqrt(disc)
     real = disc >= 0
@@ -130,18 +130,18 @@ def _sphere(s: np.ndarray, two: bool, o, d, t_min):
 def _cone(c: np.ndarray, two: bool, o, d, t_min):
     base, apex = c[:3], c[4:7]
     axis = apex - base
-    length = float(np.sqrt(axis @ axis))
+    length = float(rownorm(axis))
     if length == 0:
         return np.full(o.shape[0], np.inf)
     a = axis / length
     k = (c[7] - c[3]) / length
     w = o - base
-    wa, da = w @ a, d @ a
+    wa, da = rowdot(w, a), rowdot(d, a)
     wp, dp = w - wa[:, None] * a, d - da[:, None] * a
     rw = c[3] + k * wa
-    A = np.einsum("ij,ij->i", dp, dp) - (k * da) ** 2
-    B = np.einsum("ij,ij->i", wp, dp) - rw * k * da
-    C = np.einsum("ij,ij->i", wp, wp) - rw * rw
+    A = rowdot(dp, dp) - (k * da) ** 2
+    B = rowdot(wp, dp) - rw * k * da
+    C = rowdot(wp, wp) - rw * rw
     disc = B * B - A * C
     with np.errstate(invalid="ignore", divide="ignore"):
         sq = np.sqrt(disc)
@@ -182,7 +182,7 @@ def _across(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Two unit vectors across each direction."""
     helper = np.where(np.abs(d[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
     e1 = np.cross(d, helper)
-    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    e1 /= rownorm(e1)[:, None]
     return e1, np.cross(d, e1)
 
 
@@ -197,7 +197,7 @@ def allowed_hits(osc: OracleScene, o: np.ndarray, d: np.ndarray, precision: str,
                  t_min: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(exact answer (n,), allowed answers (n, 5), t of the exact answer (n,)): the exact ray's
     hit and the hits of the four rays shifted by the tolerance across it."""
-    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    d = d / rownorm(d)[:, None]
     tol = tolerance(osc, o, precision)
     e1, e2 = _across(d)
     exact, t = nearest(osc, o, d, t_min)
@@ -210,9 +210,9 @@ def allowed_hits(osc: OracleScene, o: np.ndarray, d: np.ndarray, precision: str,
 def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Distance (n,) from points p (n, k) to the segment a-b ((k,) each)."""
     ab = b - a
-    den = float(ab @ ab)
-    s = np.clip(((p - a) @ ab) / den, 0.0, 1.0) if den > 0 else np.zeros(len(p))
-    return np.linalg.norm(p - (a + s[:, None] * ab), axis=1)
+    den = float(rowdot(ab, ab))
+    s = np.clip(rowdot(p - a, ab) / den, 0.0, 1.0) if den > 0 else np.zeros(len(p))
+    return rownorm(p - (a + s[:, None] * ab))
 
 
 def distance_to(osc: OracleScene, p: np.ndarray, prim: np.ndarray) -> np.ndarray:
@@ -230,7 +230,7 @@ def distance_to(osc: OracleScene, p: np.ndarray, prim: np.ndarray) -> np.ndarray
             v, n = osc.poly_v[j], osc.poly_n[j]
             edges = np.min([_segment_distance(q, v[i], v[(i + 1) % len(v)]) for i in range(len(v))], axis=0)
             if np.any(n):
-                plane = np.abs((q - v[0]) @ n)
+                plane = np.abs(rowdot(q - v[0], n))
                 drop = int(np.argmax(np.abs(n)))
                 a, b = [x for x in range(3) if x != drop]
                 wind = np.zeros(len(q), np.int64)
@@ -243,15 +243,15 @@ def distance_to(osc: OracleScene, p: np.ndarray, prim: np.ndarray) -> np.ndarray
             out[sel] = edges
         elif k == Kind.SPHERE:
             c = osc.sph[j]
-            out[sel] = np.abs(np.linalg.norm(q - c[:3], axis=1) - abs(c[3]))
+            out[sel] = np.abs(rownorm(q - c[:3]) - abs(c[3]))
         else:
             c = osc.cone[j]
             axis = c[4:7] - c[:3]
-            length = float(np.linalg.norm(axis))
+            length = float(rownorm(axis))
             if length == 0:
                 continue
             w = q - c[:3]
-            z = w @ (axis / length)
+            z = rowdot(w, axis / length)
             rho = np.sqrt(np.maximum((w * w).sum(axis=1) - z * z, 0.0))
             out[sel] = _segment_distance(np.column_stack([z, rho]), np.array([0.0, abs(c[3])]),
                                          np.array([length, abs(c[7])]))
@@ -304,9 +304,9 @@ def contact_truth(osc: OracleScene, point: np.ndarray, prim: np.ndarray, normal:
     plane."""
     u = float(np.finfo(dtype_of(precision)).eps) / 2.0
     to = lights - point
-    dist = np.linalg.norm(to, axis=1)
+    dist = rownorm(to)
     d = to / dist[:, None]
-    up = np.einsum("ij,ij->i", d, normal)
+    up = rowdot(d, normal)
     bound = offset_bound(point, normal, t_eye, osc.size, precision)
     tol = TOL_ULPS * u * (dist + osc.size)
     rising = up > 0
@@ -324,7 +324,7 @@ def contact_truth(osc: OracleScene, point: np.ndarray, prim: np.ndarray, normal:
         h = bound * (k / HEIGHTS)
         amb |= blocked_above(point + h[:, None] * normal, bound + tol - h)[0] != blocked
     side = np.cross(d, normal)  # across the ray and along the surface: the height stays
-    norm = np.linalg.norm(side, axis=1, keepdims=True)
+    norm = rownorm(side)[:, None]
     side = np.where(norm > 1e-6, side / np.maximum(norm, 1e-300), _across(d)[0])
     for s in (1, -1):
         amb |= blocked_above(point + (s * (bound + tol))[:, None] * side, bound + tol)[0] != blocked

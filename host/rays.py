@@ -41,6 +41,19 @@ def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
+def rowdot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Dot products of 3-vectors along the last axis ((N, 3) rows, or one (3,) vector) in `dot`'s
+    order. numpy's `@`, `einsum` and 1-D `linalg.norm` go through BLAS or SIMD loops whose
+    summation order and FMA use depend on the CPU and the library build, so host arithmetic that
+    must give the same bits everywhere uses this instead."""
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+
+
+def rownorm(a: np.ndarray) -> np.ndarray:
+    """Euclidean lengths of 3-vectors along the last axis: sqrt(rowdot(a, a))."""
+    return np.sqrt(rowdot(a, a))
+
+
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(ay*bz - az*by, az*bx - ax*bz, ax*by - ay*bx)."""
     return np.stack([a[1] * b[2] - a[2] * b[1],
@@ -81,9 +94,9 @@ def camera_basis(camera: Camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """
     eye = np.asarray(camera.eye, dtype=np.float64)
     forward = np.asarray(camera.at, dtype=np.float64) - eye
-    forward = forward / math.sqrt(float(forward @ forward))
+    forward = forward / math.sqrt(float(dot(forward, forward)))  # not `@`: BLAS's order
     right = np.cross(np.asarray(camera.up, dtype=np.float64), forward)
-    right = right / math.sqrt(float(right @ right))
+    right = right / math.sqrt(float(dot(right, right)))  # varies with the CPU
     up = np.cross(forward, right)
     return forward, right, up
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from netsushisen.isa.errors import Diagnostic, NetsushisenError
+from netsushisen.host.rays import rownorm
 from netsushisen.host.scenes import Scene
 
 _DTYPES = {"fp32": np.float32, "fp64": np.float64, "fp16": np.float16}
@@ -28,9 +29,10 @@ def smallest_length(scene: Scene) -> float:
     pg = scene.polygons
     for s, c in zip(np.asarray(pg.start), np.asarray(pg.count)):
         v = np.asarray(pg.vertices[s:s + c], np.float64)
-        parts.append(np.linalg.norm(np.roll(v, -1, axis=0) - v, axis=1))
+        parts.append(rownorm(np.roll(v, -1, axis=0) - v))
     cam = scene.camera
-    parts.append(np.atleast_1d(np.linalg.norm(np.asarray(cam.eye, np.float64) - np.asarray(cam.at, np.float64))))
+    view = np.asarray(cam.eye, np.float64) - np.asarray(cam.at, np.float64)
+    parts.append(np.atleast_1d(rownorm(view)))
     values = np.concatenate([p.ravel() for p in parts]) if parts else np.zeros(0)
     values = values[values > 0]
     return float(values.min()) if values.size else 1.0

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from netsushisen.host.rays import dot, dtype_of, normalize
+from netsushisen.host.rays import dot, dtype_of, normalize, rownorm
 from netsushisen.host.scenes import Kind, Scene
 
 
@@ -67,7 +67,7 @@ def polygon_normals64(scene: Scene) -> np.ndarray:
     if len(s) == 0:
         return np.zeros((0, 3))
     n = np.cross(v[s + 1] - v[s], v[s + 2] - v[s + 1])
-    ln = np.sqrt(np.einsum("ij,ij->i", n, n))
+    ln = rownorm(n)
     bad = ln == 0
     if bad.any():  # Newell: sum over edges of (yi - yj)(zi + zj), ...
         owner = np.repeat(np.arange(len(s)), pg.count)
@@ -81,7 +81,7 @@ def polygon_normals64(scene: Scene) -> np.ndarray:
         newell = np.zeros((len(s), 3))
         np.add.at(newell, owner, terms)
         n[bad] = newell[bad]
-        ln = np.sqrt(np.einsum("ij,ij->i", n, n))
+        ln = rownorm(n)
     with np.errstate(invalid="ignore", divide="ignore"):
         out = n / ln[:, None]
     out[ln == 0] = 0.0
@@ -93,7 +93,7 @@ def build_shape_data(scene: Scene, precision: str = "fp32") -> ShapeData:
     dt = dtype_of(precision)
     pg, sp, cn = scene.polygons, scene.spheres, scene.cones
     axis = cn.apex - cn.base
-    length = np.sqrt(np.einsum("ij,ij->i", axis, axis)) if len(cn) else np.zeros(0)
+    length = rownorm(axis) if len(cn) else np.zeros(0)
     ok = length > 0
     unit = np.tile([0.0, 0.0, 1.0], (len(cn), 1))
     unit[ok] = axis[ok] / length[ok, None]

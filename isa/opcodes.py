@@ -36,7 +36,7 @@ import numpy as np
 
 from netsushisen.isa.jit import jitable
 
-from netsushisen.isa.libm import c_pow
+from netsushisen.isa.libm import machine_pow
 from netsushisen.isa.words import INT_MAX, INT_MIN, wrap32
 
 # ---------------------------------------------------------------------------------------------
@@ -49,8 +49,8 @@ from netsushisen.isa.words import INT_MAX, INT_MIN, wrap32
 # registered when the compiled engine is imported): plain Python functions numba can also
 # compile. Corner cases are written out: no semantics depends on numpy's error state or on Python
 # exceptions. Floating-point arithmetic is the hardware's IEEE 754
-# (its overflow to ±inf and its default NaN for invalid operations); pow is the C library's
-# powf / pow (`c_pow`), which is what numba calls too.
+# (its overflow to ±inf and its default NaN for invalid operations); pow is the machine's own
+# (`machine_pow`, isa/libm.py: basic operations in a fixed order, the same bits on every CPU).
 
 
 @jitable
@@ -132,7 +132,7 @@ def _fsqrt(F, a):
 
 
 def _fpow(F, a, b):
-    return F(c_pow(a, b))
+    return F(machine_pow(a, b))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -243,7 +243,7 @@ _op("fsub", "fp", F3, 2, "rd = rs1 - rs2", sem=lambda F, a, b: F(a - b))
 _op("fmul", "fp", F3, 3, "rd = rs1 * rs2", sem=lambda F, a, b: F(a * b))
 _op("fdiv", "fp", F3, 12, "rd = rs1 / rs2 (x/0 = ±inf, 0/0 = NaN)", sem=_fdiv, pipelined=False)
 _op("fsqrt", "fp", "rd:f rs:f", 15, "rd = sqrt(rs) (negative: NaN)", sem=_fsqrt, pipelined=False)
-_op("fpow", "fp", F3, 30, "rd = rs1 ** rs2 (C pow; Phong highlights)", sem=_fpow, pipelined=False,
+_op("fpow", "fp", F3, 30, "rd = rs1 ** rs2 (isa/libm.py: C99 special cases, same bits everywhere; Phong highlights)", sem=_fpow, pipelined=False,
     procs=frozenset({"sc"}))
 _op("fabs", "fp", "rd:f rs:f", 1, "rd = |rs| (clears the sign bit)", sem=lambda F, a: F(abs(a)))
 _op("fneg", "fp", "rd:f rs:f", 1, "rd = -rs (flips the sign bit)", sem=lambda F, a: F(-a))

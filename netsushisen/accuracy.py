@@ -248,7 +248,7 @@ def precision_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
         ("golden fp16", scene, "fp16",
          "the golden model run with numpy float16 as its precision: every stored value and every "
          "operation rounded to float16 (shine 100000 overflows to inf; Phong's pow goes through "
-         "libm in float64 and is rounded into the float16 pixel sums); its seconds are numpy's "
+         "isa/libm.py in float64 and is rounded into the float16 pixel sums); its seconds are numpy's "
          "software emulation of float16, not what fp16 hardware would take: its cost is the rays "
          "traced"),
         ("golden bf16 scene", round_scene(scene, round_bf16), "fp32", "every number of the scene "

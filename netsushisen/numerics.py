@@ -25,7 +25,7 @@ from netsushisen.host.grid import boundaries, build_grid
 from netsushisen.host.nff import parse_nff
 from netsushisen.host.oracle import (OracleScene, allowed_hits, contact_truth, distance_to, judge_hits,
                                      tolerance)
-from netsushisen.host.rays import primary_rays
+from netsushisen.host.rays import dot, normalize, primary_rays, rownorm
 from netsushisen.host.scenes import Scene
 from netsushisen.isa.config import load_config
 
@@ -258,7 +258,7 @@ def eye_oracle(scene: Scene, res: int, precision: str):
     d = pr.direction.T.astype(np.float64)
     osc = OracleScene.of(scene, precision)
     exact, allowed, t = allowed_hits(osc, o, d, precision)
-    return osc, exact, allowed, t, o, d / np.linalg.norm(d, axis=1, keepdims=True)
+    return osc, exact, allowed, t, o, d / rownorm(d)[:, None]
 
 
 def judge(scene: Scene, result: PathResult, res: int, precision: str, shadows: bool = True,
@@ -295,8 +295,8 @@ def _snell_bounds(scene: Scene, result: PathResult, res: int, precision: str) ->
             continue
         c = osc.sph[osc.local[prim]]
         p = o[i] + t[i] * d[i]
-        n = (p - c[:3]) / np.linalg.norm(p - c[:3])
-        cosi = -float(d[i] @ n)
+        n = normalize(p - c[:3])  # explicit order: `@` and 1-D norms go through BLAS, whose
+        cosi = -float(dot(d[i], n))  # kernels (FMA or not) vary with the CPU
         inside = cosi < 0
         ior = float(scene.materials.ior[scene.material[prim]])
         eta = ior if inside else 1 / ior
@@ -478,7 +478,7 @@ def compare_precisions(scene: Scene, res: int, sets: tuple[str, ...] = ()) -> Sc
         pr = primary_rays(scene.camera, res, False, "fp32")
         o = np.repeat(pr.origin.astype(np.float64)[None], len(need), axis=0)
         d = pr.direction.T.astype(np.float64)[need]
-        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        d /= rownorm(d)[:, None]
         osc = OracleScene.of(scene, "fp32")
         exact, allowed, t = allowed_hits(osc, o, d, "fp32")
         tol = tolerance(osc, o, "fp32")

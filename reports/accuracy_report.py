@@ -34,7 +34,7 @@ TITLES = {"precision": "Precision: error against the golden model in fp64",
 HOW = {
     "precision": "Truth: the golden model in float64. `golden fp16` runs the golden model with "
                  "numpy float16 as its precision (every stored value and every operation rounded "
-                 "to float16; Phong's pow goes through libm in float64; SPD's shine 100000 "
+                 "to float16; Phong's pow is isa/libm.py's, in float64; SPD's shine 100000 "
                  "overflows to inf). `golden bf16 scene` rounds every number stored in the scene "
                  "(vertices, normals, centres, radii, cone ends, materials, lights, camera) to "
                  "bfloat16 and then computes in float32: only the stored values are bf16, not the "

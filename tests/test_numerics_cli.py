@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import signal
 import time
@@ -144,27 +145,52 @@ def test_interrupt_keeps_what_was_measured(cli, tmp_path, monkeypatch):
 
 def _plane_scene(body) -> str:
     """A view straight at a tilted plane through (0.1, 0.2, 0.3) (coordinates that round in fp32),
-    the light beside the eye; `body(P)` gives the primitives, P(u, v) a point of the plane."""
+    the light beside the eye; `body(P, n)` gives the primitives, P(u, v) a point of the plane and
+    n its unit normal (towards the eye). Every number is computed with IEEE basic operations in a
+    fixed order (host.rays' dot/cross, not numpy's `@` or 1-D `linalg.norm`, which go through
+    BLAS: its kernels round differently on different CPUs, and the scene text must be the same
+    bits on every machine)."""
+    from netsushisen.host.rays import cross, dot
+
+    unit = lambda x: x / np.sqrt(dot(x, x))  # noqa: E731
     c = np.array([0.1, 0.2, 0.3])
-    n = np.array([0.3, 0.2, -1.0]) / np.linalg.norm([0.3, 0.2, -1.0])
+    n = unit(np.array([0.3, 0.2, -1.0]))
     e1 = np.array([0.8, 0.1, 0.3])
-    e1 = (e1 - (e1 @ n) * n) / np.linalg.norm(e1 - (e1 @ n) * n)
-    e2 = np.cross(n, e1)
+    e1 = unit(e1 - dot(e1, n) * n)
+    e2 = cross(n, e1)
     text = lambda x: " ".join(repr(float(v)) for v in x)  # noqa: E731
-    P = lambda u, v: text(c + u * e1 + v * e2)  # noqa: E731
+    P = lambda u, v: c + u * e1 + v * e2  # noqa: E731
     return (f"b 0.1 0.2 0.3\nv\nfrom {text(c + 5 * n)}\nat {text(c)}\nup 0 1 0\nangle 45\nhither 0\n"
-            f"resolution 8 8\nl {text(c + 6 * n + 2 * e2)}\nf 0.8 0.8 0.8 0.8 0 1 0 0\n" + body(P))
+            f"resolution 8 8\nl {text(c + 6 * n + 2 * e2)}\nf 0.8 0.8 0.8 0.8 0 1 0 0\n" + body(P, n))
 
 
-def _fan(P, n: int = 50) -> str:
-    ang = [2 * np.pi * k / n for k in range(n + 1)]
-    return "".join(f"p 3\n{P(0, 0)}\n{P(2 * np.cos(a), 2 * np.sin(a))}\n{P(2 * np.cos(b), 2 * np.sin(b))}\n"
-                   for a, b in zip(ang, ang[1:]))
+def _fan(P, normal, n: int = 50) -> str:
+    text = lambda x: " ".join(repr(float(v)) for v in x)  # noqa: E731
+    # math's cos/sin (the C library), not numpy's SIMD loops, which differ with the CPU's features
+    ang = [2 * math.pi * k / n for k in range(n + 1)]
+    return "".join(f"p 3\n{text(P(0, 0))}\n{text(P(2 * math.cos(a), 2 * math.sin(a)))}\n"
+                   f"{text(P(2 * math.cos(b), 2 * math.sin(b)))}\n" for a, b in zip(ang, ang[1:]))
 
 
-def _coplanar(P) -> str:
-    quad = lambda u0, v0, u1, v1: f"p 4\n{P(u0, v0)}\n{P(u1, v0)}\n{P(u1, v1)}\n{P(u0, v1)}\n"  # noqa: E731
-    return quad(-2, -2, 2, 2) + "f 0.2 0.8 0.2 0.8 0 1 0 0\n" + quad(-1.3, -1.1, 2.5, 2.7)
+TILT = 1e-9  # far above float64's rounding of the quad (~1e-16), far below float32's (~1e-8)
+
+
+def _coplanar_quads(P, n):
+    """Quad A's corners rounded to float32 (exact in both precisions); quad B the same corners
+    moved by ∓TILT along the normal for v = ∓2: in float64 B crosses A along v = 0 (B in front
+    for v > 0, behind for v < 0); in float32 both round to the same four corners, an exact tie.
+    So fp32 gives every overlap pixel the same answer and fp64 two answers: the precisions
+    differ on one half whatever the tie rule, under every correct rounding."""
+    text = lambda x: " ".join(repr(float(v)) for v in x)  # noqa: E731
+    corners = [(-1.5, -2), (2, -2), (2, 2), (-1.5, 2)]  # every coordinate ≥ 0.12: ulp32 ≥ 7e-9
+    a = [P(u, v).astype(np.float32).astype(np.float64) for u, v in corners]
+    b = [p + (v / 2) * TILT * n for p, (u, v) in zip(a, corners)]
+    return a, b, ("p 4\n" + "".join(f"{text(p)}\n" for p in a) + "f 0.2 0.8 0.2 0.8 0 1 0 0\n"
+                  + "p 4\n" + "".join(f"{text(p)}\n" for p in b))
+
+
+def _coplanar(P, n) -> str:
+    return _coplanar_quads(P, n)[2]
 
 
 def test_a_fan_of_50_triangles_is_stable(cli, tmp_path):
@@ -180,14 +206,23 @@ def test_a_fan_of_50_triangles_is_stable(cli, tmp_path):
 
 
 def test_coplanar_quads_tie_either_way():
-    """Two overlapping coplanar quads: a ray through the overlap is a tie in t, either answer is
-    right; moving the second quad off the plane by far more than rounding makes the same pixel
-    a difference beyond rounding (the judge can say no)."""
+    """Two quads that are one quad in fp32 and cross at a tilt of 1e-9 in fp64: fp32 and fp64
+    answer differently on one half of the overlap, and every such pixel is a tie in t, within
+    rounding; taking the tie's explanation away makes the same pixels a difference beyond
+    rounding (the judge can say no)."""
     from netsushisen.host.nff import parse_nff
 
-    scene = parse_nff(_plane_scene(_coplanar), "coplanar.nff")
+    text = _plane_scene(_coplanar)
+    captured = {}
+    _plane_scene(lambda P, n: captured.setdefault("quads", _coplanar_quads(P, n))[2])
+    a, b, _ = captured["quads"]
+    # the construction's premise, checked rather than assumed: B rounds to A in float32 and
+    # differs from it in float64
+    assert all(np.array_equal(np.float32(p), np.float32(q)) for p, q in zip(a, b))
+    assert not any(np.array_equal(p, q) for p, q in zip(a, b))
+    scene = parse_nff(text, "coplanar.nff")
     pair = numerics.compare_precisions(scene, 33)
-    assert pair.hit_differs.sum() >= 1 and not pair.hit_beyond.any() and pair.stable()
+    assert pair.hit_differs.sum() >= 33 * 33 // 20 and not pair.hit_beyond.any() and pair.stable()
     moved = numerics.ScenePair(pair.hit_differs, pair.colour_differs, np.zeros_like(pair.explained),
                                pair.shadow_rays, 0)
     assert not moved.stable() and "not within rounding of an edge, vertex or tie" in moved.reasons()[0]

@@ -485,7 +485,7 @@ VECTORS["fsqrt"] = rows(
     (NINF, NAN),
     (PNAN, NAN),
 )
-VECTORS["fpow"] = rows(                                # C pow / powf (C99 Annex F)
+VECTORS["fpow"] = rows(                                # isa/libm.py (C99 Annex F cases)
     (P0, P0, F(1.0)),                                  # 0**0 = 1
     (QNAN, P0, F(1.0)),                                # x**0 = 1, even NaN
     (F(1.0), QNAN, F(1.0)),                            # 1**y = 1, even NaN
@@ -507,6 +507,11 @@ VECTORS["fpow"] = rows(                                # C pow / powf (C99 Annex
     (NINF, F(-3.0), N0),
     (F(2.0), F(128.0), W(0x7F80_0000, 0x47F0_0000_0000_0000)),      # fp32 overflows
     (F(2.0), F(-149.0), W(0x0000_0001, 0x36A0_0000_0000_0000)),     # fp32 subnormal
+    (F(3.0), F(2.0), F(9.0)),                          # integer exponents are exact
+    (F(10.0), F(-3.0), W(0x3A83_126F, 0x3F50_624D_D2F1_A9FC)),      # 0.001, rounded once
+    (F(0.5), F(1e6), P0),                              # underflows to +0
+    (F(-0.5), PINF, P0),
+    (F(0.5), NINF, PINF),
 )
 # fmin/fmax: NaN if either operand is NaN — the table returns the canonical quiet NaN (its
 # F(np.nan)), not a propagated payload, so those bits are pinned here.

@@ -42,15 +42,18 @@ def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def rowdot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Dot products of 3-vectors along the last axis ((N, 3) rows, or one (3,) vector) in `dot`'s
-    order. numpy's `@`, `einsum` and 1-D `linalg.norm` go through BLAS or SIMD loops whose
+    """Dot products of vectors along the last axis ((N, 3) rows, or one (3,) vector) in `dot`'s
+    order, ((a0 b0 + a1 b1) + a2 b2). numpy's `@`, `einsum` and 1-D `linalg.norm` go through BLAS or SIMD loops whose
     summation order and FMA use depend on the CPU and the library build, so host arithmetic that
     must give the same bits everywhere uses this instead."""
-    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+    total = a[..., 0] * b[..., 0]
+    for i in range(1, a.shape[-1]):  # 2-vectors too (the oracle's (z, ρ) planes)
+        total = total + a[..., i] * b[..., i]
+    return total
 
 
 def rownorm(a: np.ndarray) -> np.ndarray:
-    """Euclidean lengths of 3-vectors along the last axis: sqrt(rowdot(a, a))."""
+    """Euclidean lengths of vectors along the last axis: sqrt(rowdot(a, a))."""
     return np.sqrt(rowdot(a, a))
 
 

@@ -12,7 +12,7 @@ they only turn features off) and compares bytes.
 
 from __future__ import annotations
 
-import hashlib
+import functools
 import os
 import subprocess
 import sys
@@ -26,6 +26,12 @@ SWITCHES = {
     "NPY_DISABLE_CPU_FEATURES": "X86_V3 X86_V4 AVX512_ICL AVX512_SPR",
     "GLIBC_TUNABLES": "glibc.cpu.hwcaps=-AVX2,-FMA",
 }
+
+
+@functools.lru_cache(maxsize=None)
+def _plain(code: str) -> str:
+    """The code's output with no switch (once per module)."""
+    return _child(code)
 
 
 def _child(code: str, **env: str) -> str:
@@ -70,13 +76,13 @@ print(h.hexdigest())
 @pytest.mark.parametrize("switch", sorted(SWITCHES))
 def test_fpow_gives_the_same_bits_whatever_the_cpu_dispatches(switch):
     """glibc's pow under `-FMA` rounds other bits (the old `fpow` failed this test)."""
-    assert _child(POW, **{switch: SWITCHES[switch]}) == _child(POW)
+    assert _child(POW, **{switch: SWITCHES[switch]}) == _plain(POW)
 
 
 def test_golden_images_and_ids_whatever_the_cpu_dispatches():
     """balls (Phong highlights through fpow, spheres) and tetra (polygons) at 12×12: one child with
     every switch on, one with none."""
-    assert _child(GOLDEN, **SWITCHES) == _child(GOLDEN)
+    assert _child(GOLDEN, **SWITCHES) == _plain(GOLDEN)
 
 
 def test_the_coplanar_scene_text_is_the_same_bits_under_another_blas():

@@ -86,7 +86,9 @@ CANDIDATES = ("sizing records+lists", "lists in the cache", "32-byte blocks", "1
 """The trace-driven readings every "partly" or "differs" of Figures 4–5 is rerun under
 (`candidate_readings`; the last, the trace split among PE_CANDIDATE PEs, is checked on the
 machine by `--on-machine`), which also adds the machine's normal ray order
-(`paper_machine.ray_order_study`)."""
+(`paper_machine.ray_order_study`). The 32- and 128-byte blocks change the block the paper
+states (64 B): the findings show them as sensitivities, never as explanations
+(`reports.paper.stated_changes`)."""
 
 
 def candidate_readings(config: MachineConfig, options: PaperOptions, pes: tuple[int, ...] = ()

@@ -213,14 +213,38 @@ def ray_order_rows(scenes: list[SceneData], counting: str = "ref") -> list[dict]
     return out
 
 
+PAPER_BLOCK_BYTES = 64
+"""§5.1 states the cache's block: 「ブロック・サイズ：64B」. A reading with another block size
+changes a parameter the paper fixes: it is shown as a sensitivity, never as an explanation."""
+
+
+def stated_changes(d: SceneData) -> list[str]:
+    """The parameters the paper states that reading `d` changes (empty: a reading of what the
+    paper leaves open — resolution, ray order, pre-pass ranking, sizing, list placement, PEs).
+    The cache's capacity rule (a share of the database, whole blocks) is the sweep's own
+    (`paper_sweep.sized_config`) and no reading varies it; the block size is checked here."""
+    return ([f"block size {d.block_bytes} B (the paper states {PAPER_BLOCK_BYTES} B)"]
+            if d.block_bytes != PAPER_BLOCK_BYTES else [])
+
+
+def split_readings(scenes: list[SceneData]) -> tuple[list[str], list[str]]:
+    """(candidate readings, sensitivities): the common readings split by whether any scene's
+    reading changes a parameter the paper states (`stated_changes`)."""
+    labels = common_readings(scenes)
+    sens = [k for k in labels if any(stated_changes(d.readings[k]) for d in scenes)]
+    return [k for k in labels if k not in sens], sens
+
+
 def _with_candidates(items: list[Finding], scenes: list[SceneData], counting: str) -> list[Finding]:
     """Rerun each differing Figure 4–5 finding under every candidate reading the scenes carry:
-    a candidate that turns it to "agree" explains it; "unexplained" only after all were run."""
-    labels = common_readings(scenes)
-    if not labels:
+    a candidate that turns it to "agree" explains it; "unexplained" only after all were run.
+    A reading that changes a stated parameter (`stated_changes`) is listed as a sensitivity
+    and never explains."""
+    labels, sens = split_readings(scenes)
+    if not labels and not sens:
         return items
     alt = {k: {(f.figure, f.paper): f for f in _findings([d.readings[k] for d in scenes], counting)}
-           for k in labels}
+           for k in labels + sens}
     for f in items:
         if f.figure not in ("Figure 4", "Figure 5") or f.verdict not in ("partly", "differ"):
             continue
@@ -232,6 +256,11 @@ def _with_candidates(items: list[Finding], scenes: list[SceneData], counting: st
             done += f"; not run: {RAY_ORDER} (`--on-machine`)"
         head = (f"explained by {' / '.join(fixes)}" if fixes else
                 "unexplained after the candidates " + ", ".join(k for k, _ in runs))
+        shown = [(k, alt[k].get((f.figure, f.paper))) for k in sens]
+        shown = [(k, g) for k, g in shown if g is not None]
+        if shown:
+            done += ("; sensitivities, which change a parameter the paper states and so explain "
+                     "nothing — " + "; ".join(f"{k}: {g.verdict} ({g.ours})" for k, g in shown))
         detail = f.why
         if detail.startswith("unexplained"):
             detail = detail.removeprefix("unexplained").lstrip(": ")

@@ -9,7 +9,7 @@ from __future__ import annotations
 from netsushisen.reports.paper import (PAPER_RES, PAPER_TABLE1, RAY_ORDER, TABLE1_COLUMNS,
                                        VERDICTS, Finding, _pct, _yn, common_readings, fig4_miss,
                                        fig5_best, fig5_curve, fig5_row, findings, ray_order_rows,
-                                       table2)
+                                       split_readings, stated_changes, table2)
 from netsushisen.reports.paper_data import COUNTINGS, LOCAL_SHARES, SceneData
 from netsushisen.paper_machine import FINDINGS_LOCAL_WORDS, FINDINGS_POINT
 
@@ -225,9 +225,14 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
     if word_items is not None:
         lines += [f"- {COUNTINGS['all']}: {_counts_text(word_items)}."]
     if common_readings(scenes):
+        readings, sens = split_readings(scenes)
         lines += [f"- {COUNTINGS['ref']}, under the candidate reading *{k}* (Figures 4–5 rerun): "
                   f"{_counts_text(findings([d.readings[k] for d in scenes], 'ref'))}."
-                  for k in common_readings(scenes)]
+                  for k in readings]
+        lines += [f"- {COUNTINGS['ref']}, sensitivity *{k}* (changes "
+                  f"{'; '.join(stated_changes(scenes[0].readings[k]))}: never an explanation): "
+                  f"{_counts_text(findings([d.readings[k] for d in scenes], 'ref'))}."
+                  for k in sens]
         lines += ["",
                   "Every Figure 4–5 finding that is not \"agree\" names what each candidate "
                   "reading makes of it (*Why*)"

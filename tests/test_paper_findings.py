@@ -313,3 +313,22 @@ def test_ray_order_study_shows_which_findings_flip_and_names_it_as_a_candidate()
         d.readings = {RAY_ORDER: f}
     assert not any(r["flips"] for r in ray_order_rows(same))
     assert ray_order_rows(world()) == []  # no study: no rows
+
+
+def test_a_reading_that_changes_a_stated_parameter_is_a_sensitivity_never_an_explanation():
+    """The paper states 64-byte blocks: a 128-byte-block reading that restores a claim is listed
+    as a sensitivity with its verdict, and the finding stays unexplained; the same data as a
+    reading of an open choice (64-byte blocks) explains it."""
+    broken = world(t=lambda L, s: 2.0 + s)  # resident memory never beats cache-only
+    for d in broken:
+        fixed = scene(d.name)
+        fixed.block_bytes = 128
+        d.readings = {"128-byte blocks": fixed}
+    (beats,) = [f for f in findings(broken) if f.paper.startswith("resident memory beats")]
+    assert beats.verdict == "differ"
+    assert not beats.why.startswith("explained")
+    assert "sensitivities" in beats.why and "128-byte blocks: agree" in beats.why
+    for d in broken:
+        d.readings["128-byte blocks"].block_bytes = 64
+    (beats,) = [f for f in findings(broken) if f.paper.startswith("resident memory beats")]
+    assert beats.why.startswith("explained by 128-byte blocks")

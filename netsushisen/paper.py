@@ -145,6 +145,7 @@ def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
                      rays=dict(golden.rays), references=golden.references.copy(),
                      visible=np.unique(golden.hit_ids[golden.hit_ids >= 0]).astype(np.int64),
                      prepass=pre.summary(), fig4=fig4, fig5=fig5, loads=loads, t_r=mc.t_r,
+                     t_g=mc.t_g,
                      block_bytes=mc.block_bytes, seconds=seconds, options=options,
                      experiments=trace_experiments(golden))
     if candidates:
@@ -338,6 +339,7 @@ def _write(r: PaperRequest, run: PaperRun, out: Path, start: float, workers: int
                    else f"IC cache share {mc.cache_share}, resident share {mc.resident_share}",
                    "scenes": run.checks, "orders": run.orders}
     settings = {"res": r.res, "command": r.command, "max_depth": r.config.render.max_depth,
+                "prepass_share": r.config.prepass.share,
                 "engine": r.engine, "seconds": run.seconds}
     run.report = out / "report.md"
     names = [p.name for p in run.files]

@@ -11,6 +11,7 @@ from netsushisen.reports.paper import (PAPER_RES, PAPER_TABLE1, RAY_ORDER, TABLE
                                        fig5_best, fig5_curve, fig5_row, findings, ray_order_rows,
                                        split_readings, stated_changes, table2)
 from netsushisen.reports.paper_data import COUNTINGS, LOCAL_SHARES, SceneData
+from netsushisen.reports.paper_judge import PARTLY, TOLERANCE, TREND_ALPHA
 from netsushisen.paper_machine import FINDINGS_LOCAL_WORDS, FINDINGS_POINT
 
 DEFAULTS_ARGUED = [
@@ -34,6 +35,23 @@ DEFAULTS_ARGUED = [
     "- **Whole primitives resident by priority.** The resident fill copies records in priority "
     "order until the next one does not fit (M records), as §4.4 describes; IC tests P_i ≤ M.",
 ]
+
+
+def prepass_line(d: SceneData, share: float | None) -> str:
+    """The pre-pass this run used, from its configuration and the eye rays it shot (never a fixed
+    sentence: `--set prepass.share=1.0` ranks by the full-resolution render)."""
+    r = d.prepass["resolution"]
+    main, pre = d.rays.get("eye"), d.prepass.get("eye_rays")
+    shot = f"{_pct(pre / main, 2)} of the main pass's eye rays" if main and pre else \
+        f"{r}×{r} eye rays"
+    asked = "" if share is None else f"`prepass.share = {share:g}`, "
+    paper = ("as the paper's" if share is not None and abs(share - 0.01) < 1e-12
+             else "the paper's is about 1 %")
+    ranking = ("the full-resolution ranking: the pre-pass is the main pass's render"
+               if r >= d.res else "a coarse ranking")
+    return (f"- Pre-pass (resident priorities): the golden model at {r}×{r}, {shot} ({asked}"
+            f"{paper}); primitives ranked by their references in that render, most first, ties "
+            f"by id ({ranking}).")
 
 
 def _md_table(header: list[str], rows: list[list]) -> list[str]:
@@ -209,8 +227,7 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
         f"({'SPD corner rays, (N+1)² eye rays' if d0.corners else 'one eye ray per pixel centre'}), "
         f"{d0.precision}, ray-tree depth ≤ {settings.get('max_depth', 5)}; the paper rendered "
         f"{PAPER_RES}×{PAPER_RES}.",
-        f"- Pre-pass (resident priorities): the golden model at {d0.prepass['resolution']}×"
-        f"{d0.prepass['resolution']} (1 % of the main pass's eye rays, as the paper).",
+        prepass_line(d0, settings.get("prepass_share")),
         "- IC's loads: the IC access protocol (docs/databases.md) replayed from the golden model's "
         "reference trace, rays in the machine's serial order (pixel by pixel, each ray tree in "
         "level order), through a trace-driven resident memory + direct-mapped cache with the "
@@ -302,11 +319,20 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
     # Findings
     lines += ["## The paper's findings and ours", "",
               "Each finding is decided by the threshold in *Test*; \"not testable here\" means the "
-              "premise never occurs in our data. Figures 4–5 count per primitive reference.", ""]
+              "premise never occurs in our data. Figures 4–5 count per primitive reference. "
+              f"One rule for every finding (docs/databases.md, \"How the findings are judged\"): "
+              f"a value or band the paper states is met within {_pct(TOLERANCE)} points (or one "
+              "step of the sweep's grid where it is coarser), one-sided where the claim is; "
+              "\"tends to\" claims are trends (Kendall's τ with its one-sided p ≤ "
+              f"{_pct(TREND_ALPHA)}); **agree** when every case passes, **partly** when at least "
+              f"{_pct(PARTLY)} of them do, **differ** otherwise. *Margin* gives k of n cases "
+              "passing and each case's distance to its threshold (positive: passes).", ""]
     for i, f in enumerate(items, 1):
         lines += [f"{i}. **{f.figure}: {f.paper}.** *Test:* {f.test}. *Ours* ({f.counting}): "
                   f"{f.ours}. "
-                  f"**{f.verdict.capitalize()}.**" + (f" *Why:* {f.why}." if f.why else ""), ""]
+                  f"**{f.verdict.capitalize()}.**"
+                  + (f" *Margin:* {f.margin}." if f.margin else "")
+                  + (f" *Why:* {f.why}." if f.why else ""), ""]
     if word_items is not None:
         lines += ["### The same findings counted per word", ""]
         rows = [[i, f"{f.figure}: {f.paper}", f.verdict, w.verdict, w.ours]

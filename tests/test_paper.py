@@ -208,7 +208,11 @@ def test_paper_command_writes_report_figures_and_csvs(tmp_path, cli):
     assert "Figure 5: for 10 % local memory t rises with the resident share" in md
     assert "tetra 4096 polygons" in md and "tetra | 4 (paper 2121)" not in md
     assert "per primitive reference (the paper's counting):" in md and "- per word:" in md
-    assert md.count("*Test:*") == 17 and "Why these defaults are the paper's" in md
+    assert md.count("*Test:*") == 24 and "Why these defaults are the paper's" in md
+    # every judged finding; "not evaluated" here: §4.3 and the two scene orderings (4 scenes)
+    assert md.count("*Margin:*") == 21 and md.count("**Not evaluated.**") == 3
+    assert "§4.3: the pre-pass costs about 1 % of the main pass.** *Test:* one-sided" in md
+    assert "(`prepass.share = 0.01`, as the paper's)" in md
     assert "--sizing records --lists local" in md
     # a differing Figure 4–5 finding was rerun under every trace-driven candidate, the PE split
     # among them; the machine's ray order needs --on-machine and says so
@@ -292,3 +296,21 @@ def test_trace_experiments_are_variants_of_the_main_pass():
     assert int(ex["no shadow rays"].sum()) == int(full.sum()) - shadow_tests
     assert np.all(ex["eye rays only"] <= ex["ray-tree depth 1 (eye rays and their shadow rays)"])
     assert np.all(ex["ray-tree depth 1 (eye rays and their shadow rays)"] <= full)
+
+
+def test_the_report_states_the_prepass_the_run_used():
+    """The pre-pass sentence comes from the configuration and the rays shot: a full-resolution
+    pre-pass is not "1 % of the main pass's eye rays, as the paper"."""
+    from netsushisen.reports.paper_report import prepass_line
+    from tests.test_paper_findings import scene
+
+    d = scene("tetra")
+    d.res, d.rays, d.prepass = 64, {"eye": 4096}, {"resolution": 64, "eye_rays": 4096}
+    line = prepass_line(d, 1.0)
+    assert "100.00 % of the main pass's eye rays" in line and "prepass.share = 1" in line
+    assert "the paper's is about 1 %" in line and "full-resolution ranking" in line
+    assert "as the paper" not in line.replace("as the paper's)", "")
+    d.prepass = {"resolution": 6, "eye_rays": 36}
+    line = prepass_line(d, 0.01)
+    assert "0.88 % of the main pass's eye rays" in line and "as the paper's" in line
+    assert "coarse ranking" in line

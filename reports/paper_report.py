@@ -312,7 +312,10 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
     # Figure 5
     lines += ["## Figure 5: effective access time against the resident share "
               f"({d0.options.describe()})", "",
-              "![Figure 5](fig5_access_time.png)", ""]
+              "![Figure 5](fig5_access_time.png)", "",
+              "ρ and the cache's miss rate against the split (§5.1: the paper measured both; "
+              "§5.2.3's mechanisms are findings below):", "",
+              "![ρ and miss rate](fig5_rho_miss_rate.png)", ""]
     for what in ("ref", "all"):
         lines += [f"{COUNTINGS[what].capitalize()} (t in units of t_r):",
                   ""] + _fig5_rows(scenes, what) + [""]

@@ -194,7 +194,7 @@ def test_paper_command_writes_report_figures_and_csvs(tmp_path, cli):
     code, stdout, err = cli("paper", "--res", "8", "--scenes", "tetra:1", "mount:2", "--out", out, "--quiet")
     assert code == 0, err
     for name in ("fig3_locality.png", "fig4_miss_rate.png", "fig5_access_time.png",
-                 "fig5_access_time_per_word.png"):
+                 "fig5_access_time_per_word.png", "fig5_rho_miss_rate.png"):
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with (out / "fig4_miss_rate.csv").open() as f:
         rows = list(csv.DictReader(f))

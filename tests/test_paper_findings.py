@@ -13,7 +13,6 @@ import pytest
 from netsushisen.reports.paper import PAPER_TABLE1, PAPER_TABLE2, explain, findings
 from netsushisen.reports.paper_data import (CACHE_SHARES, LOCAL_SHARES, RESIDENT_SPLITS, PaperOptions,
                                             SceneData)
-from netsushisen.reports.paper_plots import fig5_ylim
 
 N = {"tetra": 4096, "balls": 7382, "mount": 8196, "rings": 8401}
 UNREFERENCED = {"tetra": 0.67, "balls": 0.67, "mount": 0.20, "rings": 0.67}
@@ -211,36 +210,78 @@ def test_f_where_c_reaches_a_level():
     assert d.f_reaching(0.99) < d.f_reaching(0.999) <= d.f_reaching(1.0)
 
 
-def test_figure5_axis_is_clipped_above_the_curves():
-    lo, hi = fig5_ylim([1.2, 1.8, 2.0])
-    assert lo < 1.2 and 2.0 < hi < 2.5  # a 100 %-resident point at 4.6 t_r would lie above
+def _figure_checks(fig) -> None:
+    """No point clipped (every data point inside its axes' limits), every legend outside every
+    data area, and the visible panels of a row on one y-scale."""
+    renderer = fig.canvas.get_renderer()
+    axes = [ax for ax in fig.axes if ax.get_visible()]
+    data_boxes = [ax.get_window_extent(renderer) for ax in axes]
+    legends = [ax.get_legend() for ax in axes if ax.get_legend() is not None]
+    assert legends
+    for leg in legends:
+        box = leg.get_window_extent(renderer)
+        assert not any(box.overlaps(d) for d in data_boxes), "a legend covers a panel"
+    for ax in axes:
+        (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+        for line in ax.lines:
+            for x, y in line.get_xydata():
+                if line.get_marker() not in (None, "None", ""):
+                    assert x0 <= x <= x1 and y0 <= y <= y1, (ax.get_title(), x, y)
 
 
-def test_figure5s_clipped_values_never_cover_a_marker():
-    """The 100 %-resident points of Figure 5 are clipped to the top edge with their value beside;
-    the value's text box must not sit on any curve's markers (it used to cover the 90 % ones)."""
-    from matplotlib.text import Text
+def test_figure5_draws_every_point_on_one_scale_with_the_legend_outside():
+    """The 100 %-resident points (no cache: t near t_g) are drawn, not clipped to the top edge;
+    every panel shares one y-scale; the legend covers no panel (it used to hide a point)."""
+    import matplotlib.pyplot as plt
 
-    from netsushisen.reports.paper_plots import figure5_drawn
+    from netsushisen.reports.paper_plots import figure5_drawn, figure_rho_miss_drawn
 
     scenes = world(t=lambda L, s: 9.0 if s == 1.0 else paper_world_t(L, s))
     fig = figure5_drawn(scenes)
-    renderer = fig.canvas.get_renderer()
-    clipped = 0
-    for ax in fig.axes:
-        if not ax.get_visible():
-            continue
-        boxes = [Text.get_window_extent(t, renderer) for t in ax.texts]  # the text, not its arrow
-        clipped += len(boxes)
-        points = [ax.transData.transform(xy) for line in ax.lines if line.get_marker() not in (None, "None", "")
-                  for xy in line.get_xydata()]
-        assert points
-        for box in boxes:
-            grown = box.expanded(1.0, 1.0).padded(3)  # the marker's radius, in pixels
-            assert not any(grown.contains(*pt) for pt in points), (ax.get_title(), box)
-    assert clipped == 4 * 3  # every scene, every local share: a clipped 100 % point with its value
-    import matplotlib.pyplot as plt
+    _figure_checks(fig)
+    limits = {ax.get_ylim() for ax in fig.axes if ax.get_visible()}
+    assert len(limits) == 1 and max(limits)[1] > 9.0
     plt.close(fig)
+    fig = figure_rho_miss_drawn(scenes)
+    _figure_checks(fig)
+    rows = {}
+    for ax in fig.axes:
+        if ax.get_visible() and ax.get_subplotspec() is not None:
+            rows.setdefault(ax.get_subplotspec().rowspan.start, set()).add(ax.get_ylim())
+    assert len(rows) == 2 and all(len(v) == 1 for v in rows.values())
+    plt.close(fig)
+
+
+def test_a_scene_has_one_colour_in_every_figure():
+    """reports/palette.py: tetra is the same colour in Figures 3 and 4; a local-memory size the
+    same in Figure 5 and the ρ plot."""
+    import matplotlib.pyplot as plt
+
+    from netsushisen.reports import paper_plots as pp
+    from netsushisen.reports.palette import local_colour, scene_colour
+
+    scenes = world()
+    seen = {}
+
+    def grab(fig):
+        for ax in fig.axes:
+            for line in ax.lines:
+                if not line.get_label().startswith("_"):
+                    seen.setdefault(line.get_label().split(" (")[0], set()).add(line.get_color())
+        plt.close(fig)
+    orig = pp._save
+    pp._save = lambda fig, path: grab(fig)
+    try:
+        pp.figure3(scenes, Path("x.png"))
+        pp.figure4(scenes, Path("x.png"))
+        pp.figure5(scenes, Path("x.png"))
+        grab(pp.figure_rho_miss_drawn(scenes))
+    finally:
+        pp._save = orig
+    for i, d in enumerate(scenes):
+        assert seen[d.name] == {scene_colour(i)}
+    for i, L in enumerate(LOCAL_SHARES):
+        assert seen[f"local {100 * L:.0f} %"] == {local_colour(i)}
 
 
 @pytest.mark.parametrize("corners", [False, True])

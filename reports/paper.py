@@ -8,7 +8,7 @@ figures and CSV files from `paper_plots`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -80,6 +80,7 @@ class Finding:
     counting: str = ""  # which counting and sizing the numbers use
     why: str = ""  # a tested explanation, or "unexplained"
     margin: str = ""  # k of n cases passing and each case's margin to the threshold
+    margins: dict = field(default_factory=dict)  # case -> margin (≥ 0 passes): the series' measure
 
 
 def _by(scenes: list[SceneData]) -> dict[str, SceneData]:

@@ -32,7 +32,8 @@ def _finding(figure: str, paper: str, test: str, ours: str, margins: dict[str, f
     v = verdict(passes(margins, strict))
     return Finding(figure, paper, test, ours, v, counting,
                    why() if v not in ("agree", "not evaluated") else "",
-                   margin=margin_text(margins, fmt, what) if margins else "")
+                   margin=margin_text(margins, fmt, what) if margins else "",
+                   margins=dict(margins))
 
 
 def _over_splits(d: SceneData, local: float, key: str, counting: str, top: float

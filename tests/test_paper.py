@@ -265,6 +265,9 @@ def test_counter_comparison_names_the_first_difference():
     (["--jobs", "0"], "--workers 0"),
     (["--workers", "0"], "--workers 0"),
     (["--scheduler", "http://x:80"], "expected tcp://HOST:PORT"),
+    (["--series", "32,x"], "give resolutions separated by commas"),
+    (["--series", "32"], "give two or more different resolutions"),
+    (["--series", "0,8"], "--res 0"),
 ])
 def test_paper_bad_input_is_one_located_line(tmp_path, cli, argv, message):
     code, _, err = cli("paper", "--out", tmp_path / "p", "--quiet", *argv)
@@ -314,3 +317,38 @@ def test_the_report_states_the_prepass_the_run_used():
     line = prepass_line(d, 0.01)
     assert "0.88 % of the main pass's eye rays" in line and "as the paper's" in line
     assert "coarse ranking" in line
+
+
+def test_the_series_lists_each_findings_measure_per_resolution_and_marks_provisional():
+    """series.md: per finding the verdict, k/n and worst margin at each resolution, every
+    verdict below 512 provisional, and the findings whose verdict moves named."""
+    from netsushisen.reports.paper import findings
+    from netsushisen.reports.paper_series import series_markdown, series_rows
+    from tests.test_paper_findings import paper_world_t, world
+
+    low = findings(world(t=lambda L, s: 2.0 + s), "ref")  # resident never beats cache-only
+    high = findings(world(), "ref")
+    md = series_markdown({64: low, 512: high}, "netsushisen paper --series 64,512")
+    row = next(line for line in md.splitlines() if "resident memory beats" in line)
+    cells = [c.strip() for c in row.split("|")]
+    assert cells[3].startswith("differ (provisional), 0/8, worst -")
+    assert cells[4].startswith("agree, 8/8, worst +") and "provisional" not in cells[4]
+    assert cells[5] == "yes"
+    moved = [r for r in series_rows({64: low, 512: high}) if r["changes"]]
+    assert any(r["paper"].startswith("resident memory beats") for r in moved)
+    assert f"**{len(moved)} of {len(high)} findings change verdict" in md
+    assert paper_world_t(0.3, 0.7) < paper_world_t(0.3, 0.0)  # the world the cells came from
+
+
+@pytest.mark.slow
+def test_paper_series_runs_every_resolution_in_one_command(tmp_path, cli):
+    out = tmp_path / "s"
+    code, stdout, err = cli("paper", "--series", "4,8", "--scenes", "mount:2", "--out", out,
+                            "--no-candidates", "--workers", "1")
+    assert code == 0, err
+    assert (out / "res-4" / "report.md").exists() and (out / "res-8" / "report.md").exists()
+    md = (out / "series.md").read_text()
+    assert "| 4×4 | 8×8 |" in md and "(provisional)" in md
+    with (out / "series.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert {r["res"] for r in rows} == {"4", "8"} and all(r["provisional"] == "True" for r in rows)

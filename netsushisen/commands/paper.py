@@ -1,7 +1,7 @@
 """Reproduce the paper's Table 1, Table 2 and Figures 3–5 (its evaluation of IC's memory) and
 say where we agree.
 
-    netsushisen paper [--res N] [--scenes S ...] [--out DIR] [--corners] [--precision fp32|fp64]
+    netsushisen paper [--res N | --series N,N,...] [--scenes S ...] [--out DIR] [--corners] [--precision fp32|fp64]
                       [--sizing records|records+lists] [--lists local|cache] [--on-machine]
                       [--scheduler ADDRESS] [--workers N] [--config FILE] [--set field=value]...
                       [--engine NAME]

@@ -144,7 +144,7 @@ def figure3(scenes: list[SceneData], path: Path) -> None:
     _save(fig, path)
 
 
-def figure4(scenes: list[SceneData], path: Path) -> None:
+def figure4(scenes: list[SceneData], path: Path, spread: dict | None = None) -> None:
     """Both countings on one y-scale (sharey), so the per-word curve's lower miss rates show
     as lower, not as the same height on another axis."""
     plt = _plt()
@@ -155,6 +155,10 @@ def figure4(scenes: list[SceneData], path: Path) -> None:
             y = [100 * r[what]["miss_rate"] for r in d.fig4]
             ax.plot(x, y, **style(i), color=scene_colour(i), markersize=4,
                     label=f"{d.name} ({d.primitive_database_bytes / 1024:.0f} KiB)")
+            if spread and what == "ref":  # min–max over the draws (`--draws`)
+                band = [spread[(d.name, "fig4", 0.0, r["cache_share"])] for r in d.fig4]
+                ax.fill_between(x, [100 * b[1] for b in band], [100 * b[2] for b in band],
+                                color=scene_colour(i), alpha=0.2, linewidth=0)
         ax.axvline(30, **PAPER, label="paper: saturates above 30 %")
         ax.set_xlabel(f"cache size (% of the database: {_sizing(scenes)})")
         ax.set_title(COUNTINGS[what]
@@ -171,8 +175,9 @@ def figure4(scenes: list[SceneData], path: Path) -> None:
     _save(fig, path)
 
 
-def figure5(scenes: list[SceneData], path: Path, what: str = "ref") -> None:
-    _save(figure5_drawn(scenes, what), path)
+def figure5(scenes: list[SceneData], path: Path, what: str = "ref",
+            spread: dict | None = None) -> None:
+    _save(figure5_drawn(scenes, what, spread), path)
 
 
 def _panels(n: int) -> tuple[int, int]:
@@ -182,7 +187,7 @@ def _panels(n: int) -> tuple[int, int]:
     return cols, rows
 
 
-def figure5_drawn(scenes: list[SceneData], what: str = "ref"):
+def figure5_drawn(scenes: list[SceneData], what: str = "ref", spread: dict | None = None):
     """Figure 5 as a matplotlib figure (tests measure it): every point drawn, none clipped, one
     y-scale for all panels so the scenes compare at a glance."""
     plt = _plt()
@@ -198,6 +203,11 @@ def figure5_drawn(scenes: list[SceneData], what: str = "ref"):
             top = max([top, *t])
             ax.plot(x, t, **style(i), color=local_colour(i), markersize=4,
                     label=f"local {100 * local:.0f} %")
+            if spread and what == "ref":  # min–max over the draws (`--draws`)
+                band = [spread[(d.name, "fig5", local, r["resident_split"])] for r in sel]
+                top = max([top, *(b[2] for b in band)])
+                ax.fill_between(x, [b[1] for b in band], [b[2] for b in band],
+                                color=local_colour(i), alpha=0.25, linewidth=0)
         ax.axvline(70, **PAPER, label="paper: best near 70 % (3 : 1)")
         ax.set_title(d.name)
         ax.set_xlabel("resident share of local memory (%)")
@@ -213,7 +223,8 @@ def figure5_drawn(scenes: list[SceneData], what: str = "ref"):
     fig.suptitle("Figure 5: effective access time t = t_r·{ρ + (1 − ρ)(8 − 6μ)}, "
                  f"{COUNTINGS[what]} ({_suffix(scenes)})\n{scenes[0].options.describe()}\n"
                  "one y-scale for every panel; the 100 %-resident points (no cache) drawn, "
-                 "not clipped", fontsize=9)
+                 "not clipped" + ("; bands: min–max over the run and its draws (--draws)"
+                                  if spread and what == "ref" else ""), fontsize=9)
     fig.tight_layout()
     return fig
 
@@ -258,11 +269,13 @@ def _sizing(scenes: list[SceneData]) -> str:
     return "shape records" if scenes[0].options.sizing == "records" else "lists + records"
 
 
-def write_figures(scenes: list[SceneData], out: Path) -> list[Path]:
+def write_figures(scenes: list[SceneData], out: Path, spread: dict | None = None) -> list[Path]:
+    """Every figure; `spread` (reports/paper_spread.py: point_spread) draws each Figure 4–5
+    point's min–max over the draws as a band."""
     paths = [out / name for name in FIGURES]
     figure3(scenes, paths[0])
-    figure4(scenes, paths[1])
-    figure5(scenes, paths[2], "ref")
+    figure4(scenes, paths[1], spread)
+    figure5(scenes, paths[2], "ref", spread)
     figure5(scenes, paths[3], "all")
     _save(figure_rho_miss_drawn(scenes, "ref"), paths[4])
     return paths

@@ -203,7 +203,8 @@ def _ray_order(check: dict, scenes: list[SceneData]) -> list[str]:
 
 def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dict,
                     files: list[str], missing: list[str] | None = None,
-                    word_items: list[Finding] | None = None, machine: dict | None = None) -> str:
+                    word_items: list[Finding] | None = None, machine: dict | None = None,
+                    spread: list[str] | None = None) -> str:
     """The whole report.md. `items`: findings per primitive reference (the paper's counting);
     `word_items`: the same findings per word; `machine`: the `--on-machine` check."""
     res = settings["res"]
@@ -319,6 +320,7 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
     for what in ("ref", "all"):
         lines += [f"{COUNTINGS[what].capitalize()} (t in units of t_r):",
                   ""] + _fig5_rows(scenes, what) + [""]
+    lines += spread or []
     # Findings
     lines += ["## The paper's findings and ours", "",
               "Each finding is decided by the threshold in *Test*; \"not testable here\" means the "

@@ -481,3 +481,28 @@ def test_every_threshold_has_its_reason_in_the_docs():
         assert float(rows[name][1].replace("%", "").strip()) / (100 if "%" in rows[name][1] else 1) \
             == pytest.approx(value), name
         assert len(rows[name][2]) > 40, f"{name}: the reason is missing or a stub"
+
+
+def test_the_spread_names_a_verdict_that_changes_within_it():
+    """--draws: each Figure 4–5 point gets its min–max over the run and the draws; a draw in
+    which resident memory no longer beats cache-only makes that verdict unstable, and draws
+    equal to the run change nothing."""
+    from netsushisen.reports.paper_spread import point_spread, spread_markdown, stability
+
+    scenes = world()
+
+    def draws_of(worlds):
+        return [{"scene": d.name, "draw": k, "fig4": d.fig4, "fig5": d.fig5}
+                for k, w in enumerate(worlds, 1) for d in w]
+    same = draws_of([world() for _ in range(5)])
+    assert all(r["stable"] for r in stability(scenes, [[d for d in w] for w in [world()] * 5]))
+    md = "\n".join(spread_markdown(scenes, same))
+    assert "5 draws beside the run" in md and "**0 of 13 Figure 4–5 verdicts change" in md
+    flipped = draws_of([world() for _ in range(4)] + [world(t=lambda L, s: 2.0 + s)])
+    md = "\n".join(spread_markdown(scenes, flipped))
+    assert "resident memory beats a cache-only local memory (agree → agree/differ)" in md
+    from netsushisen.reports.paper_spread import draw_scenes
+
+    spread = point_spread(scenes, draw_scenes(scenes, flipped))
+    v, lo, hi = spread[("tetra", "fig5", 0.3, 0.7)]
+    assert v == pytest.approx(2.0) and lo == pytest.approx(2.0) and hi == pytest.approx(2.7)

@@ -1,7 +1,8 @@
 """Reproduce the paper's Table 1, Table 2 and Figures 3–5 (its evaluation of IC's memory) and
 say where we agree.
 
-    netsushisen paper [--res N | --series N,N,...] [--scenes S ...] [--out DIR] [--corners] [--precision fp32|fp64]
+    netsushisen paper [--res N | --series N,N,...] [--scenes S ...] [--out DIR] [--corners]
+                      [--precision fp32|fp64]
                       [--sizing records|records+lists] [--lists local|cache] [--on-machine]
                       [--scheduler ADDRESS] [--workers N] [--config FILE] [--set field=value]...
                       [--engine NAME]
@@ -35,6 +36,7 @@ import sys
 from pathlib import Path
 
 from netsushisen.cluster import add_cluster_options, check_cluster_options
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.options import (add_config_options, add_engine, add_output, add_quiet,
                                  add_resolution, check_footprint,
                                  check_resolution, config_from_args, engine_from_args)
@@ -68,6 +70,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="the resolution series: a whole reproduction at each N (in DIR/res-N/) "
                              "and DIR/series.md with each finding's verdict and margin per "
                              "resolution (below 512: provisional); replaces --res")
+    parser.add_argument("--draws", type=int, default=0, metavar="N",
+                        help="also replay Figures 4–5 under N draws of eye-ray jitter, pre-pass "
+                             "sampling and record order: each point's spread, and the verdicts "
+                             "that change within it (default 0; 5 or more for a spread)")
     parser.add_argument("--fresh", action="store_true",
                         help="compute every run again (default: a run already in DIR/runs/ is "
                              "reused)")
@@ -101,6 +107,8 @@ def _command(args: argparse.Namespace, res: int | None = None) -> str:
     parts += ["--sizing", args.sizing, "--lists", args.lists]
     if args.no_candidates:
         parts.append("--no-candidates")
+    if args.draws:
+        parts += ["--draws", str(args.draws)]
     if args.on_machine:
         parts.append("--on-machine")
     if args.config:
@@ -120,6 +128,8 @@ def run(args: argparse.Namespace) -> int:
     check_footprint("paper", None, top + 1 if args.corners else top, None, golden=True,
                     quiet=args.quiet)
     check_cluster_options(args)
+    if not 0 <= args.draws <= 100:
+        raise NetsushisenError(f"--draws {args.draws}: give 0 to 100 draws")
     from netsushisen.paper import (MACHINE_POINTS, PE_CANDIDATE,  # noqa: PLC0415 (heavy)
                                    PaperRequest, run_paper)
 
@@ -127,7 +137,7 @@ def run(args: argparse.Namespace) -> int:
         return PaperRequest(list(args.scenes), res, config, out,
                             PaperOptions(sizing=args.sizing, lists=args.lists), args.corners,
                             args.on_machine, engine, command, args.workers, args.fresh,
-                            candidates=not args.no_candidates)
+                            candidates=not args.no_candidates, draws=args.draws)
 
     if args.series:
         return _series(args, request)

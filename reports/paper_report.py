@@ -6,6 +6,8 @@ Split from `paper.py` (which decides the findings) so that each stays readable."
 
 from __future__ import annotations
 
+import numpy as np
+
 from netsushisen.reports.paper import (PAPER_RES, PAPER_TABLE1, RAY_ORDER, TABLE1_COLUMNS,
                                        VERDICTS, Finding, _pct, _yn, common_readings, fig4_miss,
                                        fig5_best, fig5_curve, fig5_row, findings, ray_order_rows,
@@ -52,6 +54,55 @@ def prepass_line(d: SceneData, share: float | None) -> str:
     return (f"- Pre-pass (resident priorities): the golden model at {r}×{r}, {shot} ({asked}"
             f"{paper}); primitives ranked by their references in that render, most first, ties "
             f"by id ({ranking}).")
+
+
+def error_rows(scenes: list[SceneData]) -> tuple[list[dict], float | None]:
+    """Per numeric claim of the paper that a scene answers (Table 2's three columns, Figure 3's
+    never-referenced shares): our value, the paper's, the absolute and relative error; and the
+    mean absolute percentage error (MAPE) over Table 2's numbers."""
+    from netsushisen.reports.paper_claims import PAPER_UNREFERENCED  # noqa: PLC0415 (cycle)
+
+    rows = []
+    for r in table2(scenes):
+        if r["visible_paper"] is None:
+            continue
+        for what, ours, paper in (("Table 2: visible primitives", r["visible_ours"],
+                                   r["visible_paper"]),
+                                  ("Table 2: visible share", r["visible_share_ours"],
+                                   r["visible_share_paper"]),
+                                  ("Table 2: share of references to visible",
+                                   r["reference_share_ours"], r["reference_share_paper"])):
+            rows.append({"claim": what, "scene": r["scene"], "ours": ours, "paper": paper,
+                         "abs": ours - paper, "rel": (ours - paper) / paper, "table2": True})
+    for d in scenes:
+        if d.name in PAPER_UNREFERENCED:
+            p, o = PAPER_UNREFERENCED[d.name], d.unreferenced_share
+            rows.append({"claim": "Figure 3: never referenced", "scene": d.name, "ours": o,
+                         "paper": p, "abs": o - p, "rel": (o - p) / p, "table2": False})
+    t2 = [abs(r["rel"]) for r in rows if r["table2"]]
+    return rows, (sum(t2) / len(t2) if t2 else None)
+
+
+def _errors(scenes: list[SceneData]) -> list[str]:
+    rows, mape = error_rows(scenes)
+    if not rows:
+        return []
+
+    def fmt(v) -> str:
+        return f"{v:,}" if isinstance(v, (int, np.integer)) else f"{100 * v:.1f} %"
+
+    def fabs(r) -> str:
+        return (f"{r['abs']:+,}" if isinstance(r["ours"], (int, np.integer))
+                else f"{100 * r['abs']:+.1f} points")
+    return (["## Error against the paper", "",
+             "Every numeric claim a scene answers, ours against the paper's (relative error = "
+             "(ours − paper) / paper); the MAPE (mean absolute percentage error) over Table 2's "
+             f"numbers is **{_pct(mape, 1)}** at {scenes[0].res}×{scenes[0].res}"
+             + (" (the paper's resolution)." if scenes[0].res == PAPER_RES
+                else f" (the paper rendered {PAPER_RES}×{PAPER_RES}: provisional)."), ""]
+            + _md_table(["claim", "scene", "ours", "paper", "absolute error", "relative error"],
+                        [[r["claim"], r["scene"], fmt(r["ours"]), fmt(r["paper"]), fabs(r),
+                          f"{100 * r['rel']:+.1f} %"] for r in rows]) + [""])
 
 
 def _md_table(header: list[str], rows: list[list]) -> list[str]:
@@ -320,6 +371,7 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
     for what in ("ref", "all"):
         lines += [f"{COUNTINGS[what].capitalize()} (t in units of t_r):",
                   ""] + _fig5_rows(scenes, what) + [""]
+    lines += _errors(scenes)
     lines += spread or []
     # Findings
     lines += ["## The paper's findings and ours", "",

@@ -506,3 +506,19 @@ def test_the_spread_names_a_verdict_that_changes_within_it():
     spread = point_spread(scenes, draw_scenes(scenes, flipped))
     v, lo, hi = spread[("tetra", "fig5", 0.3, 0.7)]
     assert v == pytest.approx(2.0) and lo == pytest.approx(2.0) and hi == pytest.approx(2.7)
+
+
+def test_the_error_table_gives_each_claims_error_and_table2s_mape():
+    """Per numeric claim: ours, the paper's, absolute and relative error; MAPE over Table 2.
+    Moving one visible share moves the MAPE by its relative error / 12."""
+    from netsushisen.reports.paper_report import _errors, error_rows
+
+    rows, mape = error_rows(world())
+    assert len([r for r in rows if r["table2"]]) == 12 and mape < 0.02
+    t = next(r for r in rows if r["scene"] == "tetra" and r["claim"] == "Table 2: visible share")
+    assert t["rel"] == pytest.approx((t["ours"] - 0.51) / 0.51)
+    moved, mape2 = error_rows(_changed(world(), "mount", visible=np.arange(4000)))
+    m = next(r for r in moved if r["scene"] == "mount" and r["claim"] == "Table 2: visible share")
+    assert m["rel"] == pytest.approx(4000 / N["mount"] / 0.23 - 1)
+    assert mape2 > mape + 0.1
+    assert "MAPE (mean absolute percentage error) over Table 2" in "\n".join(_errors(world()))

@@ -67,7 +67,7 @@ def claims(scenes: list[SceneData], counting: str) -> list[Finding]:  # noqa: C9
     rows1 = [r for r in table1(scenes) if r["equal"] is not None]
     diffs = [f"{r['scene']} {r['column']} {r['ours']} (paper {r['paper']})" for r in rows1
              if not r["equal"]]
-    m1 = {n: -float(sum(1 for r in rows1 if r["scene"] == n and not r["equal"]))
+    m1 = {n: 0.0 - sum(1 for r in rows1 if r["scene"] == n and not r["equal"])
           for n in dict.fromkeys(r["scene"] for r in rows1)}
     out.append(_finding("Table 1", "tetra 4096 polygons; balls 7381 spheres + 1 polygon; mount 8192 "
                                    "polygons + 4 spheres; rings 4200 spheres + 4200 cylinders + 1 "

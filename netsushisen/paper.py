@@ -16,6 +16,9 @@ mode) compares IC's per-word counters and per-reference counts with the trace-dr
 `ray_order_study` replays IC's stream recorded in the normal mode through the same sweep (a
 candidate reading, RAY_ORDER); with it the trace split among PE_CANDIDATE PEs is a candidate.
 
+`sample_draw` replays Figures 4–5 under one draw of eye-ray jitter, pre-pass sampling and the
+order of equal-count records (`paper --draws N`: each point's spread, reports/paper_spread.py).
+
 `run_paper` runs a whole reproduction — every scene's analysis and machine check, each an
 independent run on the cluster layer (netsushisen/cluster.py) — and writes the figures, the CSV
 files and report.md; the command only parses, calls it and prints.

@@ -240,10 +240,11 @@ def _accumulate(acc: np.ndarray, sample: np.ndarray, value: np.ndarray) -> None:
 
 def render(scene: Scene, config: MachineConfig | None = None, res: int = 64, corners: bool = False,
            precision: str | None = None, keep_trace: bool = False, grid: Grid | None = None,
-           keep_shadows: bool = False) -> GoldenResult:
+           keep_shadows: bool = False, jitter: int | None = None) -> GoldenResult:
     """Render `scene` at res x res (pixel centres, or SPD corners with `corners`). `keep_shadows`
     keeps every shadow ray of an eye ray's hit (sample, light, hit primitive, origin, hit point,
-    facing normal, eye t, blocked) for the numerics checks."""
+    facing normal, eye t, blocked) for the numerics checks. `jitter`: a seed moving each eye
+    ray within its pixel (`host.rays.primary_rays`)."""
     start = time.perf_counter()
     config = config or MachineConfig()
     precision = precision or config.precision
@@ -257,7 +258,7 @@ def render(scene: Scene, config: MachineConfig | None = None, res: int = 64, cor
     eps, k_rel = scene_epsilon(grid, config, dt), offset_scale(dt)
     max_depth = config.render.max_depth
     min_weight = dt(config.render.min_weight)
-    eye: PrimaryRays = primary_rays(scene.camera, res, corners, precision)
+    eye: PrimaryRays = primary_rays(scene.camera, res, corners, precision, jitter)
     ns = eye.direction.shape[1]
     acc = np.zeros((3, ns), dt)
     rec = _Recorder(scene.n_primitives, keep_trace)

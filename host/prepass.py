@@ -56,24 +56,30 @@ def coarse_resolution(res: int, share: float) -> int:
     return max(1, int(round(res * math.sqrt(share))))
 
 
-def priorities_from_counts(counts: np.ndarray) -> np.ndarray:
-    """Priority per primitive: rank by descending count, ties by ascending id, starting at 1."""
+def priorities_from_counts(counts: np.ndarray, ties: int | None = None) -> np.ndarray:
+    """Priority per primitive: rank by descending count, ties by ascending id (or, with a seed
+    `ties`, in a random order: a permutation of the records' layout the paper leaves open),
+    starting at 1."""
     counts = np.asarray(counts, dtype=np.int64)
-    order = np.lexsort((np.arange(len(counts)), -counts))
+    key = (np.arange(len(counts)) if ties is None
+           else np.random.default_rng(ties).permutation(len(counts)))
+    order = np.lexsort((key, -counts))
     priorities = np.empty(len(counts), np.int64)
     priorities[order] = np.arange(1, len(counts) + 1)
     return priorities
 
 
 def run_prepass(scene: Scene, config: MachineConfig | None = None, res: int = 512, corners: bool = False,
-                grid: Grid | None = None) -> PrepassResult:
-    """Pre-pass for a main pass of res x res: coarse golden render, priorities, resident fill."""
+                grid: Grid | None = None, jitter: int | None = None) -> PrepassResult:
+    """Pre-pass for a main pass of res x res: coarse golden render, priorities, resident fill.
+    `jitter`: a seed for the coarse render's sampling and for the order of primitives with equal
+    counts (their records' order in ICGM): one draw of `paper --draws`."""
     start = time.perf_counter()
     config = config or MachineConfig()
     grid = grid if grid is not None else build_grid(scene, config)
     coarse = coarse_resolution(res, config.prepass.share)
-    golden = render(scene, config, res=coarse, corners=corners, grid=grid)
-    priorities = priorities_from_counts(golden.references)
+    golden = render(scene, config, res=coarse, corners=corners, grid=grid, jitter=jitter)
+    priorities = priorities_from_counts(golden.references, jitter)
     layout = plan_layout(scene, config, priorities, grid)
     wb = config.word_bytes
     return PrepassResult(priorities=priorities, resident_count=layout.resident_count,

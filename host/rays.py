@@ -117,9 +117,11 @@ def screen_coordinates(samples: int, angle_degrees: float) -> np.ndarray:
     return (2.0 * j - (samples - 1)) / (samples - 1) * half
 
 
-def primary_rays(camera: Camera, res: int, corners: bool = False, precision: str = "fp32") -> PrimaryRays:
+def primary_rays(camera: Camera, res: int, corners: bool = False, precision: str = "fp32",
+                 jitter: int | None = None) -> PrimaryRays:
     """Eye rays for an res x res image: pixel centres (res^2 rays) or, with `corners`, the SPD
-    pixel corners ((res+1)^2 rays).
+    pixel corners ((res+1)^2 rays). `jitter`: a seed; each sample moves by a uniform offset
+    within its pixel (the sampling spread of `paper --draws`; None: the exact centres).
 
     The host computes each direction entirely in float64 (forward + sx*right + sy*up, normalised)
     and rounds it once to the precision, so the result is deterministic and identical for the
@@ -133,6 +135,11 @@ def primary_rays(camera: Camera, res: int, corners: bool = False, precision: str
     s = screen_coordinates(m, camera.angle)
     sx = s[None, :]  # column j: left (-) to right (+)
     sy = -s[:, None]  # row 0 at the top: +tan(angle/2)
+    if jitter is not None and m > 1:  # `paper --draws`: each sample moved within its pixel
+        step = float(s[1] - s[0])
+        rng = np.random.default_rng(jitter)
+        sx = sx + (rng.random((m, m)) - 0.5) * step
+        sy = sy + (rng.random((m, m)) - 0.5) * step
     d = (forward[:, None, None] + sx[None] * right[:, None, None] + sy[None] * up[:, None, None])
     d = d.reshape(3, m * m)
     d = d / np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])

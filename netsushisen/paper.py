@@ -16,6 +16,9 @@ mode) compares IC's per-word counters and per-reference counts with the trace-dr
 `ray_order_study` replays IC's stream recorded in the normal mode through the same sweep (a
 candidate reading, RAY_ORDER); with it the trace split among PE_CANDIDATE PEs is a candidate.
 
+`sample_draw` replays Figures 4–5 under one draw of eye-ray jitter, pre-pass sampling and the
+order of equal-count records (`paper --draws N`: each point's spread, reports/paper_spread.py).
+
 `run_paper` runs a whole reproduction — every scene's analysis and machine check, each an
 independent run on the cluster layer (netsushisen/cluster.py) — and writes the figures, the CSV
 files and report.md; the command only parses, calls it and prints.
@@ -45,6 +48,8 @@ from netsushisen.reports.paper import RAY_ORDER, findings, machine_findings
 from netsushisen.reports.paper_data import PaperOptions, Progress, SceneData
 from netsushisen.reports.paper_plots import write_csvs, write_figures
 from netsushisen.reports.paper_report import report_markdown
+from netsushisen.reports.paper_spread import (draw_scenes, point_spread, spread_markdown,
+                                              write_spread_csvs)
 from netsushisen.paper_machine import (FINDINGS_POINT, MACHINE_POINTS, PE_CANDIDATE,  # noqa: F401
                                        compare_counters, machine_check, pes_config, point_config,
                                        ray_order_study)
@@ -86,7 +91,9 @@ CANDIDATES = ("sizing records+lists", "lists in the cache", "32-byte blocks", "1
 """The trace-driven readings every "partly" or "differs" of Figures 4–5 is rerun under
 (`candidate_readings`; the last, the trace split among PE_CANDIDATE PEs, is checked on the
 machine by `--on-machine`), which also adds the machine's normal ray order
-(`paper_machine.ray_order_study`)."""
+(`paper_machine.ray_order_study`). The 32- and 128-byte blocks change the block the paper
+states (64 B): the findings show them as sensitivities, never as explanations
+(`reports.paper.stated_changes`)."""
 
 
 def candidate_readings(config: MachineConfig, options: PaperOptions, pes: tuple[int, ...] = ()
@@ -143,6 +150,7 @@ def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
                      rays=dict(golden.rays), references=golden.references.copy(),
                      visible=np.unique(golden.hit_ids[golden.hit_ids >= 0]).astype(np.int64),
                      prepass=pre.summary(), fig4=fig4, fig5=fig5, loads=loads, t_r=mc.t_r,
+                     t_g=mc.t_g,
                      block_bytes=mc.block_bytes, seconds=seconds, options=options,
                      experiments=trace_experiments(golden))
     if candidates:
@@ -161,6 +169,21 @@ def analyse_scene(spec, res: int, config: MachineConfig, corners: bool = False,
     seconds["total"] = time.perf_counter() - t0
     return data
 
+
+
+def sample_draw(scene, res: int, config: MachineConfig, corners: bool, options: PaperOptions,
+                draw: int, rays_per_chunk: int = 16384) -> dict:
+    """Figures 4–5 under one draw of what the paper leaves to chance (`paper --draws`): the main
+    pass's eye rays jittered within their pixels, the pre-pass's too, and the primitives with
+    equal pre-pass counts in a random order (their records' order in ICGM), all seeded by
+    `draw`. Same replay as `analyse_scene`, no candidates."""
+    grid = build_grid(scene, config)
+    golden = render_golden(scene, config, res=res, corners=corners, keep_trace=True, grid=grid,
+                           jitter=draw)
+    pre = run_prepass(scene, config, res=res, corners=corners, grid=grid, jitter=10 ** 6 + draw)
+    _, fig4, fig5, _ = replay_figures(scene, golden_chunks(golden, rays_per_chunk), pre, grid,
+                                      config, options, f" (draw {draw})", lambda *a: None)
+    return {"scene": scene.name, "draw": draw, "fig4": fig4, "fig5": fig5}
 
 
 # -- a whole reproduction -----------------------------------------------------------------------
@@ -182,6 +205,7 @@ class PaperRequest:
     workers: int | None = None
     fresh: bool = False  # compute every run again (else a run cached in out/runs/ is reused)
     candidates: bool = True  # rerun Figures 4–5 under every `candidate_readings`
+    draws: int = 0  # `sample_draw`s per scene: the spread of every Figure 4–5 point
 
 
 @dataclass
@@ -200,6 +224,7 @@ class PaperRun:
     interrupted: bool = False
     cached: int = 0  # runs taken from out/runs/
     orders: list[dict] = field(default_factory=list)  # `ray_order_study` per scene (--on-machine)
+    draws: list[dict] = field(default_factory=list)  # `sample_draw`s (--draws)
 
     @property
     def differing(self) -> list[dict]:
@@ -248,13 +273,20 @@ def run_paper(request: PaperRequest, scheduler: str | None = None, show: bool = 
         tasks += [Task(ray_order_study, (scene, r.res, r.config, r.engine, r.corners, r.options),
                        f"{scene.name}-machine (normal ray order)") for scene in scenes]
     n_checks = len(machine_runs)
+    n_orders = n if r.on_machine else 0
+    tasks += [Task(sample_draw, (scene, r.res, r.config, r.corners, r.options, k),
+                   f"{scene.name}-draw {k}") for scene in scenes for k in range(1, r.draws + 1)]
     orders: dict[int, dict] = {}
+    draws: dict[int, dict] = {}
     log = _log if show and not sys.stderr.isatty() else (lambda text: None)
 
     def done(i: int, result) -> None:
         if i < n:
             results[i] = result
             log(f"{result.name}: trace-driven path done in {result.seconds['total']:.0f} s")
+        elif i >= n + n_checks + n_orders:
+            draws[i] = result
+            log(f"{result['scene']}: draw {result['draw']} done")
         elif i >= n + n_checks:
             orders[i - n - n_checks] = result
             log(f"{result['scene']}: machine, normal ray order, {result['cycles']:,} cycles, "
@@ -280,6 +312,9 @@ def run_paper(request: PaperRequest, scheduler: str | None = None, show: bool = 
         keys += [content_key("paper ray order", scene.name, scene_digest(scene), r.res,
                              r.corners, config, r.engine, kernels, r.options.sizing,
                              r.options.lists) for scene in scenes]
+    keys += [content_key("paper draw", scene.name, scene_digest(scene), r.res, r.corners, config,
+                         r.options.sizing, r.options.lists, k)
+             for scene in scenes for k in range(1, r.draws + 1)]
 
     def decode(i: int, data):
         return SceneData.from_plain(unplain(data)) if i < n else unplain(data)
@@ -293,7 +328,8 @@ def run_paper(request: PaperRequest, scheduler: str | None = None, show: bool = 
                    [s.name for i, s in enumerate(scenes) if i not in results],
                    [checks[i] for i in sorted(checks)],
                    interrupted=outcome.interrupted, cached=cached,
-                   orders=[orders[i] for i in sorted(orders)])
+                   orders=[orders[i] for i in sorted(orders)],
+                   draws=[draws[i] for i in sorted(draws)])
     _attach_orders(run.scenes, run.orders)
     _write(r, run, out, start, r.workers or min(os.cpu_count() or 1, len(tasks)), scheduler)
     return run
@@ -319,9 +355,14 @@ def _log(text: str) -> None:
 def _write(r: PaperRequest, run: PaperRun, out: Path, start: float, workers: int,
            scheduler: str | None = None) -> None:
     """Figures, CSV files and report.md of what finished."""
+    spread = None
+    if run.scenes and run.draws:
+        per_draw = draw_scenes(run.scenes, run.draws)
+        spread = point_spread(run.scenes, per_draw) if per_draw else None
     if run.scenes:
-        run.files += write_figures(run.scenes, out)
+        run.files += write_figures(run.scenes, out, spread)
         run.files += write_csvs(run.scenes, out)
+        run.files += write_spread_csvs(run.scenes, run.draws, out)
         run.items = findings(run.scenes, "ref") + machine_findings(run.checks)
         run.word_items = findings(run.scenes, "all")
     run.seconds = time.perf_counter() - start
@@ -336,10 +377,13 @@ def _write(r: PaperRequest, run: PaperRun, out: Path, start: float, workers: int
                    else f"IC cache share {mc.cache_share}, resident share {mc.resident_share}",
                    "scenes": run.checks, "orders": run.orders}
     settings = {"res": r.res, "command": r.command, "max_depth": r.config.render.max_depth,
+                "prepass_share": r.config.prepass.share,
                 "engine": r.engine, "seconds": run.seconds}
     run.report = out / "report.md"
     names = [p.name for p in run.files]
     write_text(run.report,
                report_markdown(run.scenes, run.items, settings, [run.report.name] + names,
                                            run.missing if run.interrupted else None,
-                                           run.word_items, machine))
+                                           run.word_items, machine,
+                                           spread_markdown(run.scenes, run.draws)
+                                           if run.scenes and run.draws else None))

@@ -80,6 +80,7 @@ class SceneData:
     fig5: list[dict] = field(default_factory=list)  # per (local share, resident split)
     loads: int = 0
     t_r: int = 1
+    t_g: int = 8  # the global memory's access time (t_g = 8·t_r, §5.2), for the ρ* of finding 14
     block_bytes: int = 64
     seconds: dict[str, float] = field(default_factory=dict)
     options: PaperOptions = field(default_factory=PaperOptions)

@@ -6,11 +6,14 @@ Split from `paper.py` (which decides the findings) so that each stays readable."
 
 from __future__ import annotations
 
+import numpy as np
+
 from netsushisen.reports.paper import (PAPER_RES, PAPER_TABLE1, RAY_ORDER, TABLE1_COLUMNS,
                                        VERDICTS, Finding, _pct, _yn, common_readings, fig4_miss,
                                        fig5_best, fig5_curve, fig5_row, findings, ray_order_rows,
-                                       table2)
+                                       split_readings, stated_changes, table2)
 from netsushisen.reports.paper_data import COUNTINGS, LOCAL_SHARES, SceneData
+from netsushisen.reports.paper_judge import PARTLY, TOLERANCE, TREND_ALPHA
 from netsushisen.paper_machine import FINDINGS_LOCAL_WORDS, FINDINGS_POINT
 
 DEFAULTS_ARGUED = [
@@ -34,6 +37,72 @@ DEFAULTS_ARGUED = [
     "- **Whole primitives resident by priority.** The resident fill copies records in priority "
     "order until the next one does not fit (M records), as §4.4 describes; IC tests P_i ≤ M.",
 ]
+
+
+def prepass_line(d: SceneData, share: float | None) -> str:
+    """The pre-pass this run used, from its configuration and the eye rays it shot (never a fixed
+    sentence: `--set prepass.share=1.0` ranks by the full-resolution render)."""
+    r = d.prepass["resolution"]
+    main, pre = d.rays.get("eye"), d.prepass.get("eye_rays")
+    shot = f"{_pct(pre / main, 2)} of the main pass's eye rays" if main and pre else \
+        f"{r}×{r} eye rays"
+    asked = "" if share is None else f"`prepass.share = {share:g}`, "
+    paper = ("as the paper's" if share is not None and abs(share - 0.01) < 1e-12
+             else "the paper's is about 1 %")
+    ranking = ("the full-resolution ranking: the pre-pass is the main pass's render"
+               if r >= d.res else "a coarse ranking")
+    return (f"- Pre-pass (resident priorities): the golden model at {r}×{r}, {shot} ({asked}"
+            f"{paper}); primitives ranked by their references in that render, most first, ties "
+            f"by id ({ranking}).")
+
+
+def error_rows(scenes: list[SceneData]) -> tuple[list[dict], float | None]:
+    """Per numeric claim of the paper that a scene answers (Table 2's three columns, Figure 3's
+    never-referenced shares): our value, the paper's, the absolute and relative error; and the
+    mean absolute percentage error (MAPE) over Table 2's numbers."""
+    from netsushisen.reports.paper_claims import PAPER_UNREFERENCED  # noqa: PLC0415 (cycle)
+
+    rows = []
+    for r in table2(scenes):
+        if r["visible_paper"] is None:
+            continue
+        for what, ours, paper in (("Table 2: visible primitives", r["visible_ours"],
+                                   r["visible_paper"]),
+                                  ("Table 2: visible share", r["visible_share_ours"],
+                                   r["visible_share_paper"]),
+                                  ("Table 2: share of references to visible",
+                                   r["reference_share_ours"], r["reference_share_paper"])):
+            rows.append({"claim": what, "scene": r["scene"], "ours": ours, "paper": paper,
+                         "abs": ours - paper, "rel": (ours - paper) / paper, "table2": True})
+    for d in scenes:
+        if d.name in PAPER_UNREFERENCED:
+            p, o = PAPER_UNREFERENCED[d.name], d.unreferenced_share
+            rows.append({"claim": "Figure 3: never referenced", "scene": d.name, "ours": o,
+                         "paper": p, "abs": o - p, "rel": (o - p) / p, "table2": False})
+    t2 = [abs(r["rel"]) for r in rows if r["table2"]]
+    return rows, (sum(t2) / len(t2) if t2 else None)
+
+
+def _errors(scenes: list[SceneData]) -> list[str]:
+    rows, mape = error_rows(scenes)
+    if not rows:
+        return []
+
+    def fmt(v) -> str:
+        return f"{v:,}" if isinstance(v, (int, np.integer)) else f"{100 * v:.1f} %"
+
+    def fabs(r) -> str:
+        return (f"{r['abs']:+,}" if isinstance(r["ours"], (int, np.integer))
+                else f"{100 * r['abs']:+.1f} points")
+    return (["## Error against the paper", "",
+             "Every numeric claim a scene answers, ours against the paper's (relative error = "
+             "(ours − paper) / paper); the MAPE (mean absolute percentage error) over Table 2's "
+             f"numbers is **{_pct(mape, 1)}** at {scenes[0].res}×{scenes[0].res}"
+             + (" (the paper's resolution)." if scenes[0].res == PAPER_RES
+                else f" (the paper rendered {PAPER_RES}×{PAPER_RES}: provisional)."), ""]
+            + _md_table(["claim", "scene", "ours", "paper", "absolute error", "relative error"],
+                        [[r["claim"], r["scene"], fmt(r["ours"]), fmt(r["paper"]), fabs(r),
+                          f"{100 * r['rel']:+.1f} %"] for r in rows]) + [""])
 
 
 def _md_table(header: list[str], rows: list[list]) -> list[str]:
@@ -185,7 +254,8 @@ def _ray_order(check: dict, scenes: list[SceneData]) -> list[str]:
 
 def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dict,
                     files: list[str], missing: list[str] | None = None,
-                    word_items: list[Finding] | None = None, machine: dict | None = None) -> str:
+                    word_items: list[Finding] | None = None, machine: dict | None = None,
+                    spread: list[str] | None = None) -> str:
     """The whole report.md. `items`: findings per primitive reference (the paper's counting);
     `word_items`: the same findings per word; `machine`: the `--on-machine` check."""
     res = settings["res"]
@@ -209,8 +279,7 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
         f"({'SPD corner rays, (N+1)² eye rays' if d0.corners else 'one eye ray per pixel centre'}), "
         f"{d0.precision}, ray-tree depth ≤ {settings.get('max_depth', 5)}; the paper rendered "
         f"{PAPER_RES}×{PAPER_RES}.",
-        f"- Pre-pass (resident priorities): the golden model at {d0.prepass['resolution']}×"
-        f"{d0.prepass['resolution']} (1 % of the main pass's eye rays, as the paper).",
+        prepass_line(d0, settings.get("prepass_share")),
         "- IC's loads: the IC access protocol (docs/databases.md) replayed from the golden model's "
         "reference trace, rays in the machine's serial order (pixel by pixel, each ray tree in "
         "level order), through a trace-driven resident memory + direct-mapped cache with the "
@@ -225,9 +294,14 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
     if word_items is not None:
         lines += [f"- {COUNTINGS['all']}: {_counts_text(word_items)}."]
     if common_readings(scenes):
+        readings, sens = split_readings(scenes)
         lines += [f"- {COUNTINGS['ref']}, under the candidate reading *{k}* (Figures 4–5 rerun): "
                   f"{_counts_text(findings([d.readings[k] for d in scenes], 'ref'))}."
-                  for k in common_readings(scenes)]
+                  for k in readings]
+        lines += [f"- {COUNTINGS['ref']}, sensitivity *{k}* (changes "
+                  f"{'; '.join(stated_changes(scenes[0].readings[k]))}: never an explanation): "
+                  f"{_counts_text(findings([d.readings[k] for d in scenes], 'ref'))}."
+                  for k in sens]
         lines += ["",
                   "Every Figure 4–5 finding that is not \"agree\" names what each candidate "
                   "reading makes of it (*Why*)"
@@ -290,18 +364,32 @@ def report_markdown(scenes: list[SceneData], items: list[Finding], settings: dic
     # Figure 5
     lines += ["## Figure 5: effective access time against the resident share "
               f"({d0.options.describe()})", "",
-              "![Figure 5](fig5_access_time.png)", ""]
+              "![Figure 5](fig5_access_time.png)", "",
+              "ρ and the cache's miss rate against the split (§5.1: the paper measured both; "
+              "§5.2.3's mechanisms are findings below):", "",
+              "![ρ and miss rate](fig5_rho_miss_rate.png)", ""]
     for what in ("ref", "all"):
         lines += [f"{COUNTINGS[what].capitalize()} (t in units of t_r):",
                   ""] + _fig5_rows(scenes, what) + [""]
+    lines += _errors(scenes)
+    lines += spread or []
     # Findings
     lines += ["## The paper's findings and ours", "",
               "Each finding is decided by the threshold in *Test*; \"not testable here\" means the "
-              "premise never occurs in our data. Figures 4–5 count per primitive reference.", ""]
+              "premise never occurs in our data. Figures 4–5 count per primitive reference. "
+              f"One rule for every finding (docs/databases.md, \"How the findings are judged\"): "
+              f"a value or band the paper states is met within {_pct(TOLERANCE)} points (or one "
+              "step of the sweep's grid where it is coarser), one-sided where the claim is; "
+              "\"tends to\" claims are trends (Kendall's τ with its one-sided p ≤ "
+              f"{_pct(TREND_ALPHA)}); **agree** when every case passes, **partly** when at least "
+              f"{_pct(PARTLY)} of them do, **differ** otherwise. *Margin* gives k of n cases "
+              "passing and each case's distance to its threshold (positive: passes).", ""]
     for i, f in enumerate(items, 1):
         lines += [f"{i}. **{f.figure}: {f.paper}.** *Test:* {f.test}. *Ours* ({f.counting}): "
                   f"{f.ours}. "
-                  f"**{f.verdict.capitalize()}.**" + (f" *Why:* {f.why}." if f.why else ""), ""]
+                  f"**{f.verdict.capitalize()}.**"
+                  + (f" *Margin:* {f.margin}." if f.margin else "")
+                  + (f" *Why:* {f.why}." if f.why else ""), ""]
     if word_items is not None:
         lines += ["### The same findings counted per word", ""]
         rows = [[i, f"{f.figure}: {f.paper}", f.verdict, w.verdict, w.ours]

@@ -194,7 +194,7 @@ def test_paper_command_writes_report_figures_and_csvs(tmp_path, cli):
     code, stdout, err = cli("paper", "--res", "8", "--scenes", "tetra:1", "mount:2", "--out", out, "--quiet")
     assert code == 0, err
     for name in ("fig3_locality.png", "fig4_miss_rate.png", "fig5_access_time.png",
-                 "fig5_access_time_per_word.png"):
+                 "fig5_access_time_per_word.png", "fig5_rho_miss_rate.png"):
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with (out / "fig4_miss_rate.csv").open() as f:
         rows = list(csv.DictReader(f))
@@ -208,7 +208,11 @@ def test_paper_command_writes_report_figures_and_csvs(tmp_path, cli):
     assert "Figure 5: for 10 % local memory t rises with the resident share" in md
     assert "tetra 4096 polygons" in md and "tetra | 4 (paper 2121)" not in md
     assert "per primitive reference (the paper's counting):" in md and "- per word:" in md
-    assert md.count("*Test:*") == 17 and "Why these defaults are the paper's" in md
+    assert md.count("*Test:*") == 24 and "Why these defaults are the paper's" in md
+    # every judged finding; "not evaluated" here: §4.3 and the two scene orderings (4 scenes)
+    assert md.count("*Margin:*") == 21 and md.count("**Not evaluated.**") == 3
+    assert "§4.3: the pre-pass costs about 1 % of the main pass.** *Test:* one-sided" in md
+    assert "(`prepass.share = 0.01`, as the paper's)" in md
     assert "--sizing records --lists local" in md
     # a differing Figure 4–5 finding was rerun under every trace-driven candidate, the PE split
     # among them; the machine's ray order needs --on-machine and says so
@@ -261,6 +265,9 @@ def test_counter_comparison_names_the_first_difference():
     (["--jobs", "0"], "--workers 0"),
     (["--workers", "0"], "--workers 0"),
     (["--scheduler", "http://x:80"], "expected tcp://HOST:PORT"),
+    (["--series", "32,x"], "give resolutions separated by commas"),
+    (["--series", "32"], "give two or more different resolutions"),
+    (["--series", "0,8"], "--res 0"),
 ])
 def test_paper_bad_input_is_one_located_line(tmp_path, cli, argv, message):
     code, _, err = cli("paper", "--out", tmp_path / "p", "--quiet", *argv)
@@ -292,3 +299,56 @@ def test_trace_experiments_are_variants_of_the_main_pass():
     assert int(ex["no shadow rays"].sum()) == int(full.sum()) - shadow_tests
     assert np.all(ex["eye rays only"] <= ex["ray-tree depth 1 (eye rays and their shadow rays)"])
     assert np.all(ex["ray-tree depth 1 (eye rays and their shadow rays)"] <= full)
+
+
+def test_the_report_states_the_prepass_the_run_used():
+    """The pre-pass sentence comes from the configuration and the rays shot: a full-resolution
+    pre-pass is not "1 % of the main pass's eye rays, as the paper"."""
+    from netsushisen.reports.paper_report import prepass_line
+    from tests.test_paper_findings import scene
+
+    d = scene("tetra")
+    d.res, d.rays, d.prepass = 64, {"eye": 4096}, {"resolution": 64, "eye_rays": 4096}
+    line = prepass_line(d, 1.0)
+    assert "100.00 % of the main pass's eye rays" in line and "prepass.share = 1" in line
+    assert "the paper's is about 1 %" in line and "full-resolution ranking" in line
+    assert "as the paper" not in line.replace("as the paper's)", "")
+    d.prepass = {"resolution": 6, "eye_rays": 36}
+    line = prepass_line(d, 0.01)
+    assert "0.88 % of the main pass's eye rays" in line and "as the paper's" in line
+    assert "coarse ranking" in line
+
+
+def test_the_series_lists_each_findings_measure_per_resolution_and_marks_provisional():
+    """series.md: per finding the verdict, k/n and worst margin at each resolution, every
+    verdict below 512 provisional, and the findings whose verdict moves named."""
+    from netsushisen.reports.paper import findings
+    from netsushisen.reports.paper_series import series_markdown, series_rows
+    from tests.test_paper_findings import paper_world_t, world
+
+    low = findings(world(t=lambda L, s: 2.0 + s), "ref")  # resident never beats cache-only
+    high = findings(world(), "ref")
+    md = series_markdown({64: low, 512: high}, "netsushisen paper --series 64,512")
+    row = next(line for line in md.splitlines() if "resident memory beats" in line)
+    cells = [c.strip() for c in row.split("|")]
+    assert cells[3].startswith("differ (provisional), 0/8, worst -")
+    assert cells[4].startswith("agree, 8/8, worst +") and "provisional" not in cells[4]
+    assert cells[5] == "yes"
+    moved = [r for r in series_rows({64: low, 512: high}) if r["changes"]]
+    assert any(r["paper"].startswith("resident memory beats") for r in moved)
+    assert f"**{len(moved)} of {len(high)} findings change verdict" in md
+    assert paper_world_t(0.3, 0.7) < paper_world_t(0.3, 0.0)  # the world the cells came from
+
+
+@pytest.mark.slow
+def test_paper_series_runs_every_resolution_in_one_command(tmp_path, cli):
+    out = tmp_path / "s"
+    code, stdout, err = cli("paper", "--series", "4,8", "--scenes", "mount:2", "--out", out,
+                            "--no-candidates", "--workers", "1")
+    assert code == 0, err
+    assert (out / "res-4" / "report.md").exists() and (out / "res-8" / "report.md").exists()
+    md = (out / "series.md").read_text()
+    assert "| 4×4 | 8×8 |" in md and "(provisional)" in md
+    with (out / "series.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert {r["res"] for r in rows} == {"4", "8"} and all(r["provisional"] == "True" for r in rows)

@@ -74,3 +74,32 @@ def test_prepass_at_the_papers_resolution():
     cfg.ic_memory.resident_share = 0.0
     none = run_prepass(sc, cfg, res=64)
     assert none.resident_count == 0 and none.resident_bytes == 0
+
+
+def test_a_draw_permutes_only_ties_and_jitters_eye_rays_within_their_pixels():
+    """`paper --draws`: a seed reorders only primitives with equal counts (the records' order the
+    paper leaves open) and moves each eye ray by less than half a pixel, the same for the same
+    seed; without a seed nothing changes."""
+    from netsushisen.host.rays import primary_rays, screen_coordinates
+
+    counts = np.array([5, 0, 9, 5, 0, 1, 5, 0])
+    orders = {tuple(priorities_from_counts(counts, seed).tolist()) for seed in range(20)}
+    assert len(orders) > 1
+    for p in orders:
+        p = np.array(p)
+        assert all(p[i] < p[j] for i in range(8) for j in range(8) if counts[i] > counts[j])
+    cam = load_scene("tetra:1").camera
+    exact = primary_rays(cam, 8)
+    a, b = primary_rays(cam, 8, jitter=3), primary_rays(cam, 8, jitter=3)
+    assert np.array_equal(a.direction, b.direction)
+    assert not np.array_equal(a.direction, exact.direction)
+    assert np.array_equal(primary_rays(cam, 8, jitter=None).direction, exact.direction)
+    step = np.diff(screen_coordinates(8, cam.angle))[0]
+    # on the image plane at distance 1 along the view: x/z and y/z differ by < half a step
+    from netsushisen.host.rays import camera_basis
+
+    f, r, u = camera_basis(cam)
+    for d in (a, exact):
+        d.plane = np.stack([(d.direction.T @ r) / (d.direction.T @ f),
+                            (d.direction.T @ u) / (d.direction.T @ f)])
+    assert np.max(np.abs(a.plane - exact.plane)) < step / 2 + 1e-6

@@ -1,7 +1,8 @@
 """Reproduce the paper's Table 1, Table 2 and Figures 3–5 (its evaluation of IC's memory) and
 say where we agree.
 
-    netsushisen paper [--res N] [--scenes S ...] [--out DIR] [--corners] [--precision fp32|fp64]
+    netsushisen paper [--res N | --series N,N,...] [--scenes S ...] [--out DIR] [--corners]
+                      [--precision fp32|fp64]
                       [--sizing records|records+lists] [--lists local|cache] [--on-machine]
                       [--scheduler ADDRESS] [--workers N] [--config FILE] [--set field=value]...
                       [--engine NAME]
@@ -35,6 +36,7 @@ import sys
 from pathlib import Path
 
 from netsushisen.cluster import add_cluster_options, check_cluster_options
+from netsushisen.isa.errors import NetsushisenError
 from netsushisen.options import (add_config_options, add_engine, add_output, add_quiet,
                                  add_resolution, check_footprint,
                                  check_resolution, config_from_args, engine_from_args)
@@ -64,6 +66,14 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="also render each scene on the emulated machine (serial mode) and "
                              "check IC's counters and per-reference counts equal the "
                              "trace-driven path's, and run the ray-order study (normal mode)")
+    parser.add_argument("--series", type=_resolutions, default=None, metavar="N,N,...",
+                        help="the resolution series: a whole reproduction at each N (in DIR/res-N/) "
+                             "and DIR/series.md with each finding's verdict and margin per "
+                             "resolution (below 512: provisional); replaces --res")
+    parser.add_argument("--draws", type=int, default=0, metavar="N",
+                        help="also replay Figures 4–5 under N draws of eye-ray jitter, pre-pass "
+                             "sampling and record order: each point's spread, and the verdicts "
+                             "that change within it (default 0; 5 or more for a spread)")
     parser.add_argument("--fresh", action="store_true",
                         help="compute every run again (default: a run already in DIR/runs/ is "
                              "reused)")
@@ -72,9 +82,24 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_quiet(parser, "no progress bars or summary")
 
 
-def _command(args: argparse.Namespace) -> str:
-    parts = ["netsushisen", "paper", "--res", str(args.res), "--scenes", *args.scenes,
-             "--out", args.out]
+def _resolutions(text: str) -> list[int]:
+    """--series's list: resolutions separated by commas, each 1 or more, at least two."""
+    try:
+        out = [int(t) for t in text.split(",") if t.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: give resolutions separated by commas, "
+                                         "e.g. 32,64,128") from None
+    if len(out) < 2 or len(set(out)) != len(out):
+        raise argparse.ArgumentTypeError(f"{text!r}: give two or more different resolutions "
+                                         "of at least 1, e.g. 32,64,128")
+    return sorted(out)
+
+
+def _command(args: argparse.Namespace, res: int | None = None) -> str:
+    where = (["--res", str(args.res if res is None else res)] if res is not None or not args.series
+             else ["--series", ",".join(map(str, args.series))])
+    out = args.out if res is None else str(Path(args.out) / f"res-{res}")
+    parts = ["netsushisen", "paper", *where, "--scenes", *args.scenes, "--out", out]
     if args.corners:
         parts.append("--corners")
     if args.precision:
@@ -82,6 +107,8 @@ def _command(args: argparse.Namespace) -> str:
     parts += ["--sizing", args.sizing, "--lists", args.lists]
     if args.no_candidates:
         parts.append("--no-candidates")
+    if args.draws:
+        parts += ["--draws", str(args.draws)]
     if args.on_machine:
         parts.append("--on-machine")
     if args.config:
@@ -93,20 +120,29 @@ def _command(args: argparse.Namespace) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    check_resolution(args.res)
+    for res in args.series or [args.res]:
+        check_resolution(res)
     engine = engine_from_args(args)
     config = config_from_args(args)
-    check_footprint("paper", None, args.res + 1 if args.corners else args.res, None, golden=True,
+    top = max(args.series or [args.res])
+    check_footprint("paper", None, top + 1 if args.corners else top, None, golden=True,
                     quiet=args.quiet)
     check_cluster_options(args)
+    if not 0 <= args.draws <= 100:
+        raise NetsushisenError(f"--draws {args.draws}: give 0 to 100 draws")
     from netsushisen.paper import (MACHINE_POINTS, PE_CANDIDATE,  # noqa: PLC0415 (heavy)
                                    PaperRequest, run_paper)
 
-    request = PaperRequest(list(args.scenes), args.res, config, Path(args.out),
-                           PaperOptions(sizing=args.sizing, lists=args.lists), args.corners,
-                           args.on_machine, engine, _command(args), args.workers, args.fresh,
-                           candidates=not args.no_candidates)
-    done = run_paper(request, args.scheduler, show=not args.quiet)
+    def request(res: int, out: Path, command: str) -> "PaperRequest":
+        return PaperRequest(list(args.scenes), res, config, out,
+                            PaperOptions(sizing=args.sizing, lists=args.lists), args.corners,
+                            args.on_machine, engine, command, args.workers, args.fresh,
+                            candidates=not args.no_candidates, draws=args.draws)
+
+    if args.series:
+        return _series(args, request)
+    done = run_paper(request(args.res, Path(args.out), _command(args)), args.scheduler,
+                     show=not args.quiet)
     names = ", ".join(p.name for p in done.files)
     if done.interrupted:
         print("netsushisen paper: interrupted; finished "
@@ -134,4 +170,34 @@ def run(args: argparse.Namespace) -> int:
               f"path's for {', '.join(scenes)} ({len(done.checks)} runs: the default memory, "
               f"{len(MACHINE_POINTS)} sweep points, {PE_CANDIDATE} PEs and the findings' "
               "reading each)")
+    return 0
+
+
+def _series(args: argparse.Namespace, request) -> int:
+    """`--series`: a whole reproduction per resolution (DIR/res-N/), then DIR/series.md; Ctrl-C
+    writes the series of the resolutions that finished (exit 130)."""
+    from netsushisen.paper import output_folder, run_paper  # noqa: PLC0415 (heavy)
+    from netsushisen.reports.paper_series import write_series  # noqa: PLC0415
+
+    out = output_folder(Path(args.out))
+    runs, interrupted = {}, False
+    for res in args.series:
+        done = run_paper(request(res, out / f"res-{res}", _command(args, res)), args.scheduler,
+                         show=not args.quiet)
+        if done.interrupted:
+            interrupted = True
+            break
+        runs[res] = done.items
+        if not args.quiet:
+            counts = verdict_counts(done.items)
+            print(f"{res}x{res}: findings " + ", ".join(f"{v} {k}" for k, v in counts.items())
+                  + f" in {done.seconds:.0f} s")
+    files = write_series(runs, out, _command(args)) if runs else []
+    if interrupted:
+        print(f"netsushisen paper: interrupted; the series holds "
+              f"{', '.join(map(str, runs)) or 'no resolution'}; wrote what was finished to "
+              f"{args.out}/", file=sys.stderr)
+        return 130
+    if not args.quiet:
+        print("wrote " + " and ".join(str(p) for p in files))
     return 0

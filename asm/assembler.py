@@ -708,10 +708,11 @@ class Assembler(MacroExpansion, RegionAssembly):
 def assemble_file(path: str | Path, proc: str | None = None,
                   defines: dict[str, int | float] | None = None,
                   include_dirs: list[str | Path] | None = None,
-                  config: MachineConfig | None = None) -> Program:
+                  config: MachineConfig | None = None, schedule: bool = True) -> Program:
     """Assemble a source file (`.sched` regions scheduled for `config`, else the default
-    machine); raises AssemblyError listing every error."""
-    return Assembler(proc, defines, include_dirs, config).assemble_file(path)
+    machine; without `schedule`, one operation per bundle as written); raises AssemblyError
+    listing every error."""
+    return Assembler(proc, defines, include_dirs, config, schedule).assemble_file(path)
 
 
 def assemble_text(text: str, proc: str | None = None, filename: str = "<string>",

@@ -35,6 +35,7 @@ from netsushisen.isa.processors import STAGES
 from netsushisen.commands.report import add_optimum_option
 from netsushisen.reports.tables import FORMATS
 from netsushisen.options import (add_config_options, add_defines, add_include_dirs, add_json,
+                                 add_no_schedule,
                                  add_output, add_resolution, write_output, write_text, check_resolution,
                                  config_from_args, parse_defines)
 
@@ -57,9 +58,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--format", choices=FORMATS, default="table",
                         help="with --bounds: table (default), json, csv or md")
     add_optimum_option(parser)
-    parser.add_argument("--no-schedule", action="store_true",
-                        help="leave .sched regions one operation per bundle, as written (their "
-                             "serial form)")
+    add_no_schedule(parser)
     scene = parser.add_argument_group("kernels for a scene (the symbols `render` uses)")
     scene.add_argument("--scene", metavar="SCENE",
                        help="built-in scene name (tetra, balls, ...) or .nff file")

@@ -507,6 +507,10 @@ class Assembler(MacroExpansion, RegionAssembly):
                 known = [n for n in st.symbols] + list(BUILTIN_CONSTANTS)
                 close = difflib.get_close_matches(name, known, n=1)
                 hint = f" (did you mean '{close[0]}'?)" if close else ""
+                if not close and name.isupper():  # a kernel's build symbol, as HAS_POLYGONS
+                    hint = (f" (a build symbol: define it with -D {name}=VALUE; the bundled "
+                            "kernels take a scene's with `asm --scene SCENE`, or include the "
+                            "defines.inc `kernels export` writes)")
                 raise ExprError(f"undefined symbol '{name}'{hint}", loc)
             if sym.kind in ("text", "data") and not allow_labels:
                 raise ExprError(f"label '{name}' cannot be used here (only constants)", loc)

@@ -458,8 +458,8 @@ def test_info_loop_shows_the_bound_beside_the_cycles_per_iteration_so_far(debug,
     code, out = debug(["info loop", "break loop", "continue", "continue", "continue",
                        "info loop", "delete", "continue", "info loop loop"], "--program", named)
     assert code == 0, out
-    assert "pe0.ic pc 0 <start> is not inside a loop" in out
-    head = "loop 2 <loop> .. 4 <loop+2> of pe0.ic: 3 bundles, 4 ops"
+    assert "pe0.ic pc 0 <start> is not in a loop" in out
+    head = "loop loop (header 2 <loop>, pcs 2-4) of pe0.ic: 3 bundles, 4 ops"
     assert out.count(head) == 2
     assert "bound: 4 cycles per iteration (units-bound;" in out
     # at the third issue of the head (cycle 10): two iterations done, 4 cycles each (issue,

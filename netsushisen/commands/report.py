@@ -114,6 +114,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
             p.add_argument("--explain", action="store_true", help="add what each cause means; "
                            "without STATS.json: print the glossary of every cause")
             _plot(p, "the cycles by cause per processor as stacked bars")
+        if kind in ("bounds", "annotate"):
+            p.add_argument("--all", dest="all_loops", action="store_true",
+                           help="every loop, also those that never ran (default: the loops "
+                                "whose header issued)")
         if kind == "bounds":
             _proc(p)
             add_optimum_option(p)
@@ -131,10 +135,11 @@ def sections_for(args: argparse.Namespace, stats: dict, other: dict | None = Non
         return report_sections(kind, stats, top if top is not None else defaults[kind],
                                **({"explain": args.explain} if kind == "stalls" else {}))
     if kind == "annotate":
-        return report_sections(kind, stats, args.proc, top, args.order)
+        return report_sections(kind, stats, args.proc, top, args.order, args.all_loops)
     if kind == "bounds":
         from netsushisen.reports.bounds import bounds_report
-        return bounds_report(stats, args.proc, top, args.optimum_ops, str(args.stats))
+        return bounds_report(stats, args.proc, top, args.optimum_ops, str(args.stats),
+                             args.all_loops)
     if kind == "diff":
         return report_sections(kind, stats, other, args.changed)
     if kind == "memory":

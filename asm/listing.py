@@ -9,7 +9,6 @@ bundle, how full each unit class's slots are, and how much of the register-file 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Iterable
 
 from netsushisen.asm.checker import bundle_usage
 from netsushisen.asm.objects import Op, Program, format_float
@@ -59,21 +58,9 @@ def target_names(program: Program) -> dict[int, str]:
 
 def bundle_target(bundle: tuple[Op, ...]) -> int | None:
     """The code address a bundle's branch or jump names (None without one, and for `jr`, `ret`,
-    `call`: their targets are not loop edges). `report annotate` and the bounds find loops from
-    the backward ones; the statistics carry it per bundle (`programs.<stage>.listing.target`)."""
+    `call`: their targets are not loop edges). asm/loops.py finds the natural loops from them; the statistics carry it per bundle (`programs.<stage>.listing.target`)."""
     return next((op.args[-1] for op in bundle if op.opcode.kind in ("branch", "jump")
                  and isinstance(op.args[-1], int)), None)
-
-
-def loop_ranges(targets: Iterable[tuple[int, int | None]]) -> list[tuple[int, int]]:
-    """Loops from (pc, target) pairs: a backward branch or jump and its target make the loop
-    target..branch; back edges to one target make one loop, up to the last of them; loops nest.
-    Outermost first at each start address."""
-    ends: dict[int, int] = {}
-    for pc, target in targets:
-        if target is not None and target <= pc:
-            ends[target] = max(ends.get(target, pc), pc)
-    return sorted(ends.items(), key=lambda se: (se[0], -se[1]))
 
 
 def listing(program: Program, region_lines: set | None = None) -> str:

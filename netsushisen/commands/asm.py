@@ -128,12 +128,14 @@ def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     programs: list[tuple[Path, Program]] = []
     infos: dict[str, str] = {}
+    pipelines: dict[str, list] = {}
     reports: dict[str, list] = {}
     region_lines: dict[str, set] = {}
     for proc, path in sources:
         asm = Assembler(proc, defines, includes, config, schedule=not args.no_schedule)
         programs.append((path, asm.assemble_file(path)))
         infos[str(path)] = "".join(r.format() + "\n" for r in asm.pipeline_reports)
+        pipelines[str(path)] = list(asm.pipeline_reports)
         region_lines[str(path)] = asm.region_lines
         reports[str(path)] = [r.as_dict() for r in asm.pipeline_reports]
         for r in asm.pipeline_reports:
@@ -152,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
             except OSError as err:
                 raise NetsushisenError(f"{out}: cannot write object file: {err.strerror}") from None
     if args.listing:
-        text = "".join(listing(program, region_lines[str(path)]) + infos[str(path)]
+        text = "".join(listing(program, region_lines[str(path)], pipelines[str(path)])
                        for path, program in programs)
         if args.listing == "-":
             print(text, end="")

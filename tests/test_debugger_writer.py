@@ -505,3 +505,28 @@ def test_the_bundled_kernels_names_in_a_scene_session_and_from_an_object_file(de
                        tmp_path / "ic.o", "--width", "120")
     assert code == 0, out2
     assert "watchpoint 2: pe0.ic.npri/r32: 0 -> " in out2 and "1: npri/r32 = 0" in out2
+
+
+# ---------------------------------------------------------------------------------------------
+# 80×24 (issue 42, item 6): the source file by its short name, the registers at the focus kept
+
+
+def test_a_bundled_kernels_source_is_named_by_its_file_alone():
+    from netsushisen.debugger.view import display_file
+    from netsushisen.kernels import KERNELS
+
+    assert display_file(str(KERNELS / "ic_polygon.inc")) == "ic_polygon.inc"
+    assert display_file("/elsewhere/mine.s") == "/elsewhere/mine.s"
+
+
+def test_the_focus_bundles_operands_are_shown_before_other_registers():
+    from netsushisen.debugger.registers import register_rows
+
+    source = ".proc ic\n" + "".join(f"    li r{r}, {r}\n" for r in range(1, 21)) + \
+        "    li r40, 7\n    li r41, 8\n    add r42, r40, r41\n    halt\n"
+    s = named_session(source)
+    s.stepi(22)
+    s.mark_stop()  # a stop, as the front end marks one
+    s.stepi(1)  # the add issues: nothing changed since the last stop, its result pending
+    regs, left = register_rows(s, s.core, 4)
+    assert {40, 41, 42} <= set(regs) and left > 0

@@ -5,8 +5,8 @@
     netsushisen report stalls   --explain                     (the glossary of stall causes)
     netsushisen report memory   STATS.json
     netsushisen report annotate STATS.json [--proc pe0.ic] [--top N] [--order hot|program]
-                                [--plot FILE.png]
-    netsushisen report bounds   STATS.json [--proc pe0.ic] [--top N] [--optimum-ops N]
+                                [--all] [--plot FILE.png]
+    netsushisen report bounds   STATS.json [--proc pe0.ic] [--top N] [--optimum-ops N] [--all]
     netsushisen report diff     A.json B.json [--changed]
     each also: [--format table|json|csv|md] [--table NAME] [-o FILE|DIR] [--width N]
     netsushisen report flat     STATS.json [-o FILE]   (one statistic a line, gem5's stats.txt)
@@ -18,9 +18,12 @@ means (docs/stalls.md); `--plot` draws cycles by cause per processor. memory: pe
 region ρ (resident share), μ (cache hit rate), the measured mean access time and the paper's
 t = t_r·{ρ + (1 − ρ)(8 − 6μ)}. annotate: the program listing with, per bundle, times issued,
 stall cycles by cause, share of the processor's cycles and slot fill, hottest first or in
-program order, and a summary per loop; `--plot` draws the cycles per bundle along the listing.
-bounds: per loop and block the static bounds (units, ports, recurrence, critical path; the
-optimum of small blocks by CP-SAT) beside its cycles per run and stalls per run by cause.
+program order, each with its innermost loop, a summary per natural loop that ran (`--all`: every
+one; asm/loops.py) with its parent, iterations and cycles per iteration beside the bound, and
+the hot path (blocks by cycles, share, excess over the bound); `--plot` draws the cycles per
+bundle along the listing. bounds: per loop and block the static bounds (units, ports,
+recurrence, critical path; the optimum of small blocks by CP-SAT) beside its cycles per run,
+stalls per run by cause, and a block's share and excess.
 diff: the inputs that differ, then every processor's and memory region's figures in A and B
 with the change and relative change (`--changed`: only the figures that changed). flat: every
 statistic as `name value # description (unit)`, dotted stable names (reports/flat.py). Every

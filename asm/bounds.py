@@ -140,10 +140,9 @@ class Bounds:
 
     @property
     def pcs_text(self) -> str:
-        """`8-15` for consecutive bundles, else `68-214 (40 bundles)`."""
-        span = f"{min(self.pcs())}-{max(self.pcs())}"
-        n = len(self.pcs())
-        return span if n == max(self.pcs()) - min(self.pcs()) + 1 else f"{span} ({n} bundles)"
+        """`8-15`: the first and last bundle (a loop's body need not be every bundle between:
+        `bundles` counts it)."""
+        return f"{min(self.pcs())}-{max(self.pcs())}"
 
     @property
     def units(self) -> int:

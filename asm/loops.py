@@ -75,10 +75,9 @@ class Loop:
 
     @property
     def pcs_text(self) -> str:
-        """`8-15` for a body of consecutive bundles, else `68-214 (40 bundles)`."""
-        span = f"{self.start}-{self.end}"
-        return span if len(self.body) == self.end - self.start + 1 else \
-            f"{span} ({len(self.body)} bundles)"
+        """`8-15`: the first and last bundle (a natural loop's body need not be every bundle
+        between: its size is the tables' `bundles`)."""
+        return f"{self.start}-{self.end}"
 
 
 def successors(flow: Sequence[Flow]) -> list[list[int]]:

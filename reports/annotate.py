@@ -168,21 +168,24 @@ def annotate_sections(stats: dict, proc: str | None = None, top: int | None = No
                               "stall cycles) / the processor's cycles; fill = the "
                               "bundle's operations / the processor's unit slots; causes: "
                               "docs/stalls.md", group_by="processor")
-    loops = Section("loops", "Loops (natural loops, innermost under their parent)"
+    loops = Section("loops", "Loops (natural loops, each after the loop around it)"
                     + ("" if all_loops else " that ran"),
-                    ["processor", "loop", "parent", "pcs", "iterations", "cycles", "share",
-                     "cycles/iter", "bound", "static ILP", "dynamic ILP", "dominant stall"],
-                    formats={"iterations": "int", "cycles": "int", "share": "pct",
+                    ["processor", "loop", "parent", "pcs", "bundles", "iterations", "cycles",
+                     "share", "cycles/iter", "bound", "static ILP", "dynamic ILP",
+                     "dominant stall"],
+                    formats={"bundles": "int", "iterations": "int", "cycles": "int", "share": "pct",
                              "cycles/iter": "f2", "bound": "int", "static ILP": "f2",
                              "dynamic ILP": "f2"},
-                    caption="iterations = times the loop's header issued; cycles = cycles spent "
+                    caption="pcs: its first and last bundle; bundles: in its body (a natural "
+                            "loop need not hold every bundle between); iterations = times the "
+                            "loop's header issued; cycles = cycles spent "
                             "in its bundles (issued + stalled); cycles/iter beside bound: the "
                             "static bound per iteration (report bounds); static ILP = ops per "
                             "bundle of the loop body; dynamic ILP = ops issued there / its "
                             "cycles; dominant stall: the cause of most of its stall cycles, as a "
                             "share of its cycles" + ("" if all_loops else "; --all: every loop"),
                     group_by="processor")
-    loops.panels = [loops.columns[:9], ["processor", "loop"] + loops.columns[9:]]
+    loops.panels = [loops.columns[:10], ["processor", "loop"] + loops.columns[10:]]
     hot = hot_path_section()
     without_text = False
     for name, p in choose_processors(stats, proc):
@@ -204,12 +207,12 @@ def annotate_sections(stats: dict, proc: str | None = None, top: int | None = No
                                  b.lines, b.issued, b.stalled, stalls_text(b.stalls),
                                  b.cycles / cycles,
                                  b.ops / slots if slots and b.ops is not None else None])
-        ran = [lp for lp in found if all_loops or lp.iterations]
+        ran = [lp for lp in tree_order(found) if all_loops or lp.iterations]
         bounds = loop_bounds(stats, name, ran) if ran else {}
         for lp in ran:
             dom = lp.dominant
-            loops.rows.append([name, "  " * _depth(found, lp) + lp.label, lp.parent_label,
-                               lp.pcs_text, lp.iterations, lp.cycles, lp.cycles / cycles,
+            loops.rows.append([name, lp.label, lp.parent_label, lp.pcs_text, lp.bundles,
+                               lp.iterations, lp.cycles, lp.cycles / cycles,
                                lp.cycles / lp.iterations if lp.iterations else None,
                                bounds.get(lp.header), lp.static_ops / max(lp.bundles, 1),
                                lp.ops / lp.cycles if lp.cycles else None,
@@ -233,8 +236,16 @@ def annotate_sections(stats: dict, proc: str | None = None, top: int | None = No
     return [listing, loops, hot]
 
 
-def _depth(loops: list[Loop], lp: Loop) -> int:
-    depth = 0
-    while lp.parent is not None:
-        lp, depth = loops[lp.parent], depth + 1
-    return depth
+def tree_order(loops: list[Loop]) -> list[Loop]:
+    """The loops as a tree in preorder: each loop, then the loops inside it (by header)."""
+    children: dict[int | None, list[int]] = {}
+    for i, lp in enumerate(loops):
+        children.setdefault(lp.parent, []).append(i)
+    out: list[Loop] = []
+
+    def walk(parent: int | None) -> None:
+        for i in sorted(children.get(parent, []), key=lambda i: loops[i].header):
+            out.append(loops[i])
+            walk(i)
+    walk(None)
+    return out

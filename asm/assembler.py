@@ -507,6 +507,10 @@ class Assembler(MacroExpansion, RegionAssembly):
                 known = [n for n in st.symbols] + list(BUILTIN_CONSTANTS)
                 close = difflib.get_close_matches(name, known, n=1)
                 hint = f" (did you mean '{close[0]}'?)" if close else ""
+                if not close and name.isupper():  # a kernel's build symbol, as HAS_POLYGONS
+                    hint = (f" (a build symbol: define it with -D {name}=VALUE; the bundled "
+                            "kernels take a scene's with `asm --scene SCENE`, or include the "
+                            "defines.inc `kernels export` writes)")
                 raise ExprError(f"undefined symbol '{name}'{hint}", loc)
             if sym.kind in ("text", "data") and not allow_labels:
                 raise ExprError(f"label '{name}' cannot be used here (only constants)", loc)
@@ -708,10 +712,11 @@ class Assembler(MacroExpansion, RegionAssembly):
 def assemble_file(path: str | Path, proc: str | None = None,
                   defines: dict[str, int | float] | None = None,
                   include_dirs: list[str | Path] | None = None,
-                  config: MachineConfig | None = None) -> Program:
+                  config: MachineConfig | None = None, schedule: bool = True) -> Program:
     """Assemble a source file (`.sched` regions scheduled for `config`, else the default
-    machine); raises AssemblyError listing every error."""
-    return Assembler(proc, defines, include_dirs, config).assemble_file(path)
+    machine; without `schedule`, one operation per bundle as written); raises AssemblyError
+    listing every error."""
+    return Assembler(proc, defines, include_dirs, config, schedule).assemble_file(path)
 
 
 def assemble_text(text: str, proc: str | None = None, filename: str = "<string>",

@@ -27,10 +27,10 @@ the bounds: `written`, the cycles the code as written takes by the interlock rul
 source ready at entry and every load hitting (a loop: per iteration, in the steady state), so
 `written − bound` is what the schedule leaves on the table before any dynamic stall.
 
-Blocks: a label, a branch target or the bundle after a control transfer starts one. Loops: a
-backward branch or jump and its target (`asm.listing.loop_ranges`, as `report annotate`); the
-bounds of a loop with inner branches count its body once, every bundle of it (the path that
-falls through every forward branch).
+Blocks: a label, a branch target or the bundle after a control transfer starts one. Loops: the
+natural loops of asm/loops.py (dominators; named by their source label), as `report annotate`
+and `info loop` find them; the bounds of a loop with inner branches count its body once, every
+bundle of it in address order (the path that falls through every forward branch).
 """
 
 from __future__ import annotations
@@ -38,10 +38,11 @@ from __future__ import annotations
 import math
 from collections import Counter
 from dataclasses import dataclass
+from typing import Sequence
 
 from netsushisen.asm.dependences import (DependenceGraph, dependences, issue_hold, result_latency,
                                          unit_busy)
-from netsushisen.asm.listing import bundle_target, loop_ranges
+from netsushisen.asm.listing import bundle_target
 from netsushisen.asm.objects import Op, Program
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.processors import Processor
@@ -57,11 +58,16 @@ OPTIMUM_MAX_OPS = 40
 @dataclass(frozen=True)
 class Region:
     kind: str  # "block" or "loop"
-    start: int
+    start: int  # a block's first bundle; a loop's header
     end: int  # last bundle address, inclusive
+    body: tuple[int, ...] = ()
+    """A loop's bundles in address order (a natural loop's need not be consecutive); a block:
+    start..end."""
+    name: str | None = None
+    """A loop's name (asm/loops.py: its source label)."""
 
-    def pcs(self) -> range:
-        return range(self.start, self.end + 1)
+    def pcs(self) -> Sequence[int]:
+        return self.body or range(self.start, self.end + 1)
 
 
 def block_starts(program: Program) -> list[int]:
@@ -79,9 +85,11 @@ def block_starts(program: Program) -> list[int]:
 
 
 def regions(program: Program) -> list[Region]:
-    """Every loop (outermost first at each start), then every block, in address order."""
-    targets = [(pc, bundle_target(b)) for pc, b in enumerate(program.bundles)]
-    loops = [Region("loop", s, e) for s, e in loop_ranges(targets)]
+    """Every natural loop (asm/loops.py: outermost first), then every block, in address
+    order."""
+    from netsushisen.asm.loops import program_loops
+
+    loops = [Region("loop", lp.header, lp.end, lp.body, lp.name) for lp in program_loops(program)]
     starts = block_starts(program)
     ends = starts[1:] + [len(program.bundles)]
     return loops + [Region("block", s, e - 1) for s, e in zip(starts, ends)]
@@ -98,6 +106,7 @@ class Bounds:
     proc: str
     kind: str
     start: int
+    """A block's first bundle; a loop's header."""
     end: int
     label: str
     bundles: int
@@ -123,6 +132,17 @@ class Bounds:
     list_scheduled: int | None = None
     optimum: int | None = None
     optimum_proven: bool = False
+    body: tuple[int, ...] = ()
+    """Its bundles (a loop's natural body, in address order)."""
+
+    def pcs(self) -> Sequence[int]:
+        return self.body or range(self.start, self.end + 1)
+
+    @property
+    def pcs_text(self) -> str:
+        """`8-15`: the first and last bundle (a loop's body need not be every bundle between:
+        `bundles` counts it)."""
+        return f"{min(self.pcs())}-{max(self.pcs())}"
 
     @property
     def units(self) -> int:
@@ -426,10 +446,11 @@ def region_bounds(program: Program, region: Region, config: MachineConfig,
     proc = program.processor
     loop = region.kind == "loop"
     ops, graph = region_graph(program, region, config)
-    bundles = program.bundles[region.start:region.end + 1]
+    bundles = [program.bundles[pc] for pc in region.pcs()]
     b = Bounds(proc.name, region.kind, region.start, region.end,
-               label if label is not None else str(region.start), len(bundles),
+               region.name or (label if label is not None else str(region.start)), len(bundles),
                **resource_bounds(proc, ops, config, loop))
+    b.body = tuple(region.pcs())
     b.critical_path = issue_path(graph)
     if loop:
         b.recurrence = recurrence_bound(graph)

@@ -9,7 +9,6 @@ bundle, how full each unit class's slots are, and how much of the register-file 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Iterable
 
 from netsushisen.asm.checker import bundle_usage
 from netsushisen.asm.objects import Op, Program, format_float
@@ -59,31 +58,44 @@ def target_names(program: Program) -> dict[int, str]:
 
 def bundle_target(bundle: tuple[Op, ...]) -> int | None:
     """The code address a bundle's branch or jump names (None without one, and for `jr`, `ret`,
-    `call`: their targets are not loop edges). `report annotate` and the bounds find loops from
-    the backward ones; the statistics carry it per bundle (`programs.<stage>.listing.target`)."""
+    `call`: their targets are not loop edges). asm/loops.py finds the natural loops from them; the statistics carry it per bundle (`programs.<stage>.listing.target`)."""
     return next((op.args[-1] for op in bundle if op.opcode.kind in ("branch", "jump")
                  and isinstance(op.args[-1], int)), None)
 
 
-def loop_ranges(targets: Iterable[tuple[int, int | None]]) -> list[tuple[int, int]]:
-    """Loops from (pc, target) pairs: a backward branch or jump and its target make the loop
-    target..branch; back edges to one target make one loop, up to the last of them; loops nest.
-    Outermost first at each start address."""
-    ends: dict[int, int] = {}
-    for pc, target in targets:
-        if target is not None and target <= pc:
-            ends[target] = max(ends.get(target, pc), pc)
-    return sorted(ends.items(), key=lambda se: (se[0], -se[1]))
+MARKS = {"guard": "guard", "prologue": "PROLOG", "kernel": "KERNEL", "epilogue": "EPILOG",
+         "fallback": "fallback"}
+"""The parts of a pipelined loop the listing marks (`;** KERNEL`), as TI's assembler does."""
 
 
-def listing(program: Program, region_lines: set | None = None) -> str:
+def pipeline_marks(program: Program, pipelines) -> tuple[dict[int, str], dict[int, list[str]]]:
+    """Per bundle address, the information block to print above it (a `.pipeline` loop's,
+    above its first bundle: the guard's, where its label is) and the part marks to print there."""
+    blocks: dict[int, str] = {}
+    marks: dict[int, list[str]] = {}
+    for report in pipelines or ():
+        label = program.labels.get(report.name)
+        if label is None or label[0] != "text":
+            continue
+        base = label[1]
+        blocks[base] = blocks.get(base, "") + report.format() + "\n"
+        for part, offset in report.parts.items():
+            if part in MARKS:  # (epilogue0.. are the other copies' epilogues: one EPILOG)
+                marks.setdefault(base + offset, []).append(f";** {MARKS[part]}")
+    return blocks, marks
+
+
+def listing(program: Program, region_lines: set | None = None, pipelines=()) -> str:
     """Address, slots and source of every bundle; then the data words. A bundle a macro or
     `.rept` produced shows the body line it was written at, as substituted, under a row naming
     the expansion (invocation line and text), as GNU as's `-alm` listing shows macro lines.
     Then the scheduled source lines and the bundles each landed in (`region_lines`: the
     assembler's `(file, line, expansion)` of every `.sched` line, else those whose operations
     share a bundle with another line's or landed in several). Registers with a `.reg` name show
-    it (`pri/r29`), and the name table closes the listing."""
+    it (`pri/r29`), and the name table closes the listing. Each `.pipeline` loop's software
+    pipelining information (`pipelines`: the assembler's reports) is printed above the loop's
+    first bundle, and its parts marked: `;** guard`, `;** PROLOG`, `;** KERNEL`, `;** EPILOG`,
+    `;** fallback`."""
     labels = target_names(program)
     names = register_names(program)
     rows = [f"; listing of a {program.processor.title} program: "
@@ -93,9 +105,13 @@ def listing(program: Program, region_lines: set | None = None) -> str:
         if section == "text":
             by_addr.setdefault(addr, []).append(name)
     expansion = ""
+    blocks, marks = pipeline_marks(program, pipelines)
     for addr, bundle in enumerate(program.bundles):
+        if addr in blocks:
+            rows.append(blocks[addr].rstrip("\n"))
         for name in by_addr.get(addr, []):
             rows.append(f"{name}:")
+        rows += marks.get(addr, [])
         loc = program.source_map[addr] if addr < len(program.source_map) else None
         if loc and loc.via and loc.via != expansion:  # the invocation, then its bundles (as -alm)
             rows.append(f"{'':5s}  ; expands {loc.via}")

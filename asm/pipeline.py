@@ -35,8 +35,8 @@ import math
 from dataclasses import dataclass, field
 
 from netsushisen.asm.dependences import DependenceGraph, dependences
-from netsushisen.asm.modulo import (critical_recurrence, modulo_schedule, port_bound,
-                                    recurrence_bound, resource_bound, value_of_reads)
+from netsushisen.asm.modulo import (_class_use, critical_recurrence, modulo_schedule,
+                                    port_bound, recurrence_bound, resource_bound, value_of_reads)
 from netsushisen.asm.objects import Op
 from netsushisen.asm.scheduler import issue_times, list_schedule
 from netsushisen.isa.config import MachineConfig
@@ -91,6 +91,16 @@ class PipelineReport:
     temps: tuple[int, ...] = ()
     penalty: int = 0
     reason: str = ""
+    units: dict[str, tuple[int, int]] = field(default_factory=dict)
+    """Per unit class: (busy slots per iteration, units): TI's resource partition."""
+    live: tuple[int, ...] = ()
+    """The registers live in the kernel: the loop's own and the `.temps` its copies use."""
+    tried: list[str] = field(default_factory=list)
+    """Each II tried that failed, and why (`II 4: no modulo schedule`)."""
+    parts: dict[str, int] = field(default_factory=dict)
+    """Where each part of the pipelined code starts, in bundles from its first (the guard's):
+    guard, prologue, kernel, epilogue (then epilogue0.. of the other copies), fallback, done,
+    and `end` (the bundles it takes)."""
 
     @property
     def mii(self) -> int:
@@ -102,7 +112,23 @@ class PipelineReport:
                 "res_mii": self.res_mii, "port_mii": self.port_mii, "rec_mii": self.rec_mii,
                 "mii": self.mii, "pipelined": not self.reason, "reason": self.reason,
                 "ii": self.ii, "stages": self.stages, "kernel_copies": self.unroll,
-                "registers": [register_name(r) for r in self.registers]}
+                "registers": [register_name(r) for r in self.registers],
+                "resources": {u: {"busy": b, "units": n} for u, (b, n) in self.units.items()},
+                "live_registers": [register_name(r) for r in self.live],
+                "temps_left": len(self.temps) - len(self.registers),
+                "tried": list(self.tried), "parts": dict(self.parts)}
+
+    def resource_rows(self) -> list[str]:
+        """The per-unit table: each class's busy slots per iteration, its units, and the II it
+        alone would allow (TI's resource partition)."""
+        if not self.units:
+            return []
+        rows = [";*   resources per iteration : unit   busy  units  slots used at II"
+                + (f" {self.ii}" if self.ii else "")]
+        for unit, (busy, n) in self.units.items():
+            use = f"{busy}/{n * self.ii}" if self.ii else "-"
+            rows.append(f";*                             {unit:<5} {busy:>5}  {n:>5}  {use}")
+        return rows
 
     def format(self) -> str:
         head = f";* software pipelining information: loop '{self.name}' ({self.where}), {self.ops} operations"
@@ -114,6 +140,8 @@ class PipelineReport:
                 f";*   recurrence bound        : {self.rec_mii}" +
                 (f"   ({self.rec_detail})" if self.rec_detail else ""),
                 f";*   minimum II              : {self.mii}"]
+        rows += self.resource_rows()
+        rows += [f";*   II {t}" for t in self.tried]
         if self.reason:
             rows.append(f";*   not pipelined: {self.reason}; the loop is list-scheduled")
             return "\n".join(rows)
@@ -124,7 +152,10 @@ class PipelineReport:
                  f"cop{'y' if self.unroll == 1 else 'ies'})",
                  f";*   stages                  : {self.stages}",
                  f";*   kernel copies (MVE)     : {self.unroll}",
-                 f";*   registers used          : {len(self.registers)} of {len(self.temps)} .temps ({temps})",
+                 f";*   registers used          : {len(self.registers)} of {len(self.temps)} .temps ({temps}), "
+                 f"{len(self.temps) - len(self.registers)} left",
+                 f";*   registers live in kernel: {len(self.live)} ("
+                 + ", ".join(register_name(r) for r in self.live) + ")",
                  f";*   guard                   : " + (
                      f"fewer than {self.stages} iterations run the list-scheduled loop"
                      if self.stages > 1 else "none (one stage)")]
@@ -243,6 +274,7 @@ def pipeline_loop(ops: list[Op], proc: Processor, config: MachineConfig, temps: 
     report.rec_detail = critical_recurrence(g, edges)
     report.temps = tuple(temps)
     report.penalty = getattr(config, proc.name).taken_branch_penalty
+    report.units = {u: (n, proc.units[u]) for u, n in _class_use(ops, proc, config).items()}
     if isinstance(shape, str):
         report.reason = shape
         return None
@@ -258,10 +290,14 @@ def pipeline_loop(ops: list[Op], proc: Processor, config: MachineConfig, temps: 
         if ii + report.penalty / 2 >= plain:
             reason = (f"pipelining gains nothing: II {ii} against {plain} cycles a pass "
                       f"list-scheduled")
+            report.tried.append(f"{ii}: gains nothing against {plain} cycles a pass "
+                                "list-scheduled")
             break
         time = modulo_schedule(g, edges, ii, shape.branch, proc, config)
         if time is None:
             reason = f"no modulo schedule within II {report.mii}..{ii}"
+            report.tried.append(f"{ii}: no modulo schedule (no placement of every operation "
+                                "within the units, ports and dependences, evictions included)")
             continue
         stages = max(time) // ii + 1
         need = _copies_needed(g, reads, time, ii)
@@ -278,6 +314,8 @@ def pipeline_loop(ops: list[Op], proc: Processor, config: MachineConfig, temps: 
         if wanted + wanted_guard > len(temps):
             reason = (f"needs {wanted + wanted_guard} registers for its copies and guard at II {ii}, "
                       f".temps grants {len(temps)}")
+            report.tried.append(f"{ii}: needs {wanted + wanted_guard} .temps for its copies and "
+                                f"guard, {len(temps)} granted")
             continue
         pool = list(temps)
         names: dict[int, list[int]] = {}
@@ -290,8 +328,12 @@ def pipeline_loop(ops: list[Op], proc: Processor, config: MachineConfig, temps: 
         report.ii, report.stages, report.unroll = ii, stages, unroll
         report.registers = tuple(sorted({r for d in names for r in names[d] if r in temps} |
                                         ({temps[0]} if stages > 1 else set())))
-        return _emit(ops, g, reads, time, ii, stages, unroll, names, shape, proc, config,
-                     temps[0] if temps else 0, last_def, inorder)
+        report.live = tuple(sorted(used | set(report.registers)))
+        layout = _emit(ops, g, reads, time, ii, stages, unroll, names, shape, proc, config,
+                       temps[0] if temps else 0, last_def, inorder)
+        report.parts = dict(sorted(layout.labels.items(), key=lambda kv: kv[1]))
+        report.parts["end"] = len(layout.bundles)
+        return layout
     report.reason = reason
     return None
 
@@ -330,6 +372,7 @@ def _emit(ops, g, reads, time, ii, stages, unroll, names, shape: _Loop, proc, co
 
     # guard: the loop's own update and test for the iterations the prologue starts
     if stages > 1:
+        out.add_label("guard")
         src = shape.induction
         for p in range(1, stages):
             base = shape.induction if p == 1 else guard_temp
@@ -337,6 +380,8 @@ def _emit(ops, g, reads, time, ii, stages, unroll, names, shape: _Loop, proc, co
                         Placed(br, reads=((src, guard_temp),), mnemonic=NEGATED[ops[br].mnemonic],
                                target="fallback")])
     # prologue
+    if stages > 1:
+        out.add_label("prologue")
     for p in range(stages - 1):
         emit_rows(rows_of(lambda s, p=p: s <= p, lambda s, p=p: p - s))
     # kernel copies
@@ -349,6 +394,7 @@ def _emit(ops, g, reads, time, ii, stages, unroll, names, shape: _Loop, proc, co
                                      target="kernel" if last else f"epilogue{c}"))
         out.bundles.extend(r for r in rows if r)
 
+    out.add_label("epilogue")
     move = "fmov" if proc.units.get("fp", 0) > proc.units.get("int", 0) else "mov"
     order = [unroll - 1] + list(range(unroll - 1))
     for k, c in enumerate(order):

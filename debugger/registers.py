@@ -19,14 +19,22 @@ from netsushisen.isa.words import wrap32
 
 
 def register_rows(session, core, rows: int | None) -> tuple[list[int], int]:
-    """Registers worth showing: changed since the previous stop, pending, non-zero (in that
-    priority when they do not all fit), in register order; and how many were left out."""
+    """Registers worth showing: changed since the previous stop, pending, the operands of the
+    bundle at the focus, non-zero (in that priority when they do not all fit), in register
+    order; and how many were left out."""
+    from netsushisen.debugger.view import focus_pc
+
     prev = session.previous_regs.get(core.name, core.regs)
     changed = [r for r in range(1, len(core.regs)) if core.regs[r] != prev[r]]
     pending = sorted(in_flight(core))
+    operands: list[int] = []
+    if core.present and core.bundles:
+        focus = min(focus_pc(core), len(core.bundles) - 1)
+        for op in core.program.bundles[focus]:
+            operands += [r for r in (*op.reads(), *op.writes()) if r and r not in operands]
     nonzero = [r for r in range(1, len(core.regs)) if core.regs[r]]
     chosen: list[int] = []
-    for group in (changed, pending, nonzero):
+    for group in (changed, pending, operands, nonzero):
         for r in group:
             if r not in chosen:
                 chosen.append(r)

@@ -120,12 +120,14 @@ class SourceCommands:
         return Outcome([Text("\n".join(out) or f"No symbol matches {arg}.")])
 
     def info_loop(self, args) -> Outcome:
-        """`info loop [LOCATION]`: the innermost loop around the viewed processor's PC (or
-        LOCATION) — its static bound per iteration (`asm.bounds`: units, ports, recurrence; the
-        code as written) beside the cycles per iteration this run has taken in it so far (its
-        bundles' issue and stall cycles over the times its first bundle issued, as `report
-        bounds` counts them)."""
-        from netsushisen.asm.bounds import region_bounds, regions
+        """`info loop [LOCATION]`: the innermost natural loop around the viewed processor's PC
+        (or LOCATION; asm/loops.py, named by its source label) and the loops around it — its
+        static bound per iteration (`asm.bounds`: units, ports, recurrence; the code as
+        written) beside the cycles per iteration this run has taken in it so far (its bundles'
+        issue and stall cycles over the times its header issued, as `report bounds` counts
+        them), or "not in a loop"."""
+        from netsushisen.asm.bounds import Region, region_bounds
+        from netsushisen.asm.loops import chain, innermost, program_loops
         from netsushisen.reports.annotate import BundleCounts
         from netsushisen.reports.bounds import run_cells
 
@@ -140,29 +142,27 @@ class SourceCommands:
                 raise DebugError(f"pe{s.pe}.{s.stage} has no program")
             pc = min(view.focus_pc(core), len(core.bundles) - 1)
         program = core.program
-        around = [r for r in regions(program) if r.kind == "loop" and r.start <= pc <= r.end]
-        if not around:
-            return Outcome([Text(f"{core.name} pc {_at(program, pc)} is not inside a loop "
-                                 "(a backward branch and its target)")])
-        loop = min(around, key=lambda r: r.end - r.start)
-        b = region_bounds(program, loop, s.machine.config, optimum_ops=0,
-                          label=program.label_at(loop.start))
+        loops = program_loops(program)
+        loop = innermost(loops, pc)
+        if loop is None:
+            return Outcome([Text(f"{core.name} pc {_at(program, pc)} is not in a loop")])
+        b = region_bounds(program, Region("loop", loop.header, loop.end, loop.body, loop.name),
+                          s.machine.config, optimum_ops=0)
         counts = {p: BundleCounts(p, "", None, None, None, core.bundles_by_pc.get(p, 0),
                                   dict(core.stalls_by_pc.get(p, {})))
-                  for p in loop.pcs()}
+                  for p in loop.body}
         runs, cycles, issued, stalls = run_cells(b, counts)
         # an iteration under way is not over: when the processor is in the loop and the head's
         # last issue is known, the figure counts complete iterations only
-        head_at = s.aux.get(core.name, {}).get("issued_at", {}).get(loop.start)
+        head_at = s.aux.get(core.name, {}).get("issued_at", {}).get(loop.header)
         under_way = None
-        if runs > 1 and head_at is not None and loop.start <= core.pc <= loop.end \
-                and not core.halted:
+        if runs > 1 and head_at is not None and core.pc in loop and not core.halted:
             under_way = s.machine.cycle - head_at
             runs -= 1
             cycles = (sum(c.cycles for c in counts.values()) - under_way) / runs
         bounds = ", ".join(f"{k} {v}" for k, v in b.candidates().items())
-        lines = [f"loop {_at(program, loop.start)} .. {_at(program, loop.end)} of {core.name}: "
-                 f"{b.bundles} bundles, {b.ops} ops",
+        lines = [f"loop {loop.name} (header {_at(program, loop.header)}, pcs {loop.pcs_text}) "
+                 f"of {core.name}: {b.bundles} bundles, {b.ops} ops",
                  f"  bound: {b.bound} cycles per iteration ({b.binding}-bound; {bounds})",
                  f"  as written: {b.written} cycles per iteration (every source ready, every "
                  "load a hit)"]
@@ -176,10 +176,10 @@ class SourceCommands:
                          + (f"; stalls per iteration: {stalls}" if stalls else "") + ")")
         else:
             lines.append("  this run: the loop has not started yet")
-        outer = [r for r in around if r is not loop]
+        outer = chain(loops, loop)[1:]
         if outer:
-            lines.append("  inside " + ", ".join(f"loop {_at(program, r.start)} .. "
-                                                 f"{_at(program, r.end)}" for r in outer))
+            lines.append("  inside " + " inside ".join(f"loop {o.name} (pcs {o.pcs_text})"
+                                                       for o in outer))
         return Outcome([Text("\n".join(lines))])
 
     def examine_code(self, arg: str, n: int) -> Outcome:

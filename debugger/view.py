@@ -162,6 +162,21 @@ def scheduled(program) -> bool:
     return any(len({(s.file, s.line) for s in ops}) > 1 for ops in program.op_sources)
 
 
+def display_file(path: str) -> str:
+    """A source file as the screen names it: relative to the bundled kernels' folder
+    (`ic_polygon.inc`), else to the working folder, else as given — the installed path of a
+    kernel would leave no room for its source text at 80 columns."""
+    import os
+
+    from netsushisen.kernels import KERNELS
+
+    for base in (str(KERNELS.resolve()), os.getcwd()):
+        full = os.path.abspath(path)
+        if full.startswith(base + os.sep):
+            return os.path.relpath(full, base)
+    return path
+
+
 def source_text(program, pc: int) -> str:
     """The source of bundle `pc` as one line: `k.s:7,9: fadd r3, a, b | fmul r7, r5, r5`."""
     lines = bundle_lines(program, pc)
@@ -170,9 +185,9 @@ def source_text(program, pc: int) -> str:
     ops = program.op_sources[pc] if pc < len(program.op_sources) else ()
     if len(lines) > 1 and ops:
         texts = list(dict.fromkeys(s.text.strip() for s in ops))
-        return f"{lines[0][0]}:{line_numbers(lines)}: {' | '.join(texts)}"
+        return f"{display_file(lines[0][0])}:{line_numbers(lines)}: {' | '.join(texts)}"
     loc = program.source_map[pc]
-    return f"{loc.file}:{loc.line}: {loc.text.strip()}"
+    return f"{display_file(loc.file)}:{loc.line}: {loc.text.strip()}"
 
 
 def slot_names(program) -> list[str]:
@@ -333,13 +348,15 @@ def listing_panel(session, rows: int = 11, height: int | None = None,
             mark = "=>" if core.last_issued else "!>" if core.cause and not core.halted else "->"
             full = Text(f"{mark} {focus}: {bundle_text(core.program, focus)}", style="bold")
             rows -= max(1, -(-len(full.plain) // max(width - 4, 1)))
+    text = source_text(core.program, focus)
+    if text and width is not None:  # the source line whole, wrapped: the listing gives room
+        rows -= max(0, -(-len(text) // max(width - 4, 1)) - 1)
     start, end = listing_window(core, max(rows, 1))
     parts: list[RenderableType] = [Listing(session, core, start, end)]
     if full is not None:
         parts.append(full)
-    text = source_text(core.program, focus)
     if text:
-        parts.append(Text(text, style=DIM, overflow="ellipsis", no_wrap=True))
+        parts.append(Text(text, style=DIM))
     legend = "=> issued  !> stalled  -> next  B1 breakpoint"
     return _panel(Group(*parts), f"{title}  ({legend})", height)
 

@@ -26,8 +26,9 @@ the same and is checked the same way wherever it appears:
     add_engine(parser)          --engine NAME (`args.engine`, None when not given);
                                 `engine_from_args(args)` checks the name, or picks the engine
                                 interface's default (compiled where it imports, else reference)
-    add_program_options(parser) --os/--ic/--sc PROGRAM, --image FILE (with -D and the config
-                                options: what `run` and `debug` build a machine from);
+    add_program_options(parser) --os/--ic/--sc PROGRAM, --image FILE (with -D, --no-schedule
+                                and the config options: what `run` and `debug` build a
+                                machine from);
                                 `machine_inputs(args)` -> (config, programs, image)
     add_timeline(parser)        --timeline FILE, --cycles A:B, --procs PROCS (`render`, `run`);
                                 `timeline_from_args(args)` checks them before any work
@@ -428,13 +429,22 @@ def add_program_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--image", metavar="FILE", help="memory image (.json or .npz)")
     add_config_options(parser, pes=True, max_cycles=True)
     add_defines(parser)
+    add_no_schedule(parser)
+
+
+def add_no_schedule(parser: argparse.ArgumentParser) -> None:
+    """--no-schedule (`args.no_schedule`): `.sched` regions one operation per bundle, as
+    written (their serial form, to compare with the scheduled one)."""
+    parser.add_argument("--no-schedule", action="store_true",
+                        help="leave .sched regions one operation per bundle, as written (their "
+                             "serial form)")
 
 
 def load_program(path: str, stage: str | None, defines: dict[str, int | float],
-                 config: MachineConfig | None = None):
+                 config: MachineConfig | None = None, schedule: bool = True):
     """An object file or `.s` source for `stage` (a source's `.sched` regions scheduled for
-    `config`, the machine it will run on); with `stage` None the program says which
-    processor it is for (the object's `proc`, the source's `.proc`)."""
+    `config`, the machine it will run on; without `schedule`, left serial); with `stage` None
+    the program says which processor it is for (the object's `proc`, the source's `.proc`)."""
     from netsushisen.asm.assembler import assemble_file
     from netsushisen.asm.objects import Program
 
@@ -442,7 +452,7 @@ def load_program(path: str, stage: str | None, defines: dict[str, int | float],
     if p.suffix == ".s":
         if not p.is_file():
             raise NetsushisenError(Diagnostic("no such source file", file=path))
-        prog = assemble_file(p, proc=stage, defines=defines, config=config)
+        prog = assemble_file(p, proc=stage, defines=defines, config=config, schedule=schedule)
     else:
         prog = Program.load(p)
     if stage is not None and prog.proc != stage:
@@ -458,10 +468,11 @@ def machine_inputs(args: argparse.Namespace, extra_programs: list[str] = ()):
 
     config = config_from_args(args)
     defines = parse_defines(args.defines)
-    programs = {s: load_program(getattr(args, s), s, defines, config) if getattr(args, s) else None
-                for s in STAGES}
+    schedule = not getattr(args, "no_schedule", False)
+    programs = {s: load_program(getattr(args, s), s, defines, config, schedule)
+                if getattr(args, s) else None for s in STAGES}
     for path in extra_programs:
-        prog = load_program(path, None, defines, config)
+        prog = load_program(path, None, defines, config, schedule)
         if programs[prog.proc] is not None:
             raise NetsushisenError(Diagnostic(
                 f"a second {prog.proc.upper()} program (one program per processor)", file=path))

@@ -31,6 +31,9 @@ from collections import deque
 
 from netsushisen.emulator.engine import Engine, RunResult
 
+COMPILING = "compiling the engine (first run: about a minute)"
+"""The status while the compiled engine loads: whole even at 80 columns."""
+
 EVERY = {"reference": 5_000, "tandem": 4_096, "compiled": 200_000}
 """Cycles between progress calls per engine: about 10 calls a second at each engine's speed,
 which is also how soon a Ctrl-C is answered. (The compiled engine's call into compiled code
@@ -115,23 +118,32 @@ class RunMonitor:
 
     def _start_display(self) -> None:
         from rich.console import Console
+        from rich.table import Column
         from rich.progress import (BarColumn, Progress, TaskProgressColumn, TextColumn,
                                    TimeElapsedColumn, TimeRemainingColumn)
 
         known = self.total > 0
-        columns = [TextColumn("{task.description}"), BarColumn(bar_width=24)]
+        # the status (while the engine compiles) comes right after the label: on a narrow
+        # terminal rich shortens the last columns, and the message must stay whole
+        status = COMPILING if self.engine.name in ("compiled", "tandem") else ""
+        self._status_width = Column(min_width=len(status), no_wrap=True)
+        columns = [TextColumn("{task.description}",
+                              table_column=Column(min_width=len(self.label), no_wrap=True)),
+                   TextColumn("{task.fields[status]}", table_column=self._status_width),
+                   BarColumn(bar_width=24)]
         if known:
             columns += [TaskProgressColumn(),
                         TextColumn(f"{{task.completed:,.0f}}/{{task.total:,.0f}} {self.unit}")]
         columns += [TextColumn("{task.fields[cycles]}"), TextColumn("{task.fields[rate]}")]
-        columns += [TimeRemainingColumn() if known else TimeElapsedColumn(),
-                    TextColumn("{task.fields[status]}")]
-        self._bar = Progress(*columns, console=Console(stderr=True), transient=True)
-        status = ("loading the engine (the first run compiles it: about a minute)"
-                  if self.engine.name in ("compiled", "tandem") else "")
+        columns += [TimeRemainingColumn() if known else TimeElapsedColumn()]
+        self._bar = Progress(*columns, console=self.console or Console(stderr=True),
+                             transient=True)
         self._task = self._bar.add_task(self.label, total=self.total if known else None,
                                         cycles="", rate="", status=status)
         self._bar.start()
+
+    console = None
+    """The console the bar is drawn on (None: standard error's; tests give one of 80 columns)."""
 
     def _update(self) -> None:
         cycle, handed, _ = self.engine.progress_counts()
@@ -147,6 +159,7 @@ class RunMonitor:
         if not self._started:
             self._started = True
             fields["status"] = ""
+            self._status_width.min_width = None  # its room goes back to the counters
         if self.total > 0:
             fields["completed"] = min(handed, self.total)
         self._bar.update(self._task, **fields)

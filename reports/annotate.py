@@ -6,10 +6,13 @@ branch holding issue, the others to the waiting bundle: docs/stalls.md), its sha
 processor's cycles (issued + stalled there / the processor's cycles) and its slot fill (its
 operations / the processor's unit slots). Hottest first (`order="hot"`) or in program order.
 
-A loop is a backward branch or jump and its target: the bundles target..branch (back edges to
-one target make one loop, up to the last of them; loops nest). Per loop: the bundles issued
-in it, the cycles spent in its bundles, the static ILP of its body, the dynamic ILP (operations
-issued there / its cycles) and the dominant stall cause with its share of the loop's cycles.
+Loops are natural loops (asm/loops.py: a back edge to a bundle that dominates it, nested into a
+tree, named by the source label). Per loop that ran (every loop with `all_loops`): the loop
+around it, its iterations (times its header issued), the cycles spent in its bundles, cycles per
+iteration beside its bound (asm/bounds.py), the static ILP of its body, the dynamic ILP
+(operations issued there / its cycles) and the dominant stall cause with its share of the loop's
+cycles. Each bundle row names the innermost loop that holds it. The hot path (reports/bounds.py)
+closes the report: blocks by total cycles, their share and excess over the bound.
 
 The program's text comes from the statistics (`programs.<stage>.listing`, emulator/stats.py);
 statistics written before it existed give the per-PC counts with labels only, and no loops.
@@ -19,7 +22,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from netsushisen.asm.listing import loop_ranges
 from netsushisen.isa.processors import PROCESSORS
 from netsushisen.reports.tables import Section, StatsError, present_processors
 
@@ -79,6 +81,7 @@ def stalls_text(stalls: dict[str, int]) -> str:
 
 @dataclass
 class Loop:
+    """A natural loop of the listing (asm/loops.py) with the run's counters over its body."""
     start: int
     end: int
     label: str
@@ -88,6 +91,14 @@ class Loop:
     ops: int
     static_ops: int
     stalls: dict[str, int]
+    header: int = 0
+    body: tuple[int, ...] = ()
+    parent: int | None = None
+    """The index of the loop around it in `find_loops`'s list (None: outermost)."""
+    parent_label: str | None = None
+    iterations: int = 0
+    """Times its header issued: the iterations (each pass through the loop issues it once)."""
+    pcs_text: str = ""
 
     @property
     def dominant(self) -> tuple[str, int] | None:
@@ -97,21 +108,34 @@ class Loop:
 
 
 def find_loops(counts: list[BundleCounts]) -> list[Loop]:
-    """Loops from the backward branches and jumps (`asm.listing.loop_ranges`), outermost first
-    at each start address."""
+    """The natural loops of the listing (asm/loops.py: by dominators, nested, named by their
+    source label), outermost first, each with its counters; none without the listing's text."""
+    from netsushisen.asm.loops import listing_loops
+
+    if not counts or any(b.text is None for b in counts) or counts[-1].pc != len(counts) - 1:
+        return []
     at = {b.pc: b for b in counts}
+    natural = listing_loops([b.label for b in counts], [b.text for b in counts],
+                            [b.target for b in counts])
     loops = []
-    for start, end in loop_ranges((b.pc, b.target) for b in counts):
-        body = [at[pc] for pc in range(start, end + 1) if pc in at]
+    for lp in natural:
+        body = [at[pc] for pc in lp.body]
         stalls: dict[str, int] = {}
         for b in body:
             for c, n in b.stalls.items():
                 stalls[c] = stalls.get(c, 0) + n
-        loops.append(Loop(start, end, at[start].label if start in at else str(start), len(body),
-                          sum(b.cycles for b in body), sum(b.issued for b in body),
-                          sum(b.issued * (b.ops or 0) for b in body), sum(b.ops or 0 for b in body),
-                          stalls))
+        loops.append(Loop(lp.start, lp.end, lp.name, len(body), sum(b.cycles for b in body),
+                          sum(b.issued for b in body), sum(b.issued * (b.ops or 0) for b in body),
+                          sum(b.ops or 0 for b in body), stalls, lp.header, lp.body, lp.parent,
+                          None if lp.parent is None else natural[lp.parent].name,
+                          at[lp.header].issued, lp.pcs_text))
     return loops
+
+
+def innermost_loop(loops: list[Loop], pc: int) -> Loop | None:
+    """The deepest loop whose body holds `pc`."""
+    inside = [lp for lp in loops if pc in lp.body]
+    return min(inside, key=lambda lp: len(lp.body), default=None)
 
 
 def choose_processors(stats: dict, proc: str | None) -> list[tuple[str, dict]]:
@@ -126,30 +150,43 @@ def choose_processors(stats: dict, proc: str | None) -> list[tuple[str, dict]]:
 
 
 def annotate_sections(stats: dict, proc: str | None = None, top: int | None = None,
-                      order: str = "hot") -> list[Section]:
-    """The listing (`bundles`) and the per-loop summary (`loops`) of the chosen processors
-    (`proc`: `pe0.ic`, or `ic` for every PE's IC; None: all). `top`: the N hottest bundles per
-    processor (default: 20 hottest first; every bundle in program order)."""
+                      order: str = "hot", all_loops: bool = False) -> list[Section]:
+    """The listing (`bundles`), the per-loop summary (`loops`) and the hot path (`hot`) of the
+    chosen processors (`proc`: `pe0.ic`, or `ic` for every PE's IC; None: all). `top`: the N
+    hottest bundles per processor (default: 20 hottest first; every bundle in program order).
+    `all_loops`: also the loops that never ran."""
+    from netsushisen.reports.bounds import add_hot_path, hot_path_section, loop_bounds
+
     if order not in ORDERS:
         raise StatsError(f"--order {order}: one of {', '.join(ORDERS)}")
     listing = Section("bundles", "Annotated listing" + (" (hottest first)" if order == "hot" else ""),
-                      ["processor", "pc", "location", "bundle", "source lines", "issued", "stall cycles",
-                       "stalls by cause", "share", "fill"],
+                      ["processor", "pc", "location", "loop", "bundle", "source lines", "issued",
+                       "stall cycles", "stalls by cause", "share", "fill"],
                       formats={"pc": "int", "issued": "int", "stall cycles": "int", "share": "pct",
                                "fill": "pct"},
-                      caption="share = (issued + stall cycles) / the processor's cycles; fill = the "
+                      caption="loop = the innermost loop holding the bundle; share = (issued + "
+                              "stall cycles) / the processor's cycles; fill = the "
                               "bundle's operations / the processor's unit slots; causes: "
                               "docs/stalls.md", group_by="processor")
-    loops = Section("loops", "Loops (a backward branch's target .. the branch)",
-                    ["processor", "loop", "pcs", "bundles", "cycles", "share", "static ILP",
-                     "dynamic ILP", "dominant stall"],
-                    formats={"bundles": "int", "cycles": "int", "share": "pct", "static ILP": "f2",
+    loops = Section("loops", "Loops (natural loops, each after the loop around it)"
+                    + ("" if all_loops else " that ran"),
+                    ["processor", "loop", "parent", "pcs", "bundles", "iterations", "cycles",
+                     "share", "cycles/iter", "bound", "static ILP", "dynamic ILP",
+                     "dominant stall"],
+                    formats={"bundles": "int", "iterations": "int", "cycles": "int", "share": "pct",
+                             "cycles/iter": "f2", "bound": "int", "static ILP": "f2",
                              "dynamic ILP": "f2"},
-                    caption="bundles = bundles issued in the loop; cycles = cycles spent in its "
-                            "bundles (issued + stalled); static ILP = ops per bundle of the loop "
-                            "body; dynamic ILP = ops issued there / its cycles; dominant stall: "
-                            "the cause of most of its stall cycles, as a share of its cycles",
+                    caption="pcs: its first and last bundle; bundles: in its body (a natural "
+                            "loop need not hold every bundle between); iterations = times the "
+                            "loop's header issued; cycles = cycles spent "
+                            "in its bundles (issued + stalled); cycles/iter beside bound: the "
+                            "static bound per iteration (report bounds); static ILP = ops per "
+                            "bundle of the loop body; dynamic ILP = ops issued there / its "
+                            "cycles; dominant stall: the cause of most of its stall cycles, as a "
+                            "share of its cycles" + ("" if all_loops else "; --all: every loop"),
                     group_by="processor")
+    loops.panels = [loops.columns[:10], ["processor", "loop"] + loops.columns[10:]]
+    hot = hot_path_section()
     without_text = False
     for name, p in choose_processors(stats, proc):
         cycles = max(int(p["cycles"]), 1)
@@ -157,6 +194,7 @@ def annotate_sections(stats: dict, proc: str | None = None, top: int | None = No
         slots = sum(unit.units.values()) if unit else None
         counts = bundle_counts(stats, name, p)
         without_text |= any(b.text is None for b in counts)
+        found = find_loops(counts)
         shown = counts
         if order == "hot" or top is not None:
             shown = sorted((b for b in counts if b.cycles), key=lambda b: (-b.cycles, b.pc))
@@ -164,20 +202,27 @@ def annotate_sections(stats: dict, proc: str | None = None, top: int | None = No
             if order == "program":
                 shown.sort(key=lambda b: b.pc)
         for b in shown:
-            listing.rows.append([name, b.pc, b.label, b.text, b.lines, b.issued, b.stalled,
-                                 stalls_text(b.stalls),
+            inner = innermost_loop(found, b.pc)
+            listing.rows.append([name, b.pc, b.label, inner.label if inner else None, b.text,
+                                 b.lines, b.issued, b.stalled, stalls_text(b.stalls),
                                  b.cycles / cycles,
                                  b.ops / slots if slots and b.ops is not None else None])
-        for lp in find_loops(counts):
+        ran = [lp for lp in tree_order(found) if all_loops or lp.iterations]
+        bounds = loop_bounds(stats, name, ran) if ran else {}
+        for lp in ran:
             dom = lp.dominant
-            loops.rows.append([name, lp.label, f"{lp.start}-{lp.end}", lp.issued, lp.cycles,
-                               lp.cycles / cycles, lp.static_ops / max(lp.bundles, 1),
+            loops.rows.append([name, lp.label, lp.parent_label, lp.pcs_text, lp.bundles,
+                               lp.iterations, lp.cycles, lp.cycles / cycles,
+                               lp.cycles / lp.iterations if lp.iterations else None,
+                               bounds.get(lp.header), lp.static_ops / max(lp.bundles, 1),
                                lp.ops / lp.cycles if lp.cycles else None,
                                f"{dom[0]} {100 * dom[1] / lp.cycles:.1f}%" if dom else None])
+        if counts and all(b.text is not None for b in counts):
+            add_hot_path(hot, stats, name, p, counts, top)
     if without_text:
         listing.caption += (" — these statistics carry no program listing (written by an older "
                             "version): rerun to see the bundles' text and the loops")
-    if not any(row[4] and "," in row[4] for row in listing.rows):
+    if not any(row[5] and "," in row[5] for row in listing.rows):
         # every bundle from one source line (no .sched region shown): the location says where,
         # and the column would only take width from the operands
         col = listing.columns.index("source lines")
@@ -185,7 +230,22 @@ def annotate_sections(stats: dict, proc: str | None = None, top: int | None = No
         for row in listing.rows:
             row.pop(col)
     else:  # too wide for the terminal with it: the bundles and their lines, then their counts
-        listing.panels = [["processor", "pc", "location", "bundle", "source lines"],
+        listing.panels = [["processor", "pc", "location", "loop", "bundle", "source lines"],
                           ["processor", "pc", "location", "issued", "stall cycles", "stalls by cause",
                            "share", "fill"]]
-    return [listing, loops]
+    return [listing, loops, hot]
+
+
+def tree_order(loops: list[Loop]) -> list[Loop]:
+    """The loops as a tree in preorder: each loop, then the loops inside it (by header)."""
+    children: dict[int | None, list[int]] = {}
+    for i, lp in enumerate(loops):
+        children.setdefault(lp.parent, []).append(i)
+    out: list[Loop] = []
+
+    def walk(parent: int | None) -> None:
+        for i in sorted(children.get(parent, []), key=lambda i: loops[i].header):
+            out.append(loops[i])
+            walk(i)
+    walk(None)
+    return out

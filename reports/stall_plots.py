@@ -133,8 +133,8 @@ def _tick_labels(cs, spacing: float) -> list[tuple[int, str]]:
 
 def _innermost(loops):
     """Loops that hold no other loop: the ones worth shading."""
-    return [lp for lp in loops if not any(o is not lp and lp.start <= o.start and o.end <= lp.end
-                                          and (o.start, o.end) != (lp.start, lp.end) for o in loops)]
+    parents = {lp.parent for lp in loops}
+    return [lp for i, lp in enumerate(loops) if i not in parents]
 
 
 def plot_annotate(stats: dict, path: str | Path, proc: str | None = None) -> Path:

@@ -41,9 +41,16 @@ def memory_figures(stats: dict, proc: str = "pe0.ic", region: str | None = "shap
             "measured": measured, "model": model}
 
 
+SHOWN_STALL_SHARE = 0.005
+"""A cause below this share of the processor's cycles (0.5 %: it would print as 0%) is not a
+top stall."""
+
+
 def _top_stalls(p: dict, n: int = 3) -> str:
+    """The `n` largest stall causes of at least 0.5 % of the cycles: `cache_miss 12%, ...`."""
     cycles = max(p["cycles"], 1)
-    items = sorted(p["stalls"].items(), key=lambda kv: (-kv[1], kv[0]))[:n]
+    items = sorted(((cause, c) for cause, c in p["stalls"].items()
+                    if c / cycles >= SHOWN_STALL_SHARE), key=lambda kv: (-kv[1], kv[0]))[:n]
     return ", ".join(f"{cause} {100 * c / cycles:.0f}%" for cause, c in items) or "-"
 
 
@@ -62,7 +69,7 @@ def processor_table(stats: dict) -> Section:
                    ["processor", "cycles", "ops", "dynamic ILP", "static ILP", "stalled",
                     "top stalls"], rows,
                    {"cycles": "int", "ops": "int", "dynamic ILP": "f2", "static ILP": "f2",
-                    "stalled": "pct"})
+                    "stalled": "pct"}, whole=("top stalls",))
 
 
 def memory_table(stats: dict) -> Section | None:
@@ -74,7 +81,7 @@ def memory_table(stats: dict) -> Section | None:
             f = memory_figures(stats, name, region)
             if f:
                 rows.append([name, region, f["loads"], f["rho"], f["mu"], f["measured"],
-                             f["model"] if region == "shape_data" else None])
+                             f["model"]])
     if not rows:
         return None
     return Section("memory", "IC memory (paper §5: resident ρ, cache hit rate μ, access time in t_r)",

@@ -46,6 +46,9 @@ class Section:
     """Column groups (each starting with the row's key columns) that the table format prints
     as tables of their own, one under the other, when the whole table would not fit the width;
     the other formats keep one table."""
+    whole: tuple[str, ...] = ()
+    """Columns whose cells are lists of items ("cache_miss 12%, branch 3%") the table format
+    breaks only between items, never inside one."""
 
     def cell(self, col: str, v) -> str:
         if v is None:
@@ -145,7 +148,9 @@ def rich_table(s: Section, width: int):
         [["(none)"] + [""] * (len(s.columns) - 1)]
     body = [max(len(r[i]) for r in cells) for i in range(len(s.columns))]
     natural = [max(len(c), b) for c, b in zip(s.columns, body)]
-    minimum = [max(len(w) for x in [c] + [r[i] for r in cells] for w in x.split() or [""])
+    minimum = [max(len(w) for x in [c] + [r[i] for r in cells]
+                   for w in (x.split(", ") if c in s.whole else x.split()) or [""])
+               + (1 if c in s.whole else 0)  # the comma after an item
                for i, c in enumerate(s.columns)]
     gaps = 2 * (len(s.columns) - 1)
     widths = column_widths(natural, minimum, width - gaps, body)

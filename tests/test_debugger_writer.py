@@ -458,8 +458,8 @@ def test_info_loop_shows_the_bound_beside_the_cycles_per_iteration_so_far(debug,
     code, out = debug(["info loop", "break loop", "continue", "continue", "continue",
                        "info loop", "delete", "continue", "info loop loop"], "--program", named)
     assert code == 0, out
-    assert "pe0.ic pc 0 <start> is not inside a loop" in out
-    head = "loop 2 <loop> .. 4 <loop+2> of pe0.ic: 3 bundles, 4 ops"
+    assert "pe0.ic pc 0 <start> is not in a loop" in out
+    head = "loop loop (header 2 <loop>, pcs 2-4) of pe0.ic: 3 bundles, 4 ops"
     assert out.count(head) == 2
     assert "bound: 4 cycles per iteration (units-bound;" in out
     # at the third issue of the head (cycle 10): two iterations done, 4 cycles each (issue,
@@ -505,3 +505,28 @@ def test_the_bundled_kernels_names_in_a_scene_session_and_from_an_object_file(de
                        tmp_path / "ic.o", "--width", "120")
     assert code == 0, out2
     assert "watchpoint 2: pe0.ic.npri/r32: 0 -> " in out2 and "1: npri/r32 = 0" in out2
+
+
+# ---------------------------------------------------------------------------------------------
+# 80×24 (issue 42, item 6): the source file by its short name, the registers at the focus kept
+
+
+def test_a_bundled_kernels_source_is_named_by_its_file_alone():
+    from netsushisen.debugger.view import display_file
+    from netsushisen.kernels import KERNELS
+
+    assert display_file(str(KERNELS / "ic_polygon.inc")) == "ic_polygon.inc"
+    assert display_file("/elsewhere/mine.s") == "/elsewhere/mine.s"
+
+
+def test_the_focus_bundles_operands_are_shown_before_other_registers():
+    from netsushisen.debugger.registers import register_rows
+
+    source = ".proc ic\n" + "".join(f"    li r{r}, {r}\n" for r in range(1, 21)) + \
+        "    li r40, 7\n    li r41, 8\n    add r42, r40, r41\n    halt\n"
+    s = named_session(source)
+    s.stepi(22)
+    s.mark_stop()  # a stop, as the front end marks one
+    s.stepi(1)  # the add issues: nothing changed since the last stop, its result pending
+    regs, left = register_rows(s, s.core, 4)
+    assert {40, 41, 42} <= set(regs) and left > 0

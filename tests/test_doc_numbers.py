@@ -10,6 +10,8 @@ import shutil
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -64,3 +66,35 @@ def test_formats_are_the_documents():
     tool = _tool()
     assert tool.change(309_434, 267_640) == "−13.5" and tool.change(20_589, 22_744) == "+10.5"
     assert tool.count(1_193_425) == "1,193,425" and tool.share(0.357) == "36" and tool.fixed(1.2799, 3) == "1.280"
+
+
+def test_times_match_within_their_factor_and_cycles_exactly(tmp_path):
+    """A time the README gives as "about N s" on the machine it names matches a measurement
+    within a factor of 2; a cycle count only exactly; the Quickstart's numbers are claims."""
+    tool = _tool()
+    whats = {c.what: c for c in tool.CLAIMS}
+    assert whats["Quickstart: tetra 64x64 seconds from an empty cache"].about == 2.0
+    assert whats["Quickstart: tetra 64x64 cycles"].about == 0.0
+    assert whats["Quickstart: tetra 64x64 cycles"].cheap  # checked by the default suite
+    (tmp_path / "README.md").write_text("takes about 46 s from an empty cache on "
+                                        f"{tool.MACHINE}, emulator, 3,910,103 machine cycles\n")
+    for measured, problems in (("60", 0), ("30", 0), ("95", 1), ("20", 1)):
+        claim = tool.Claim("README.md", whats["Quickstart: tetra 64x64 seconds from an empty "
+                                             "cache"].pattern, lambda m=measured: (m,), "time",
+                           about=2.0)
+        assert len(tool.check(tmp_path, [claim])) == problems, measured
+    exact = tool.Claim("README.md", whats["Quickstart: tetra 64x64 cycles"].pattern,
+                       lambda: ("3,910,104",), "cycles")
+    assert len(tool.check(tmp_path, [exact])) == 1
+    assert tool.check(tmp_path, [tool.Claim("README.md", exact.pattern, lambda: ("3,910,103",),
+                                            "cycles")]) == []
+
+
+@pytest.mark.slow
+def test_the_quickstart_times_match_about():
+    """The Quickstart's seconds (an empty compiled-engine cache, then a cached one), measured
+    again as a user runs the command: within the claims' factor (`-m slow`: a minute or two)."""
+    tool = _tool()
+    timed = [c for c in tool.CLAIMS if c.about]
+    assert len(timed) == 2
+    assert tool.check(ROOT, timed) == []

@@ -9,6 +9,7 @@ import pytest
 
 from netsushisen import pipeline
 from netsushisen.isa.config import MachineConfig
+from netsushisen.commands.kernels import including_defines
 from netsushisen.kernels import KERNELS
 
 SCENE = "tetra:1"
@@ -84,24 +85,46 @@ def test_asm_scene_bad_input(cli, argv, fragment):
 
 def test_export_refuses_a_full_folder(cli, tmp_path):
     out = tmp_path / "k"
-    code, stdout, err = cli("kernels", "export", out)
+    code, stdout, err = cli("kernels", "export", out, "--res", "4")
     assert code == 0, err
     names = sorted(p.name for p in out.iterdir())
-    assert names == sorted(p.name for p in KERNELS.iterdir()
-                           if p.suffix in (".s", ".inc"))
-    assert "render SCENE --kernels" in stdout and not (out / "defines.inc").exists()
+    assert names == sorted([p.name for p in KERNELS.iterdir()
+                            if p.suffix in (".s", ".inc")] + ["defines.inc"])
+    assert "render SCENE --kernels" in stdout
+    # the default build: every feature, so every test of ic.s assembles
+    assert ".equ HAS_CONES, 1" in (out / "defines.inc").read_text()
     (out / "ic.s").write_text("# my edit\n")
     code, _, err = cli("kernels", "export", out, "--scene", SCENE)
     assert code == 1 and "not empty" in err and (out / "ic.s").read_text() == "# my edit\n"
     code, _, err = cli("kernels", "export", out, "--scene", SCENE, "--force")
     assert code == 0, err
-    assert (out / "ic.s").read_text() == (KERNELS / "ic.s").read_text()
+    assert (out / "ic.s").read_text() == including_defines((KERNELS / "ic.s").read_text())
+    assert (out / "ic_sphere.inc").read_text() == (KERNELS / "ic_sphere.inc").read_text()
     inc = (out / "defines.inc").read_text()
     want = pipeline.kernel_inputs(SCENE, MachineConfig(), 32).defines
-    assert f".equ HAS_POLYGONS, {want['HAS_POLYGONS']}" in inc
+    assert f".equ HAS_POLYGONS, {want['HAS_POLYGONS']}" in inc and ".equ HAS_CONES, 0" in inc
     assert inc.count(".equ ") == len(want)
     code, _, err = cli("kernels", "export", tmp_path / "x", "--generic")
     assert code == 1 and "need --scene" in err
+
+
+def test_exported_kernels_assemble_alone(cli, tmp_path):
+    """Each exported stage program assembles as it is; with --scene, to the program `asm
+    --scene` gives, bundle for bundle. The bundled ones alone name -D and --scene."""
+    out = tmp_path / "k"
+    assert cli("kernels", "export", out, "--scene", SCENE, "--res", "4")[0] == 0
+    for stage in ("os", "ic", "sc"):
+        code, _, err = cli("asm", out / f"{stage}.s", "--proc", stage, "-o", tmp_path / "a.o")
+        assert code == 0, err
+        code, _, err = cli("asm", "--scene", SCENE, "--res", "4", "--proc", stage,
+                           "-o", tmp_path / "b.o")
+        assert code == 0, err
+        a, b = (json.loads((tmp_path / f"{n}.o").read_text()) for n in "ab")
+        assert a["bundles"] == b["bundles"] and a["data"] == b["data"], stage
+    code, _, err = cli("asm", KERNELS / "ic.s", "--proc", "ic", "--stats")
+    first = err.splitlines()[0]
+    assert code == 1 and "undefined symbol 'HAS_POLYGONS'" in first
+    assert "-D HAS_POLYGONS=VALUE" in first and "--scene SCENE" in first
 
 
 def test_exported_kernel_edited_runs(cli, tmp_path, engine_name):
@@ -112,8 +135,8 @@ def test_exported_kernel_edited_runs(cli, tmp_path, engine_name):
     assert cli("kernels", "export", out, "--scene", SCENE, "--res", "4")[0] == 0
     ic = (out / "ic.s").read_text()
     assert ic.count("\ncell_loop:\n") == 1
-    (out / "ic.s").write_text('.include "defines.inc"\n'
-                              + ic.replace("\ncell_loop:\n", "\ncell_loop:\n    nop\n"))
+    assert ic.count('.include "defines.inc"') == 1  # which must change nothing
+    (out / "ic.s").write_text(ic.replace("\ncell_loop:\n", "\ncell_loop:\n    nop\n"))
     edited = _render(cli, tmp_path, engine_name, "edited", "--kernels", out)
     assert edited["programs"]["ic"]["source"].startswith(str(out))
     assert edited["programs"]["ic"]["bundles"] == bundled["programs"]["ic"]["bundles"] + 1

@@ -315,3 +315,53 @@ twice:  add r2, r2, r2
         if schedule:
             assert len(p.bundles) < 11
     assert results[0] == results[1]
+
+
+# ---------------------------------------------------------------------------------------------
+# The information block above its loop, TI's way (issue 42, item 3)
+
+
+def test_the_information_block_sits_above_the_loop_with_its_parts_marked(cli, tmp_path):
+    from netsushisen.kernels import KERNELS
+
+    dot = KERNELS / "examples" / "dot_ic.s"
+    code, out, err = cli("asm", dot, "--listing", "-", "-D", "N=8")
+    assert code == 0, err
+    lines = out.splitlines()
+    head = next(i for i, line in enumerate(lines) if "software pipelining information" in line)
+    label = lines.index("loop:")
+    first_bundle = next(i for i, line in enumerate(lines) if line.strip().startswith("3 "))
+    assert head < label < first_bundle  # above the loop's first bundle (the guard's)
+    marks = [line for line in lines if line.startswith(";** ")]
+    assert marks == [";** guard", ";** PROLOG", ";** KERNEL", ";** EPILOG", ";** fallback"]
+    kernel = lines.index(";** KERNEL")
+    assert lines[kernel + 1].split()[0] == "8"  # the branch back targets loop+5 = 8
+    block = "\n".join(lines[head:label])
+    assert ";*                             int       4      1  4/4" in block
+    assert "registers live in kernel: 7 (r1, r2, r3, r4, r9, r10, r40)" in block
+    assert "1 of 8 .temps (r40), 7 left" in block
+    assert out.count("software pipelining information") == 1  # not repeated after the code
+    code, out, err = cli("asm", dot, "--stats", "--json", "-D", "N=8")
+    info = json.loads(out)["pipelines"][0]
+    assert info["resources"] == {"int": {"busy": 4, "units": 1}, "fp": {"busy": 2, "units": 3}}
+    assert info["temps_left"] == 7 and info["live_registers"][-1] == "r40"
+    assert info["parts"]["kernel"] == 5 and info["tried"] == []
+
+
+def test_the_iis_tried_say_why_each_failed(cli, tmp_path):
+    """Without .temps, dot's two-stage schedules at II 4 and 5 have no register for their
+    guard: each II tried is listed with its reason, and II 6 (one stage, no guard) is taken."""
+    from netsushisen.kernels import KERNELS
+
+    src = tmp_path / "dot0.s"
+    src.write_text((KERNELS / "examples" / "dot_ic.s").read_text()
+                   .replace(".temps r40-r47", ""))
+    code, out, err = cli("asm", src, "--stats", "--json")
+    assert code == 0, err
+    info = json.loads(out)["pipelines"][0]
+    assert info["tried"] == ["4: needs 1 .temps for its copies and guard, 0 granted",
+                             "5: needs 1 .temps for its copies and guard, 0 granted"]
+    assert info["ii"] == 6 and info["stages"] == 1 and info["temps_left"] == 0
+    code, out, err = cli("asm", src, "--stats")
+    assert ";*   II 4: needs 1 .temps for its copies and guard, 0 granted" in out
+    assert ";*   resources per iteration : unit   busy  units  slots used at II 6" in out

@@ -35,6 +35,7 @@ from netsushisen.isa.processors import STAGES
 from netsushisen.commands.report import add_optimum_option
 from netsushisen.reports.tables import FORMATS
 from netsushisen.options import (add_config_options, add_defines, add_include_dirs, add_json,
+                                 add_no_schedule,
                                  add_output, add_resolution, write_output, write_text, check_resolution,
                                  config_from_args, parse_defines)
 
@@ -57,9 +58,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--format", choices=FORMATS, default="table",
                         help="with --bounds: table (default), json, csv or md")
     add_optimum_option(parser)
-    parser.add_argument("--no-schedule", action="store_true",
-                        help="leave .sched regions one operation per bundle, as written (their "
-                             "serial form)")
+    add_no_schedule(parser)
     scene = parser.add_argument_group("kernels for a scene (the symbols `render` uses)")
     scene.add_argument("--scene", metavar="SCENE",
                        help="built-in scene name (tetra, balls, ...) or .nff file")
@@ -129,12 +128,14 @@ def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     programs: list[tuple[Path, Program]] = []
     infos: dict[str, str] = {}
+    pipelines: dict[str, list] = {}
     reports: dict[str, list] = {}
     region_lines: dict[str, set] = {}
     for proc, path in sources:
         asm = Assembler(proc, defines, includes, config, schedule=not args.no_schedule)
         programs.append((path, asm.assemble_file(path)))
         infos[str(path)] = "".join(r.format() + "\n" for r in asm.pipeline_reports)
+        pipelines[str(path)] = list(asm.pipeline_reports)
         region_lines[str(path)] = asm.region_lines
         reports[str(path)] = [r.as_dict() for r in asm.pipeline_reports]
         for r in asm.pipeline_reports:
@@ -153,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
             except OSError as err:
                 raise NetsushisenError(f"{out}: cannot write object file: {err.strerror}") from None
     if args.listing:
-        text = "".join(listing(program, region_lines[str(path)]) + infos[str(path)]
+        text = "".join(listing(program, region_lines[str(path)], pipelines[str(path)])
                        for path, program in programs)
         if args.listing == "-":
             print(text, end="")

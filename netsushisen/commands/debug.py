@@ -137,6 +137,9 @@ def run(args: argparse.Namespace) -> int:
                            or args.slots is not None):
         raise NetsushisenError("--res, --corners, --generic, --slots and --kernels are for scene "
                                "mode (debug SCENE ...)")
+    if args.scene and args.no_schedule:
+        raise NetsushisenError("--no-schedule is for programs given as files (--os/--ic/--sc, "
+                               "--program): scene mode schedules the kernels as `render` does")
     factory = scene_factory(args) if args.scene else programs_factory(args)
     if args.fast_forward is not None and sys.stderr.isatty():
         print(f"fast-forwarding to {args.fast_forward} with the compiled engine (its first use "

@@ -1,13 +1,17 @@
 """The bundled stage kernels as files to edit: `netsushisen kernels export DIR [--scene SCENE]
 [--generic] [--res N] [--config FILE] [--set k=v]... [--force]`, and `netsushisen kernels list`.
 
-`export` copies os.s, ic.s, sc.s and their includes (protocol.inc, ic_*.inc) into DIR, ready for
-`netsushisen render SCENE --kernels DIR` (the folder is searched first for includes, so an edited
-include wins over the bundled one). With --scene it also writes DIR/defines.inc: the symbols
-`render` gives the kernels for that scene (the same function computes them: render.kernel_inputs),
-one `.equ` a line, for reading or for `.include "defines.inc"` in a kernel you assemble on its own
-(`render` defines them itself; its -D values win over the file's `.equ`s). An existing DIR that is
-not empty is refused unless --force (which overwrites the kernel files, and leaves other files).
+`export` copies os.s, ic.s, sc.s and their includes (protocol.inc, ic_*.inc) into DIR, and writes
+DIR/defines.inc: the build symbols the kernels need (`HAS_POLYGONS`, `RESIDENT_M`, base
+addresses, ...), one `.equ` a line — with --scene the symbols `render` gives the kernels for that
+scene (the same function computes them: pipeline.kernel_inputs), else the default build's (every
+feature, as `render --generic`, over DEFAULT_BUILD_SCENE's databases at 32×32). The exported
+os.s, ic.s and sc.s include it, so each assembles on its own (`asm DIR/ic.s --proc ic`; with
+--scene S the very program `asm --scene S --proc ic` gives), and the folder is ready for
+`netsushisen render SCENE --kernels DIR` (the folder is searched first for includes, so an
+edited include wins over the bundled one; render defines the symbols itself and its -D values
+win over the file's `.equ`s, so the include never changes a render). An existing DIR that is not
+empty is refused unless --force (which overwrites the kernel files, and leaves other files).
 """
 
 from __future__ import annotations
@@ -22,6 +26,10 @@ from netsushisen.options import add_config_options, add_resolution, check_resolu
 
 KERNEL_PATTERNS = ("*.s", "*.inc")
 """What a kernels folder holds: the stage programs and their includes (not examples/)."""
+DEFAULT_BUILD_SCENE = "tetra"
+"""The scene whose databases give the default build's addresses (`export` without --scene)."""
+INCLUDE_LINE = ('.include "defines.inc"   # the build symbols (kernels export); render\'s -D '
+                'values win\n')
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -59,41 +67,55 @@ def defines_inc(defines: dict[str, int | float], what: str) -> str:
     return "\n".join(rows) + "\n"
 
 
+def including_defines(text: str) -> str:
+    """A stage program's text with `.include "defines.inc"` before its first line that is not
+    a comment (after its header), so the exported file assembles on its own."""
+    lines = text.splitlines(keepends=True)
+    at = next((i for i, line in enumerate(lines) if line.strip() and
+               not line.lstrip().startswith("#")), len(lines))
+    return "".join(lines[:at] + [INCLUDE_LINE] + lines[at:])
+
+
 def export(args: argparse.Namespace) -> int:
+    from netsushisen import pipeline
+    from netsushisen.isa.processors import STAGES
+
     out = Path(args.dir)
     if out.exists() and not out.is_dir():
         raise NetsushisenError(f"{out}: exists and is not a folder")
     if out.is_dir() and any(out.iterdir()) and not args.force:
         raise NetsushisenError(f"{out}: the folder is not empty (--force writes into it, "
                                "overwriting the kernel files)")
-    defines = None
-    if args.scene:
-        from netsushisen import pipeline
-
-        check_resolution(args.res)
-        slots = pipeline.DEFAULT_SLOTS if args.slots is None else args.slots
-        defines = pipeline.kernel_inputs(args.scene, config_from_args(args), args.res, False,
-                                         args.generic, slots).defines
-    elif args.generic or args.sets or args.config or args.slots is not None:
+    if not args.scene and (args.generic or args.sets or args.config or args.slots is not None):
         raise NetsushisenError("--generic, --slots, --config and --set need --scene SCENE "
                                "(they change the symbols written to defines.inc)")
+    check_resolution(args.res)
+    slots = pipeline.DEFAULT_SLOTS if args.slots is None else args.slots
+    generic = args.generic or not args.scene
+    defines = pipeline.kernel_inputs(args.scene or DEFAULT_BUILD_SCENE, config_from_args(args),
+                                     args.res, False, generic, slots).defines
+    if args.scene:
+        what = f"{args.scene} at {args.res}x{args.res}" + (" (generic)" if args.generic else "")
+    else:
+        what = (f"the default build: every feature (as `render --generic`) over "
+                f"{DEFAULT_BUILD_SCENE}'s databases at {args.res}x{args.res}")
+    stages = {f"{stage}.s" for stage in STAGES}
+    text = defines_inc(defines, what)
     try:
         out.mkdir(parents=True, exist_ok=True)
-        written = []
-        files = [(out / src.name, lambda p, src=src: shutil.copyfile(src, p))
+        files = [(out / src.name, lambda p, src=src: p.write_text(
+                     including_defines(src.read_text(encoding="utf-8")), encoding="utf-8"))
+                 if src.name in stages else (out / src.name, lambda p, src=src: shutil.copyfile(src, p))
                  for src in kernel_files()]
-        if defines is not None:
-            what = f"{args.scene} at {args.res}x{args.res}" + (" (generic)" if args.generic else "")
-            text = defines_inc(defines, what)
-            files.append((out / "defines.inc", lambda p: p.write_text(text, encoding="utf-8")))
+        files.append((out / "defines.inc", lambda p: p.write_text(text, encoding="utf-8")))
         write_all(files)  # one set, never through a link (isa/outputs.py)
         written = [path.name for path, _ in files]
     except OSError as err:
         raise NetsushisenError(f"{out}: cannot write: {err.strerror}") from None
     print(f"wrote {len(written)} files to {out}: {', '.join(written)}")
     scene = args.scene or "SCENE"
+    print(f"assemble one:   netsushisen asm {out / 'ic.s'} --proc ic --stats")
     print(f"run them:       netsushisen render {scene} --kernels {out}")
-    print(f"assemble one:   netsushisen asm --scene {scene} --kernels {out} --proc ic --stats")
     return 0
 
 

@@ -5,8 +5,8 @@
     netsushisen report stalls   --explain                     (the glossary of stall causes)
     netsushisen report memory   STATS.json
     netsushisen report annotate STATS.json [--proc pe0.ic] [--top N] [--order hot|program]
-                                [--plot FILE.png]
-    netsushisen report bounds   STATS.json [--proc pe0.ic] [--top N] [--optimum-ops N]
+                                [--all] [--plot FILE.png]
+    netsushisen report bounds   STATS.json [--proc pe0.ic] [--top N] [--optimum-ops N] [--all]
     netsushisen report diff     A.json B.json [--changed]
     each also: [--format table|json|csv|md] [--table NAME] [-o FILE|DIR] [--width N]
     netsushisen report flat     STATS.json [-o FILE]   (one statistic a line, gem5's stats.txt)
@@ -18,9 +18,12 @@ means (docs/stalls.md); `--plot` draws cycles by cause per processor. memory: pe
 region ρ (resident share), μ (cache hit rate), the measured mean access time and the paper's
 t = t_r·{ρ + (1 − ρ)(8 − 6μ)}. annotate: the program listing with, per bundle, times issued,
 stall cycles by cause, share of the processor's cycles and slot fill, hottest first or in
-program order, and a summary per loop; `--plot` draws the cycles per bundle along the listing.
-bounds: per loop and block the static bounds (units, ports, recurrence, critical path; the
-optimum of small blocks by CP-SAT) beside its cycles per run and stalls per run by cause.
+program order, each with its innermost loop, a summary per natural loop that ran (`--all`: every
+one; asm/loops.py) with its parent, iterations and cycles per iteration beside the bound, and
+the hot path (blocks by cycles, share, excess over the bound); `--plot` draws the cycles per
+bundle along the listing. bounds: per loop and block the static bounds (units, ports,
+recurrence, critical path; the optimum of small blocks by CP-SAT) beside its cycles per run,
+stalls per run by cause, and a block's share and excess.
 diff: the inputs that differ, then every processor's and memory region's figures in A and B
 with the change and relative change (`--changed`: only the figures that changed). flat: every
 statistic as `name value # description (unit)`, dotted stable names (reports/flat.py). Every
@@ -114,6 +117,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
             p.add_argument("--explain", action="store_true", help="add what each cause means; "
                            "without STATS.json: print the glossary of every cause")
             _plot(p, "the cycles by cause per processor as stacked bars")
+        if kind in ("bounds", "annotate"):
+            p.add_argument("--all", dest="all_loops", action="store_true",
+                           help="every loop, also those that never ran (default: the loops "
+                                "whose header issued)")
         if kind == "bounds":
             _proc(p)
             add_optimum_option(p)
@@ -131,10 +138,11 @@ def sections_for(args: argparse.Namespace, stats: dict, other: dict | None = Non
         return report_sections(kind, stats, top if top is not None else defaults[kind],
                                **({"explain": args.explain} if kind == "stalls" else {}))
     if kind == "annotate":
-        return report_sections(kind, stats, args.proc, top, args.order)
+        return report_sections(kind, stats, args.proc, top, args.order, args.all_loops)
     if kind == "bounds":
         from netsushisen.reports.bounds import bounds_report
-        return bounds_report(stats, args.proc, top, args.optimum_ops, str(args.stats))
+        return bounds_report(stats, args.proc, top, args.optimum_ops, str(args.stats),
+                             args.all_loops)
     if kind == "diff":
         return report_sections(kind, stats, other, args.changed)
     if kind == "memory":

@@ -2,7 +2,8 @@
 
     netsushisen run --os os.o --ic ic.s --sc sc.o --image image.json [--config cfg.toml]
                     [--set ring.fifo_depth=8 ...] [--pes N] [-D NAME=EXPR ...] [--engine NAME]
-                    [--json stats.json] [--frame frame.npy]
+                    [--json stats.json] [--frame frame.npy] [--no-schedule]
+                    [--regs] [--mem PROC.MEMORY:ADDR[:N[F]] ...]
                     [--trace [--trace-filter pe0.ic] [--cycles A:B]]
                     [--timeline FILE.kanata|FILE.json [--cycles A:B] [--procs pe0.ic,...]]
 
@@ -17,6 +18,9 @@ Ctrl-C, what was done so far, run.status "interrupted"). The engine is the compi
 --engine says otherwise; --trace takes the reference engine (the default with --trace). On a
 terminal a progress bar shows the host messages handed out, cycles, rate and ETA. --timeline
 writes a pipeline timeline of the --cycles window instead of a text trace (docs/timeline.md).
+--regs and --mem print the program's result after the summary (emulator/final.py): the registers
+each processor ends with, words of a memory; --json's `final` section holds the registers and
+the --mem ranges. --no-schedule assembles `.sched` regions serially, as `asm --no-schedule`.
 """
 
 from __future__ import annotations
@@ -48,6 +52,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cycles", metavar="A:B", help="trace (or --timeline) only cycles A "
                         "(included) to B (excluded)")
     parser.add_argument("--trace-out", metavar="FILE", help="write the trace to FILE, not stdout")
+    parser.add_argument("--regs", action="store_true", help="print each processor's registers "
+                        "at the end that are non-zero or named by .reg (name/rN, int, hex, float)")
+    parser.add_argument("--mem", action="append", default=[], metavar="PROC.MEMORY:ADDR[:N[F]]",
+                        help="print N words (default 1) of a memory at the end, e.g. "
+                             "ic.local:0:4, pe1.ic.resident:16:8f (F: x d u f, or a: all views, "
+                             "the default; repeatable)")
     add_quiet(parser)
     add_timeline(parser, cycles=False)
 
@@ -55,6 +65,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from netsushisen.emulator import stats
     from netsushisen.emulator.engine import make_engine
+    from netsushisen.emulator.final import final_state, parse_memory_request, read_memory
     from netsushisen.emulator.trace import Tracer, parse_cycles
     from netsushisen.timeline import TimelineRun
 
@@ -67,6 +78,7 @@ def run(args: argparse.Namespace) -> int:
     if tracing and engine_name != "reference":
         raise NetsushisenError(f"--trace needs --engine reference (the trace follows the reference "
                                f"engine cycle by cycle), not --engine {engine_name}")
+    requests = [parse_memory_request(text) for text in args.mem]
     config, programs, image = machine_inputs(args)
     check_output_folders(args.json, args.frame, args.trace_out)
     args.quiet = args.quiet or args.json == "-"
@@ -82,6 +94,8 @@ def run(args: argparse.Namespace) -> int:
     check_footprint("run", config, width, engine_name, height=height, quiet=args.quiet,
                     option=f"{args.image}: frame", extra_bytes=16 * global_words)
     engine = make_engine(engine_name, config, programs, image)
+    for req in requests:  # a bad address or label is refused before the run, not after it
+        read_memory(engine, programs, req)
     trace_file = None
     if tracing:
         out = sys.stdout
@@ -98,12 +112,20 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if trace_file is not None:
             trace_file.close()
-    write_outputs([(args.json, stats.dumps(engine.statistics()) if args.json else None),
+    final = final_state(engine, programs, requests)
+    statistics = engine.statistics() if args.json else None
+    if statistics is not None:
+        statistics["final"] = final.json()
+    write_outputs([(args.json, stats.dumps(statistics) if args.json else None),
                    (args.frame, npy_writer(engine.frame) if args.frame else None)])
     written = [p for p in (args.json, args.frame) if p]
     if not args.quiet:
         head, _, rest = engine.summary().partition("\n")
         print(f"{head}, {engine.name} engine" + (f"\n{rest}" if rest else ""))
+    if args.json != "-":  # on standard output the JSON's `final` holds them
+        for asked, text in ((args.regs, final.registers_text()), (requests, final.memory_text())):
+            if asked and text:
+                print(text)
     if timeline is not None:
         print(timeline.note(), file=sys.stderr)
     if monitor.interrupted:

@@ -137,6 +137,8 @@ def run(args: argparse.Namespace) -> int:
         infos[str(path)] = "".join(r.format() + "\n" for r in asm.pipeline_reports)
         region_lines[str(path)] = asm.region_lines
         reports[str(path)] = [r.as_dict() for r in asm.pipeline_reports]
+        for w in asm.warnings:
+            print(w.format(), file=sys.stderr)
         for r in asm.pipeline_reports:
             if r.reason:
                 print(f"{r.where}: warning: loop '{r.name}' not pipelined: {r.reason}",

@@ -20,7 +20,8 @@ t = t_r·{ρ + (1 − ρ)(8 − 6μ)}. annotate: the program listing with, per b
 stall cycles by cause, share of the processor's cycles and slot fill, hottest first or in
 program order, and a summary per loop; `--plot` draws the cycles per bundle along the listing.
 bounds: per loop and block the static bounds (units, ports, recurrence, critical path; the
-optimum of small blocks by CP-SAT) beside its cycles per run and stalls per run by cause.
+optimum of small blocks by CP-SAT) beside its cycles per run and stalls per run by cause; then
+the run's floor per processor (docs/scheduling.md, "The floor").
 diff: the inputs that differ, then every processor's and memory region's figures in A and B
 with the change and relative change (`--changed`: only the figures that changed). flat: every
 statistic as `name value # description (unit)`, dotted stable names (reports/flat.py). Every
@@ -50,7 +51,7 @@ REPORTS = {"ilp": "ILP per processor, slot fill, register ports, hottest code",
            "stalls": "cycles by stall cause and by code location; --explain: what the causes mean",
            "memory": "resident share ρ, cache hit rate μ, access time t per database region",
            "annotate": "the program listing with cycles, stalls and slot fill per bundle; loops",
-           "bounds": "every loop's and block's static bounds beside its cycles per run, stalls by cause",
+           "bounds": "every loop's and block's static bounds beside its cycles per run, stalls by cause; the run's floor",
            "diff": "compare two statistics files: inputs that differ, then every figure's change",
            "flat": "every statistic, one a line: name value # description (unit)"}
 PLOT_SUFFIXES = (".png", ".svg", ".pdf")

@@ -40,7 +40,7 @@ MAX_INCLUDE_DEPTH = 32
 DIRECTIVES = ("proc", "equ", "reg", "include", "if", "ifdef", "ifndef", "elif", "else", "endif",
               "text", "data", "word", "float", "space", "align", "error",
               "macro", "endm", "rept", "endr", "sched", "endsched", "pipeline", "temps", "deadout",
-              "unreg")
+              "unreg", "vreg")
 _REG_RE = re.compile(r"r(\d+)$")
 
 
@@ -188,6 +188,7 @@ class Assembler(MacroExpansion, RegionAssembly):
         """False: `.sched` regions stay one operation per bundle, as written (the serial form)."""
         self.pipeline_reports: list[PipelineReport] = []
         """The software pipelining information of every `.pipeline` loop, in source order."""
+        self.pinned: list[Loc] = []  # where each pinned `.vreg x = rN` was written
         self.warnings: list[Diagnostic] = []
         """Located warnings (two names of a register live at once outside a region)."""
         self.region_lines: set[tuple[str, int, str]] = set()
@@ -580,6 +581,11 @@ class Assembler(MacroExpansion, RegionAssembly):
     def _resolve(self) -> Program:
         st = self.st
         proc = PROCESSORS.get(st.proc or "")
+        if not st.diags:
+            self._allocate_regions()
+            if st.diags:  # the allocation's error alone, not every operand it left unnamed
+                st.diags.sort(key=lambda d: (d[0], d[1]))
+                raise AssemblyError([d for _, _, d in st.diags])
         resolved = self._resolve_ops(proc, len(st.bundles))
         for pb, ops in zip(st.bundles, resolved):
             if proc is not None and pb.region < 0 and len(ops) == len(pb.instrs):

@@ -128,6 +128,24 @@ def run_cells(b: Bounds, counts: dict[int, BundleCounts]) -> list:
             shown or None]
 
 
+def listed_program(stats: dict, name: str, source: str, what: str, build: bool = True
+                   ) -> Program | None:
+    """The program of processor `name` as the statistics' listing shows it, assembled again
+    (`build`; else only checked to be there); a missing or broken listing is a StatsError."""
+    stage = name.rsplit(".", 1)[-1]
+    listing = ((stats.get("programs") or {}).get(stage) or {}).get("listing")
+    if not listing:
+        raise StatsError(f"{source}: {name}: these statistics carry no program listing "
+                         f"(written by an older version): rerun to see {what}")
+    if not build:
+        return None
+    try:
+        return program_from_listing(listing, stage, f"{source}: {stage} listing")
+    except NetsushisenError as err:
+        raise StatsError(f"{source}: the {stage} program's listing does not assemble "
+                         f"again: {err.diagnostics[0].message}") from None
+
+
 def bounds_report(stats: dict, proc: str | None = None, top: int | None = None,
                   optimum_ops: int = OPTIMUM_MAX_OPS, source: str = "<statistics>") -> list[Section]:
     """The bounds of the chosen processors' loops (every loop `report annotate` finds that
@@ -141,19 +159,11 @@ def bounds_report(stats: dict, proc: str | None = None, top: int | None = None,
     rows = []
     for name, p in choose_processors(stats, proc):
         stage = name.rsplit(".", 1)[-1]
-        listing = ((stats.get("programs") or {}).get(stage) or {}).get("listing")
-        if not listing:
-            raise StatsError(f"{source}: {name}: these statistics carry no program listing "
-                             "(written by an older version): rerun to see the bounds")
+        listed = listed_program(stats, name, source, "the bounds", stage not in programs)
         counts = {c.pc: c for c in bundle_counts(stats, name, p)}
         loops = {(lp.start, lp.end) for lp in find_loops(list(counts.values())) if lp.issued}
         if stage not in programs:
-            try:
-                program = program_from_listing(listing, stage, f"{source}: {stage} listing")
-            except NetsushisenError as err:
-                raise StatsError(f"{source}: the {stage} program's listing does not assemble "
-                                 f"again: {err.diagnostics[0].message}") from None
-            programs[stage] = (program, program_bounds(program, config, optimum_ops=0))
+            programs[stage] = (listed, program_bounds(listed, config, optimum_ops=0))
         program, all_bounds = programs[stage]
         chosen_loops = [b for b in all_bounds if b.kind == "loop" and (b.start, b.end) in loops]
         blocks = [b for b in all_bounds if b.kind == "block" and b.start in counts

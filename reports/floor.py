@@ -23,11 +23,9 @@ from __future__ import annotations
 
 import math
 
-from netsushisen.asm.bounds import program_from_listing
-from netsushisen.isa.errors import NetsushisenError
 from netsushisen.isa.processors import PROCESSORS
 from netsushisen.reports.annotate import bundle_counts, choose_processors
-from netsushisen.reports.tables import Section, StatsError
+from netsushisen.reports.tables import Section
 
 COLUMNS = ["processor", "cycles", "unit/port bound", "work bound", "memory holds", "gap",
            "starved", "bottleneck"]
@@ -74,20 +72,14 @@ def processor_floor(stats: dict, name: str, p: dict, program) -> dict:
 def floor_sections(stats: dict, proc: str | None = None, source: str = "<statistics>",
                    **_options) -> list[Section]:
     """The floor table (module docstring): one row per processor, the bottleneck marked."""
+    from netsushisen.reports.bounds import listed_program  # (bounds ends with this table)
+
     rows = []
     programs = {}
     for name, p in choose_processors(stats, None):
         stage = name.rsplit(".", 1)[-1]
-        listing = ((stats.get("programs") or {}).get(stage) or {}).get("listing")
-        if not listing:
-            raise StatsError(f"{source}: {name}: these statistics carry no program listing "
-                             "(written by an older version): rerun to see the floor")
         if stage not in programs:
-            try:
-                programs[stage] = program_from_listing(listing, stage, f"{source}: {stage} listing")
-            except NetsushisenError as err:
-                raise StatsError(f"{source}: the {stage} program's listing does not assemble "
-                                 f"again: {err.diagnostics[0].message}") from None
+            programs[stage] = listed_program(stats, name, source, "the floor")
         rows.append(processor_floor(stats, name, p, programs[stage]))
     if rows:
         least = min(r["starved"] for r in rows)

@@ -145,3 +145,12 @@ def test_each_scenes_kernels_have_no_aliasing_error_or_warning(scene):
     for extra in ({}, PAPER_ORDER):
         for stage in ("os", "ic", "sc"):
             _assert_clean(stage, {**defines, **extra})
+
+
+def test_disassembly_with_names_rebinds_with_unreg():
+    from netsushisen.asm.disasm import disassemble
+
+    program = assemble_text(".reg a = r40\n  li a, 1\n.unreg a\n.reg a = r41\n  li a, 2\n  halt\n", "ic")
+    text = disassemble(program, names=True)
+    assert ".unreg a\n.reg a = r41" in text
+    assert assemble_text(text).same_program(program)

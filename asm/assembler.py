@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
+from netsushisen.asm.aliasing import clashes, merge, operand_names, successors
 from netsushisen.asm.checker import check_bundle
 from netsushisen.asm.expressions import BUILTIN_CONSTANTS, ExprError, evaluate, names_in
 from netsushisen.asm.macros import (INVOKE_RE, Macro, MacroExpansion, block_directive, describe,
@@ -38,7 +39,8 @@ from netsushisen.isa.words import wrap32
 MAX_INCLUDE_DEPTH = 32
 DIRECTIVES = ("proc", "equ", "reg", "include", "if", "ifdef", "ifndef", "elif", "else", "endif",
               "text", "data", "word", "float", "space", "align", "error",
-              "macro", "endm", "rept", "endr", "sched", "endsched", "pipeline", "temps", "deadout")
+              "macro", "endm", "rept", "endr", "sched", "endsched", "pipeline", "temps", "deadout",
+              "unreg", "vreg")
 _REG_RE = re.compile(r"r(\d+)$")
 
 
@@ -87,6 +89,8 @@ class _State:
     aliases: dict[str, tuple[int, Loc]] = field(default_factory=dict)
     """The `.reg` names in force here (replaced, never mutated, so a bundle keeps its own)."""
     reg_scopes: list[list] = field(default_factory=list)  # [name, reg, first bundle, end|None]
+    shadowable: frozenset[str] = frozenset()
+    """Names from outside the macro expansion being assembled: its own `.reg` may shadow them."""
     bundles: list[_PendingBundle] = field(default_factory=list)
     data: list[tuple[str, object, Loc, int]] = field(default_factory=list)  # kind, expr|value, loc, order
     section: str = "text"
@@ -144,6 +148,14 @@ def register_index(name: str, aliases: dict[str, tuple[int, Loc]] | None = None)
     return None
 
 
+def _operand_names(instr: Instr) -> set[str]:
+    return {n for o in instr.operands for n, _ in names_in(o.expr)}
+
+
+def _where(loc: Loc) -> str:
+    return f"{loc.file}:{loc.line}:{loc.col}"
+
+
 def _read_source(path: Path, display: str) -> str:
     from netsushisen.limits import read_input
 
@@ -176,6 +188,9 @@ class Assembler(MacroExpansion, RegionAssembly):
         """False: `.sched` regions stay one operation per bundle, as written (the serial form)."""
         self.pipeline_reports: list[PipelineReport] = []
         """The software pipelining information of every `.pipeline` loop, in source order."""
+        self.pinned: list[Loc] = []  # where each pinned `.vreg x = rN` was written
+        self.warnings: list[Diagnostic] = []
+        """Located warnings (two names of a register live at once outside a region)."""
         self.region_lines: set[tuple[str, int, str]] = set()
         """(file, line, expansion) of every operation in a `.sched` region (for the listing)."""
         self.st = _State(proc, proc is not None, [Path(d) for d in include_dirs or []])
@@ -407,12 +422,22 @@ class Assembler(MacroExpansion, RegionAssembly):
                     st.error(f"'{alias}' is already a register name", loc)
                 elif alias in st.symbols:
                     st.error(f"'{alias}' is already a symbol", loc)
+                elif alias in st.aliases and alias not in st.shadowable:
+                    st.error(f"'{alias}' is already a .reg name in this scope (r{st.aliases[alias][0]}, "
+                             f"bound at {_where(st.aliases[alias][1])}); write .unreg {alias} "
+                             f"first to end it", loc)
                 else:
-                    st.aliases = {**st.aliases, alias: (reg, loc)}
-                    for scope in st.reg_scopes:
-                        if scope[0] == alias and scope[3] is None:
-                            scope[3] = len(st.bundles)
-                    st.reg_scopes.append([alias, reg, len(st.bundles), None])
+                    self._bind(alias, reg, loc)
+        elif name == "unreg":
+            if not args:
+                st.error(".unreg takes the .reg names to end: .unreg NAME[, NAME ...]", d.loc)
+            for a in args:
+                alias = a.value[1] if a.kind == "expr" and a.value[0] == "name" else None
+                if alias is None or alias not in st.aliases:
+                    st.error(f".unreg takes a .reg name in force here, got "
+                             f"'{alias or 'an expression'}'", a.loc)
+                    continue
+                self._unbind(alias)
         elif name == "include":
             if len(args) != 1 or args[0].kind != "string":
                 st.error('.include takes one quoted file name: .include "file.inc"', d.loc)
@@ -453,6 +478,37 @@ class Assembler(MacroExpansion, RegionAssembly):
             st.error(msg, d.loc)
         else:
             self._sched_directive(d)
+
+    def _bind(self, alias: str, reg: int, loc: Loc) -> None:
+        """`alias` means `reg` from the next bundle on (the previous scope of the name, if
+        any, ends here)."""
+        st = self.st
+        st.aliases = {**st.aliases, alias: (reg, loc)}
+        st.shadowable = st.shadowable - {alias}
+        self._end_scope(alias)
+        st.reg_scopes.append([alias, reg, len(st.bundles), None])
+
+    def _unbind(self, alias: str) -> None:
+        st = self.st
+        st.aliases = {k: v for k, v in st.aliases.items() if k != alias}
+        self._end_scope(alias)
+
+    def _end_scope(self, alias: str) -> None:
+        for scope in self.st.reg_scopes:
+            if scope[0] == alias and scope[3] is None:
+                scope[3] = len(self.st.bundles)
+
+    def local_names(self, outer: dict[str, tuple[int, Loc]], shadowable: frozenset[str]) -> None:
+        """End the `.reg` names a macro expansion declared (they vanish at `.endm`) and give
+        the names it shadowed their registers back (a macro is a scope of its own)."""
+        st = self.st
+        for alias, binding in list(st.aliases.items()):
+            if outer.get(alias) != binding:
+                self._unbind(alias)
+        for alias, (reg, loc) in outer.items():
+            if st.aliases.get(alias) != (reg, loc):
+                self._bind(alias, reg, loc)
+        st.shadowable = shadowable
 
     def _name_value(self, d: Directive, what: str):
         args = d.args
@@ -529,11 +585,18 @@ class Assembler(MacroExpansion, RegionAssembly):
     def _resolve(self) -> Program:
         st = self.st
         proc = PROCESSORS.get(st.proc or "")
+        if not st.diags:
+            self._allocate_regions()
+            if st.diags:  # the allocation's error alone, not every operand it left unnamed
+                st.diags.sort(key=lambda d: (d[0], d[1]))
+                raise AssemblyError([d for _, _, d in st.diags])
         resolved = self._resolve_ops(proc, len(st.bundles))
         for pb, ops in zip(st.bundles, resolved):
             if proc is not None and pb.region < 0 and len(ops) == len(pb.instrs):
                 for problem in check_bundle(proc, ops):
                     st.error(problem, pb.loc, pb.order)
+        if not st.diags:
+            self._check_aliasing(resolved)
         sources = [self._op_sources(pb) for pb in st.bundles]
         smap = [SourceLoc(pb.loc.file, pb.loc.line, pb.text, describe(pb.loc.via, st.lines))
                 for pb in st.bundles]
@@ -575,6 +638,57 @@ class Assembler(MacroExpansion, RegionAssembly):
             if a < min(b, n):
                 out.append(RegName(name, reg, a, min(b, n)))
         return out
+
+    def _check_aliasing(self, resolved: list[list[Op]]) -> None:
+        """Two names of one register live at once (asm/aliasing.py): an error inside a `.sched`
+        region, a warning on the straight lines outside them."""
+        st = self.st
+        accesses = []
+        for pb in st.bundles:
+            def register_of(name: str, aliases=pb.aliases) -> int | None:
+                return register_index(name, aliases)
+            accesses.append(merge([operand_names(i, register_of) for i in pb.instrs]))
+        kinds = [next((op.opcode.kind for op in ops if op.opcode.is_control), "")
+                 for ops in resolved]
+        targets = [next((a for op in ops for o, a in zip(op.opcode.operands, op.args)
+                         if o.kind == "label"), None) for ops in resolved]
+        labels = {int(s.value) for s in st.symbols.values() if s.kind == "text"}
+        inside = [False] * len(st.bundles)
+        for r in st.regions:
+            span = range(r.first, r.end)
+            for k in span:
+                inside[k] = True
+            local = [t - r.first if t is not None and t in span else None
+                     for t in targets[r.first:r.end]]
+            for c in clashes(accesses[r.first:r.end], successors(kinds[r.first:r.end], local)):
+                self._clash(c, r.first, "error")
+        outside = [k for k in range(len(st.bundles)) if not inside[k]]
+        runs: list[list[int]] = []
+        for k in outside:
+            if runs and runs[-1][-1] == k - 1:
+                runs[-1].append(k)
+            else:
+                runs.append([k])
+        for run in runs:
+            first = run[0]
+            starts = {k - first for k in run if k in labels}
+            for c in clashes(accesses[first:first + len(run)],
+                             successors(kinds[first:first + len(run)], [None] * len(run), starts)):
+                self._clash(c, first, "warning")
+
+    def _clash(self, c, first: int, severity: str) -> None:
+        st = self.st
+        pb, reader = st.bundles[first + c.at], st.bundles[first + c.read]
+        loc = next((i.loc for i in pb.instrs if c.writer in _operand_names(i)), pb.loc)
+        rloc = next((i.loc for i in reader.instrs if c.live in _operand_names(i)), reader.loc)
+        message = (f"'{c.writer}' is written while '{c.live}' (also r{c.reg}) is live: "
+                   f"'{c.live}' is read at {_where(rloc)}")
+        src = st.lines.get((loc.file, loc.line, loc.via))
+        diag = Diagnostic(message, loc.file, loc.line, loc.col, src, severity=severity)
+        if severity == "error":
+            st.add((pb.order, loc.col), diag, loc.via)
+        else:
+            self.warnings.append(diag)
 
     def _resolve_ops(self, proc, n_bundles: int) -> list[list[Op]]:
         out = []

@@ -4,7 +4,8 @@ Labels come back from the symbol table (branch targets print as the label at the
 `label+N` from the nearest one before it: `listing.target_names`); constants and
 aliases do not survive assembly, so numbers print as themselves; registers too, unless `names`
 asks for the `.reg` names the object file records (`Program.reg_names`): then each name's `.reg`
-line stands before the bundle its scope starts at and operands use the name the source used
+line stands before the bundle its scope starts at (after an `.unreg` of the name's earlier
+binding) and operands use the name the source used
 (asm/regnames.py), which reassembles to the identical program. Floats print with `repr`, which
 round-trips every double exactly.
 """
@@ -21,7 +22,11 @@ def disassemble(program: Program, names: bool = False) -> str:
     table = register_names(program)
     starts: dict[int, list[str]] = {}
     if names:
-        for r in program.reg_names:
+        bound: set[str] = set()
+        for r in sorted(program.reg_names, key=lambda r: r.start):
+            if r.name in bound:  # a name is bound once per scope: end the earlier binding
+                starts.setdefault(r.start, []).append(f".unreg {r.name}")
+            bound.add(r.name)
             starts.setdefault(r.start, []).append(f".reg {r.name} = r{r.reg}")
     text_labels: dict[int, list[str]] = {}
     data_labels: dict[int, list[str]] = {}

@@ -405,7 +405,10 @@ class MacroExpansion:
                     st.lines[(c.file, c.line + n, via)] = line
                 st.error(err.message, Loc(c.file, err.line or c.line, err.col, via))
         self._charge_chars(body, at)
+        outer, shadowable = st.aliases, st.shadowable
+        st.shadowable = frozenset(outer)
         self._expand(body, base_dir, stack, depth)
+        self.local_names(outer, shadowable)
 
     def _expand(self, body: list[Chunk], base_dir: Path, stack: list[str], depth: int) -> None:
         for c in body:

@@ -42,6 +42,8 @@ class Region:
     temps: list[int] = field(default_factory=list)
     inorder: bool = False  # `.sched inorder`: resident and global loads keep their order
     deadout: list[int] = field(default_factory=list)  # `.deadout`: dead at every exit
+    temps_auto: bool = False  # `.temps auto`: every register no physical name uses
+    vregs: dict[str, Loc] = field(default_factory=dict)  # `.vreg` names the assembler allocates
 
 
 def blocks(n: int, ops: list[Op], starts: set[int]) -> list[tuple[int, int]]:
@@ -125,6 +127,12 @@ def _shift(p: Placed, offset: int, prefix: str) -> Placed:
                   p.source + offset if p.source >= 0 else -1)
 
 
+def _names(expr):
+    from netsushisen.asm.expressions import names_in
+
+    return names_in(expr)
+
+
 def _word(a) -> str | None:
     """A directive argument that is a bare name (`inorder`), else None."""
     return a.value[1] if a.kind == "expr" and a.value[0] == "name" else None
@@ -139,6 +147,9 @@ class RegionAssembly:
         st = self.st
         name, args = d.name, d.args
         inorder = name == "sched" and len(args) == 1 and _word(args[0]) == "inorder"
+        if name == "vreg":
+            self._vreg(d)
+            return
         if name not in ("temps", "deadout") and args and not inorder:
             st.error(f".{name} takes no arguments" if name != "sched" else
                      ".sched takes no argument but `inorder` (resident and global loads keep "
@@ -159,6 +170,8 @@ class RegionAssembly:
                 st.error(".pipeline must be followed by the loop's label", st.pipeline_mark)
                 st.pipeline_mark = None
             st.region.end = len(st.bundles)
+            for pinned in [n for n, (_, loc) in st.aliases.items() if loc in self.pinned]:
+                self._unbind(pinned)  # a pinned .vreg is the region's
             st.region = None
         elif name == "pipeline":
             st.pipeline_mark = d.loc
@@ -166,12 +179,119 @@ class RegionAssembly:
             into = st.region.temps if name == "temps" else st.region.deadout
             if not args:
                 st.error(f".{name} takes registers: .{name} r40-r47 or .{name} r40, r41", d.loc)
+            if name == "temps" and len(args) == 1 and _word(args[0]) == "auto":
+                st.region.temps_auto = True
+                return
             for a in args:
                 regs = self._temps_arg(a)
                 if regs is None:
                     st.error(f".{name} takes registers: rA-rB (a range) or rA", a.loc)
                     continue
                 into.extend(r for r in regs if r not in into)
+
+    def _vreg(self, d: Directive) -> None:
+        """`.vreg NAME[, NAME ...]`: names the assembler allocates in this region;
+        `.vreg NAME = rN`: a name pinned to a register (a value live into or out of it)."""
+        from netsushisen.asm.assembler import register_index
+
+        st = self.st
+        if st.region is None:
+            st.error(".vreg outside a .sched region", d.loc)
+            return
+        if not d.args:
+            st.error(".vreg takes names: .vreg NAME[, NAME ...] or .vreg NAME = rN", d.loc)
+        for a in d.args:
+            if a.kind == "assign":
+                name, expr = a.value
+                reg = register_index(expr[1], st.aliases) if expr[0] == "name" else None
+                if reg is None:
+                    st.error(f".vreg {name} = ... needs a register on the right", a.loc)
+                    continue
+            elif _word(a) is not None:
+                name, reg = _word(a), None
+            else:
+                st.error(".vreg takes names: .vreg NAME[, NAME ...] or .vreg NAME = rN", a.loc)
+                continue
+            if register_index(name) is not None or name in st.symbols:
+                st.error(f"'{name}' is already a register or a symbol", a.loc)
+            elif name in st.aliases or name in st.region.vregs:
+                st.error(f"'{name}' is already a register name here", a.loc)
+            elif reg is None:
+                st.region.vregs[name] = a.loc
+            else:
+                self._bind(name, reg, a.loc)
+                self.pinned.append(a.loc)
+
+    def _allocate_regions(self) -> None:
+        """Registers for every region's `.vreg` names (asm/allocation.py), written into the
+        names each of its operations resolves with; a pool too small is a located error."""
+        from netsushisen.asm.aliasing import successors
+        from netsushisen.asm.allocation import Pressure, allocate, liveness, pool_text
+        from netsushisen.isa.opcodes import OPCODES
+        from netsushisen.isa.processors import N_REGISTERS, ZERO_REGISTER
+
+        st = self.st
+        used = self._physical_registers()
+        for r in st.regions:
+            if r.temps_auto:
+                r.temps = [x for x in range(1, N_REGISTERS - 1) if x not in used]
+            if not r.vregs or r.end <= r.first:
+                continue
+            reads, writes, kinds, targets = [], [], [], []
+            for pb in st.bundles[r.first:r.end]:
+                instr = pb.instrs[0]
+                opcode = OPCODES.get(instr.mnemonic)
+                rs, ws = set(), set()
+                target = None
+                for spec, o in zip(opcode.operands if opcode else (), instr.operands):
+                    names = {n for n, _ in _names(o.expr) if n in r.vregs}
+                    (ws if spec.kind == "rd" else rs).update(names)
+                    if spec.kind == "label" and o.expr[0] == "name":
+                        sym = st.symbols.get(o.expr[1])
+                        if sym is not None and sym.kind == "text" and r.first <= sym.value < r.end:
+                            target = int(sym.value) - r.first
+                reads.append(rs)
+                writes.append(ws)
+                kinds.append(opcode.kind if opcode and opcode.is_control else "")
+                targets.append(target)
+            succ = successors(kinds, targets)
+            entry = sorted(set().union(*reads) - set().union(*writes))
+            live_in, _ = liveness(reads, writes, succ)
+            for name in sorted(live_in[0] | set(entry)):
+                st.error(f".vreg {name} is read before it is written (a value live into the "
+                         f"region stays physical: .reg, or .vreg {name} = rN)", r.vregs[name])
+            if live_in[0] or entry:
+                continue
+            pool = [x for x in r.temps if x != ZERO_REGISTER]
+            result = allocate(reads, writes, succ, pool)
+            if isinstance(result, Pressure):
+                instr = st.bundles[r.first + result.at].instrs[0]
+                first = next((n for o in instr.operands for n, _ in _names(o.expr)), "")
+                st.error(f"{len(result.live)} values live at {instr.mnemonic} {first} (pool "
+                         f".temps {pool_text(pool) or 'empty'} has {len(pool)}): "
+                         f"{' '.join(result.live)}", instr.loc)
+                continue
+            for k in range(r.first, r.end):
+                pb = st.bundles[k]
+                pb.aliases = {**pb.aliases, **{n: (reg, r.vregs[n]) for n, reg in result.items()}}
+            for n, reg in result.items():
+                st.reg_scopes.append([n, reg, r.first, r.end])
+            r.temps = [x for x in r.temps if x not in result.values()]  # the pipeliner's
+
+    def _physical_registers(self) -> set[int]:
+        """Every register a physical name or operand of the program uses (`.temps auto`)."""
+        from netsushisen.asm.assembler import register_index
+
+        st = self.st
+        used = {reg for _, reg, _, _ in st.reg_scopes}
+        for pb in st.bundles:
+            for instr in pb.instrs:
+                for o in instr.operands:
+                    for n, _ in _names(o.expr):
+                        reg = register_index(n, pb.aliases)
+                        if reg is not None:
+                            used.add(reg)
+        return used
 
     def _temps_arg(self, a) -> list[int] | None:
         from netsushisen.asm.assembler import register_index

@@ -264,4 +264,7 @@ def bounds_report(stats: dict, proc: str | None = None, top: int | None = None,
             if b.optimum is None and 0 < b.ops <= optimum_ops:
                 add_optimum(program, b, config)
         rows.append((name, chosen_loops + blocks, counts))
-    return bounds_sections(rows, {stage: program for stage, (program, _) in programs.items()})
+    from netsushisen.reports.floor import floor_sections
+
+    return (bounds_sections(rows, {stage: program for stage, (program, _) in programs.items()})
+            + floor_sections(stats, proc, source))

@@ -284,9 +284,11 @@ REPORTS: dict[str, tuple[str, str]] = {
     "memory": ("netsushisen.reports.memory", "memory_sections"),
     "annotate": ("netsushisen.reports.annotate", "annotate_sections"),
     "diff": ("netsushisen.reports.diff", "diff_sections"),
+    "floor": ("netsushisen.reports.floor", "floor_sections"),
 }
 """The reports made of sections: name -> (module, function(stats, ...) -> [Section]). `report
-KIND` and the Python API's `.table(KIND)` both read them through `report_sections`."""
+KIND` and the Python API's `.table(KIND)` both read them through `report_sections` (`floor` is
+`report bounds`'s last table, on its own for `.table("floor")`)."""
 
 
 def report_sections(kind: str, stats: dict, *args, **options) -> list[Section]:

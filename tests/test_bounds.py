@@ -370,11 +370,11 @@ def test_report_bounds_fits_80_columns(cli, tmp_path):
     assert code == 0, err
     assert max(len(line) for line in out.splitlines()) <= 80
     rules = [line for line in out.splitlines() if line.startswith("─")]
-    # loops in two groups, blocks in three (their hot-path share and excess last)
-    assert len(rules) == 5 and "operand:fmul 2.00" in out
+    # loops in two groups, blocks in three (their hot-path share and excess last), the floor
+    assert len(rules) == 6 and "operand:fmul 2.00" in out
     code, wide, _ = cli("report", "bounds", stats, "--width", "200")
     assert code == 0 and max(len(line) for line in wide.splitlines()) > 80
-    assert len([line for line in wide.splitlines() if line.startswith("─")]) == 2
+    assert len([line for line in wide.splitlines() if line.startswith("─")]) == 3
 
 
 def test_report_bounds_needs_the_listing(cli, tmp_path):

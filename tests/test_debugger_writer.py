@@ -34,7 +34,8 @@ start:  li cnt, 3
 loop:   { addi cnt, cnt, -1 ; fadd acc, acc, r1 }
         st cnt, [counter]
         bnez cnt, loop
-.reg acc = r3          # redefined: acc is r3 from here
+.unreg acc             # ended, then bound again: acc is r3 from here
+.reg acc = r3
 done:   { ld acc, [counter] ; fmul r4, r1, r1 }
         halt
 """
@@ -191,6 +192,7 @@ def test_an_unknown_name_is_one_line_error_and_the_name_in_force_wins(debug, tmp
 .proc sc
 .reg t = r5
         li t, 1
+.unreg t
 .reg t = r6
         li t, 2
         halt

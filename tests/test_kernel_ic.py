@@ -301,7 +301,32 @@ class Case:
     traced: list[Traced]  # surface batches and shadow batches
 
 
-INLINE = {"cones": CONES_NFF, "patches": PATCH_NFF, "quads": QUADS_NFF, "quads4": QUADS4_NFF}
+# A sphere whose r^2 underflows to 0, the eye ray passing through its centre's neighbourhood:
+# oc.oc (4.2e-45) is below the early rejection's lower guard EARLY_LO (1e-30), where its products
+# are denormal and its margin proves nothing. Golden: disc = 0, a hit at t0 = -b; an early
+# rejection without the guard: oc.oc K - b^2 = 1.4e-45 > r^2, a miss (issue 40). Below the scale
+# renders accept (host/scale.py), so only the bench reaches it.
+TINY_NFF = """
+b 0 0 0
+v
+from 0 0 0
+at 0.3 0.2 1
+up 0 1 0
+angle 30
+hither 0
+resolution 1 1
+l 1 1 -1
+f 1 1 1 1 0 0 0 1
+p 4
+-4 -4 6
+4 -4 6
+4 4 6
+-4 4 6
+s 2.667998894483294e-23 3.616216644534916e-23 4.5556770919054987e-23 1.1375540702937992e-23
+"""
+
+INLINE = {"cones": CONES_NFF, "patches": PATCH_NFF, "quads": QUADS_NFF, "quads4": QUADS4_NFF,
+          "tiny": TINY_NFF}
 
 
 @functools.lru_cache(maxsize=None)
@@ -588,6 +613,16 @@ def test_ic_matches_golden(spec, precision, res, resident, prepass, monkeypatch,
         generic = run_ic(case, exp, generic=True, monkeypatch=monkeypatch, engine=engine_name)
         check(case, exp, generic)
         assert (generic.answers, generic.hits) == (out.answers, out.hits)
+
+
+@pytest.mark.parametrize("resident", [1.0, 0.0])
+def test_the_early_rejection_keeps_its_lower_guard(resident, monkeypatch, engine_name):
+    """oc.oc < EARLY_LO: the sphere's early rejection must stand aside (its guard s_g1 once
+    shared r40 with s_Zt, which overwrote it: the test missed this sphere)."""
+    case = build_case("tiny", "fp32", 1, resident)
+    exp = expected(case)
+    assert exp.answers == [("DONE", 0)] and len(exp.hits) == 1, "golden hits the tiny sphere"
+    check(case, exp, run_ic(case, exp, monkeypatch=monkeypatch, engine=engine_name))
 
 
 def test_cases_cover_the_hard_parts():

@@ -138,6 +138,8 @@ def run(args: argparse.Namespace) -> int:
         pipelines[str(path)] = list(asm.pipeline_reports)
         region_lines[str(path)] = asm.region_lines
         reports[str(path)] = [r.as_dict() for r in asm.pipeline_reports]
+        for w in asm.warnings:
+            print(w.format(), file=sys.stderr)
         for r in asm.pipeline_reports:
             if r.reason:
                 print(f"{r.where}: warning: loop '{r.name}' not pipelined: {r.reason}",

@@ -23,7 +23,8 @@ one; asm/loops.py) with its parent, iterations and cycles per iteration beside t
 the hot path (blocks by cycles, share, excess over the bound); `--plot` draws the cycles per
 bundle along the listing. bounds: per loop and block the static bounds (units, ports,
 recurrence, critical path; the optimum of small blocks by CP-SAT) beside its cycles per run,
-stalls per run by cause, and a block's share and excess.
+stalls per run by cause, and a block's share and excess; then the run's floor per processor
+(docs/scheduling.md, "The floor").
 diff: the inputs that differ, then every processor's and memory region's figures in A and B
 with the change and relative change (`--changed`: only the figures that changed). flat: every
 statistic as `name value # description (unit)`, dotted stable names (reports/flat.py). Every
@@ -53,7 +54,7 @@ REPORTS = {"ilp": "ILP per processor, slot fill, register ports, hottest code",
            "stalls": "cycles by stall cause and by code location; --explain: what the causes mean",
            "memory": "resident share ρ, cache hit rate μ, access time t per database region",
            "annotate": "the program listing with cycles, stalls and slot fill per bundle; loops",
-           "bounds": "every loop's and block's static bounds beside its cycles per run, stalls by cause",
+           "bounds": "every loop's and block's static bounds beside its cycles per run, stalls by cause; the run's floor",
            "diff": "compare two statistics files: inputs that differ, then every figure's change",
            "flat": "every statistic, one a line: name value # description (unit)"}
 PLOT_SUFFIXES = (".png", ".svg", ".pdf")

@@ -283,6 +283,7 @@ REPORTS: dict[str, tuple[str, str]] = {
     "memory": ("netsushisen.reports.memory", "memory_sections"),
     "annotate": ("netsushisen.reports.annotate", "annotate_sections"),
     "diff": ("netsushisen.reports.diff", "diff_sections"),
+    "bounds": ("netsushisen.reports.bounds", "bounds_report"),
 }
 """The reports made of sections: name -> (module, function(stats, ...) -> [Section]). `report
 KIND` and the Python API's `.table(KIND)` both read them through `report_sections`."""

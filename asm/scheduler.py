@@ -46,6 +46,7 @@ class Reservations:
         self.proc, self.config, self.ii = proc, config, ii
         self.rows: dict[int, _Row] = {}
         self.issued: list[int] = []  # sorted cycles holding an operation (list schedules)
+        self.held: list[tuple[int, int]] = []  # (first, last) cycles a placed load holds
 
     def _row(self, cycle: int) -> _Row:
         key = cycle % self.ii if self.ii else cycle
@@ -71,6 +72,15 @@ class Reservations:
         for k in range(1, hold if holds else 1):
             out.append((cycle + k, "blocked", 1))
         return out
+
+    def unheld(self, cycle: int) -> int:
+        """The first cycle from `cycle` on that no placed load holds (list schedules): no
+        operation can issue in a held cycle, so the scheduler goes past them at once."""
+        k = bisect.bisect_right(self.held, (cycle, 1 << 62)) - 1
+        while 0 <= k < len(self.held) and self.held[k][0] <= cycle <= self.held[k][1]:
+            cycle = self.held[k][1] + 1
+            k += 1
+        return cycle
 
     def _hold_clear(self, cycle: int, hold: int) -> bool:
         """Whether no operation is placed in the cycles a load issued in `cycle` holds
@@ -133,6 +143,8 @@ class Reservations:
                 row.reads |= v
                 if not self.ii and row.ops == 1:
                     bisect.insort(self.issued, c)
+                if not self.ii and hold > 1:
+                    bisect.insort(self.held, (c + 1, c + hold - 1))
             else:
                 setattr(row, kind, getattr(row, kind) + v)
 
@@ -197,5 +209,5 @@ def issue_times(ops: list[Op] | tuple[Op, ...], proc: Processor, config: Machine
             continue
         # no cycle before the earliest a ready operation may issue in can take one: go there at
         # once (a load of 4,096 cycles must not cost 4,096 turns of this loop)
-        cycle = max(cycle + 1, min((earliest[i] for i in ready), default=cycle + 1))
+        cycle = res.unheld(max(cycle + 1, min((earliest[i] for i in ready), default=cycle + 1)))
     return time  # type: ignore[return-value]

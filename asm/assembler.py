@@ -26,7 +26,7 @@ from netsushisen.asm.macros import (INVOKE_RE, Macro, MacroExpansion, block_dire
                                     stray_escape)
 from netsushisen.asm.objects import Op, Program, RegName, SourceLoc
 from netsushisen.asm.pipeline import PipelineReport
-from netsushisen.asm.regions import Region, RegionAssembly, RegionLoop
+from netsushisen.asm.regions import MAX_REGION_LABELS, MAX_REGION_OPS, Region, RegionAssembly, RegionLoop
 from netsushisen.asm.parser import (CONDITIONAL_RE, Bundle, Chunk, Directive, Expansion, Instr,
                                     Loc, parse_chunk, split_statements)
 from netsushisen.isa.errors import Diagnostic, NetsushisenError
@@ -355,6 +355,11 @@ class Assembler(MacroExpansion, RegionAssembly):
         st.symbols[name] = _Symbol(addr, st.section, loc)
         if st.region is not None and st.section == "text":
             st.region.starts.add(addr - st.region.first)
+            if len(st.region.starts) > MAX_REGION_LABELS:
+                raise AssemblyError(Diagnostic(
+                    f"the .sched region opened at line {st.region.loc.line} passes "
+                    f"{MAX_REGION_LABELS:,} labels (asm.regions.MAX_REGION_LABELS): split it",
+                    loc.file, loc.line, loc.col))
             if st.pipeline_mark is not None:
                 st.region.loops.append(RegionLoop(addr - st.region.first, name,
                                                   f"{loc.file}:{loc.line}"))
@@ -372,6 +377,11 @@ class Assembler(MacroExpansion, RegionAssembly):
         if st.pipeline_mark is not None:
             st.error(".pipeline must be followed by the loop's label", st.pipeline_mark)
             st.pipeline_mark = None
+        if st.region is not None and len(st.bundles) - st.region.first >= MAX_REGION_OPS:
+            raise AssemblyError(Diagnostic(
+                f"the .sched region opened at line {st.region.loc.line} passes "
+                f"{MAX_REGION_OPS:,} operations (asm.regions.MAX_REGION_OPS): split it or "
+                "close it with .endsched sooner", loc.file, loc.line, loc.col))
         st.bundles.append(_PendingBundle(instrs, loc, chunk.source_lines[0].strip(), st.order,
                                          len(st.regions) - 1 if st.region is not None else -1,
                                          st.aliases))

@@ -143,6 +143,8 @@ class Bounds:
         """`8-15`: the first and last bundle (a loop's body need not be every bundle between:
         `bundles` counts it)."""
         return f"{min(self.pcs())}-{max(self.pcs())}"
+    optimum_note: str = ""
+    """CP-SAT's outcome when it is not a proven optimum (asm/optimum.py)."""
 
     @property
     def units(self) -> int:
@@ -174,6 +176,8 @@ class Bounds:
 
     @property
     def optimum_text(self) -> str | None:
+        if self.optimum_note:
+            return self.optimum_note
         if self.optimum is None:
             return None
         return str(self.optimum) if self.optimum_proven else f"≤ {self.optimum} (not proven)"
@@ -478,7 +482,7 @@ def add_optimum(program: Program, b: Bounds, config: MachineConfig, seconds: flo
     best = optimum_schedule(g, value_reads(ops), proc, config, lower=b.bound, upper=upper,
                             hint=hint, seconds=DETERMINISTIC_SECONDS if seconds is None else seconds)
     if best is not None:
-        b.optimum, b.optimum_proven = best.length, best.proven
+        b.optimum, b.optimum_proven, b.optimum_note = best.length, best.proven, best.note
 
 
 def program_bounds(program: Program, config: MachineConfig, optimum_ops: int = OPTIMUM_MAX_OPS,

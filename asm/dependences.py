@@ -55,6 +55,13 @@ from netsushisen.asm.objects import Op
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.processors import ZERO_REGISTER, Processor
 
+MAX_ALIAS_OPS = 256
+"""Local memory accesses of one block analysed pair by pair for aliasing (the module
+docstring's rule). A block with more keeps all its local accesses in serial order instead — a
+chain, each after the previous with the latency the pair would need (store -> load 1, else 0),
+which orders every pair that may alias at the cost of a linear number of edges (2,000 accesses
+checked pairwise took 10 s)."""
+
 FIFO_KINDS = frozenset({"send", "recv", "poll", "room", "wait"})
 ORDERED_SPACES = frozenset({"resident", "global"})  # loads `.sched inorder` keeps in order
 BLOCK_END_KINDS = frozenset({"branch", "jump", "jumpr", "call", "ret", "halt"})
@@ -170,6 +177,7 @@ def dependences(ops: list[Op] | tuple[Op, ...], proc: Processor, config: Machine
     mem_ops: list[int] = []
     last_fifo = -1
     last_load = -1
+    chained = sum(1 for op in ops if op.opcode.space == "local") > MAX_ALIAS_OPS
     for j, op in enumerate(ops):
         reads, writes = op.reads(), op.writes()
         for r in set(reads):
@@ -187,10 +195,15 @@ def dependences(ops: list[Op] | tuple[Op, ...], proc: Processor, config: Machine
         base = _base(op)
         base_version.append(last_write.get(base, -1) if base is not None else -1)
         if oc.space == "local":
-            for i in mem_ops:
-                if (oc.kind == "store" or ops[i].opcode.kind == "store") and \
-                        _may_alias(ops, base_version, i, j):
-                    edges.add(Edge(i, j, _memory_latency(ops[i], op), 0, "memory"))
+            if chained:
+                if mem_ops:
+                    edges.add(Edge(mem_ops[-1], j, _memory_latency(ops[mem_ops[-1]], op), 0,
+                                   "memory"))
+            else:
+                for i in mem_ops:
+                    if (oc.kind == "store" or ops[i].opcode.kind == "store") and \
+                            _may_alias(ops, base_version, i, j):
+                        edges.add(Edge(i, j, _memory_latency(ops[i], op), 0, "memory"))
             mem_ops.append(j)
         if inorder and oc.kind == "load" and oc.space in ORDERED_SPACES:
             if last_load >= 0:  # (the previous load holds issue that long: heights count it)
@@ -205,12 +218,17 @@ def dependences(ops: list[Op] | tuple[Op, ...], proc: Processor, config: Machine
         for r in writes:
             last_write[r] = j
             readers[r] = []
+    # control: every operation before a block end -> it, and (a superblock) a side exit -> every
+    # later operation that may not move above it. Only the edges no other path implies: an
+    # operation before the previous end reaches this one through it (both L = 0), and an
+    # operation after the next end is held behind this one by that end (L = 1 each), so the
+    # edges are linear in the operations and the schedules are the same.
     ends = [j for j, op in enumerate(ops) if op.opcode.kind in BLOCK_END_KINDS]
-    for end in ends:
-        for i in range(end):
+    for k, end in enumerate(ends):
+        for i in range(ends[k - 1] if k else 0, end):
             edges.add(Edge(i, end, 0, 0, "control"))
         if deadout is not None:
-            for j in range(end + 1, n):
+            for j in range(end + 1, ends[k + 1] + 1 if k + 1 < len(ends) else n):
                 if not speculable(ops[j], deadout):
                     edges.add(Edge(end, j, 1, 0, "control"))
 
@@ -230,7 +248,10 @@ def dependences(ops: list[Op] | tuple[Op, ...], proc: Processor, config: Machine
                     edges.add(Edge(k, first_write[r], 0, 1, "anti", r))
         for r, i in last_write.items():
             edges.add(Edge(i, first_write[r], max(1, lat[i]), 1, "output", r))
-        for i in mem_ops:
+        if chained and mem_ops:  # the chain closes across the back edge
+            edges.add(Edge(mem_ops[-1], mem_ops[0],
+                           _memory_latency(ops[mem_ops[-1]], ops[mem_ops[0]]), 1, "memory"))
+        for i in mem_ops if not chained else ():
             for j in mem_ops:
                 if ops[i].opcode.kind == "store" or ops[j].opcode.kind == "store":
                     if not _distinct_absolute(ops[i], ops[j]):

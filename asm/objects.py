@@ -304,14 +304,19 @@ class Program:
         try:
             from netsushisen.limits import read_input
 
+            from netsushisen.isa import numbers
+
             text = read_input(p, "object file").decode("utf-8")
-            obj = json.loads(text)
+            obj = numbers.loads(text, finite=False)  # `.float nan` data is a word like any
         except (FileNotFoundError, IsADirectoryError):
             raise NetsushisenError(Diagnostic("no such object file", file=str(p))) from None
         except (UnicodeDecodeError, json.JSONDecodeError, RecursionError):
             raise NetsushisenError(Diagnostic(
                 f"not a {OBJECT_FORMAT} file (assemble the source with `netsushisen asm`)",
                 file=str(p))) from None
+        bad = numbers.first_problem(obj, finite=False)
+        if bad:
+            raise NetsushisenError(Diagnostic(f"bad object file: {bad[0]}: {bad[1]}", file=str(p)))
         return cls.from_json(obj, str(p))
 
 

@@ -19,9 +19,14 @@ graph's edges, asm/dependences.py), time-indexed:
   block that halts, the halt's cycle + 1 (T9: the processor stops, so no hold matters).
 
 Registers are ready at the block's entry and every load hits, as for the other bounds. The
-solve is deterministic: one worker, a fixed seed and a limit in CP-SAT's *deterministic* time
-(not wall time), so the same block gives the same answer on any machine. The answer is an
-optimum only when CP-SAT proves it; otherwise the best schedule found, "≤ N (not proven)".
+solve is deterministic: one worker, a fixed seed and a limit in CP-SAT's *deterministic* time,
+so the same block gives the same answer on any machine — and, as a guard on a loaded or slow
+host, a wall-clock limit (WALL_SECONDS) that states itself when it ends the search. The answer
+is an optimum only when CP-SAT proves it; otherwise the best schedule found, with CP-SAT's bound
+("best 14, bound 11 within 10 s"). A model over MAX_MODEL_CELLS (operations × the cycles each
+may issue in) is not built at all: "too large: N operations × H cycles" (a 2,000-operation
+block once ran out of memory after 46 s). The model is built in time linear in its size: each
+cycle's variables are gathered once, not searched for per cycle.
 """
 
 from __future__ import annotations
@@ -36,14 +41,25 @@ from netsushisen.isa.processors import Processor
 DETERMINISTIC_SECONDS = 2.0
 """CP-SAT's deterministic time limit per block (its own work units, about a second each)."""
 
+WALL_SECONDS = 10.0
+"""Wall-clock limit of one solve, whatever the deterministic limit: the outcome names it."""
+
+MAX_MODEL_CELLS = 10_000
+"""0/1 issue variables (an operation × a cycle it may issue in) plus dependence edges of the
+largest model built: a second or two of building (a 40-operation block of the bundled kernels
+needs a few thousand); larger is stated as too large, not attempted."""
+
 
 @dataclass(frozen=True)
 class Optimum:
-    length: int
-    """Cycles of the best schedule found (the optimum when `proven`)."""
+    length: int | None
+    """Cycles of the best schedule found (the optimum when `proven`; None: none was sought)."""
     proven: bool
     starts: tuple[int, ...]
     """Issue cycle of each operation in that schedule."""
+    note: str = ""
+    """The outcome when it is not a proven optimum: "best N, bound M within 10 s" or "too
+    large: N operations × H cycles"."""
 
 
 def serial_length(graph: DependenceGraph, proc: Processor, config: MachineConfig) -> int:
@@ -74,14 +90,22 @@ def optimum_schedule(graph: DependenceGraph, reads: list[list[tuple[int, int]]],
         return Optimum(0, True, ())
     serial = serial_length(graph, proc, config)
     horizon = min(upper, serial) if upper else serial
-    result = _solve(cp_model, graph, reads, proc, config, lower, horizon, hint, seconds)
-    if result is None and horizon < serial:  # the written length was not enough in the model
-        result = _solve(cp_model, graph, reads, proc, config, lower, serial, None, seconds)
+    import time
+
+    started = time.monotonic()
+    result = _solve(cp_model, graph, reads, proc, config, lower, horizon, hint, seconds,
+                    WALL_SECONDS)
+    if result is not None and result.length is None:
+        return result  # too large: the serial horizon would be larger still
+    left = WALL_SECONDS - (time.monotonic() - started)
+    if result is None and horizon < serial and left > 1:  # the written length was not enough
+        result = _solve(cp_model, graph, reads, proc, config, lower, serial, None, seconds, left)
     return result
 
 
 def _solve(cp_model, graph: DependenceGraph, reads, proc: Processor, config: MachineConfig,
-           lower: int, horizon: int, hint: list[int] | None, seconds: float) -> Optimum | None:
+           lower: int, horizon: int, hint: list[int] | None, seconds: float,
+           wall: float) -> Optimum | None:
     n = len(graph.ops)
     # earliest and latest issue cycles within the horizon (edges of one pass run forward)
     est = [0] * n
@@ -96,7 +120,10 @@ def _solve(cp_model, graph: DependenceGraph, reads, proc: Processor, config: Mac
     lst = [horizon - tail[i] for i in range(n)]
     if any(lst[i] < est[i] for i in range(n)):
         return None
-
+    cells = sum(lst[i] - est[i] + 1 for i in range(n))
+    if cells + len(graph.edges) > MAX_MODEL_CELLS:
+        return Optimum(None, False, (), f"too large: {n:,} operations × {horizon:,} cycles "
+                                        f"(more than {MAX_MODEL_CELLS:,} issue slots and edges)")
     m = cp_model.CpModel()
     starts = [m.NewIntVar(est[i], lst[i], f"s{i}") for i in range(n)]
     x = [{t: m.NewBoolVar(f"x{i}_{t}") for t in range(est[i], lst[i] + 1)} for i in range(n)]
@@ -115,9 +142,13 @@ def _solve(cp_model, graph: DependenceGraph, reads, proc: Processor, config: Mac
     for unit, intervals in by_unit.items():
         m.AddCumulative(intervals, [1] * len(intervals), proc.units[unit])
     cycles = range(horizon)
+    by_cycle: list[list[int]] = [[] for _ in cycles]  # operations that may issue in each cycle
+    for i in range(n):
+        for t in x[i]:
+            by_cycle[t].append(i)
 
     def at(t: int) -> list:
-        return [x[i][t] for i in range(n) if t in x[i]]
+        return [x[i][t] for i in by_cycle[t]]
 
     # loads hold issue
     issue = {}
@@ -133,25 +164,36 @@ def _solve(cp_model, graph: DependenceGraph, reads, proc: Processor, config: Mac
                     m.AddBoolOr([v.Not(), issue[t + k].Not()])
     # register ports per cycle
     values = sorted({v for vs in reads for v in vs})
-    readers = {v: [i for i in range(n) if v in reads[i]] for v in values}
+    reads_of = [sorted(set(vs)) for vs in reads]
     writes = [len(op.writes()) for op in graph.ops]
+    landing: list[list[int]] = [[] for _ in cycles]  # writers whose result lands in each cycle
+    for i in range(n):
+        if writes[i]:
+            for t in x[i]:
+                if t + graph.latencies[i] < horizon:
+                    landing[t + graph.latencies[i]].append(i)
     for t in cycles:
         used = []
+        readers_now: dict = {}
+        for i in by_cycle[t]:
+            for v in reads_of[i]:
+                readers_now.setdefault(v, []).append(x[i][t])
         for v in values:
-            vs = [x[i][t] for i in readers[v] if t in x[i]]
+            vs = readers_now.get(v)
+            if not vs:
+                continue
             if len(vs) == 1:
                 used.append(vs[0])
-            elif vs:
+            else:
                 y = m.NewBoolVar(f"r{t}")
                 m.AddMaxEquality(y, vs)
                 used.append(y)
         if len(used) > proc.read_ports:
             m.Add(sum(used) <= proc.read_ports)
-        issued = [writes[i] * x[i][t] for i in range(n) if writes[i] and t in x[i]]
-        if sum(writes[i] for i in range(n) if writes[i] and t in x[i]) > proc.write_ports:
+        issued = [writes[i] * x[i][t] for i in by_cycle[t] if writes[i]]
+        if sum(writes[i] for i in by_cycle[t]) > proc.write_ports:
             m.Add(sum(issued) <= proc.write_ports)
-        land = [(writes[i], x[i][t - graph.latencies[i]]) for i in range(n)
-                if writes[i] and t - graph.latencies[i] in x[i]]
+        land = [(writes[i], x[i][t - graph.latencies[i]]) for i in landing[t]]
         if sum(w for w, _ in land) > proc.write_ports:
             m.Add(sum(w * v for w, v in land) <= proc.write_ports)
     length = m.NewIntVar(max(lower, 1), horizon, "length")
@@ -166,8 +208,16 @@ def _solve(cp_model, graph: DependenceGraph, reads, proc: Processor, config: Mac
     solver.parameters.num_workers = 1
     solver.parameters.random_seed = 0
     solver.parameters.max_deterministic_time = seconds
+    solver.parameters.max_time_in_seconds = wall
     status = solver.Solve(m)
     if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
         return None
-    return Optimum(int(solver.Value(length)), status == cp_model.OPTIMAL,
-                   tuple(int(solver.Value(s)) for s in starts))
+    best = int(solver.Value(length))
+    proven = status == cp_model.OPTIMAL
+    note = ""
+    if not proven:
+        bound = int(solver.BestObjectiveBound())
+        limit = (f"within {WALL_SECONDS:g} s" if solver.WallTime() >= wall * 0.99
+                 else f"within {seconds:g} deterministic s")
+        note = f"best {best}, bound {bound} {limit}"
+    return Optimum(best, proven, tuple(int(solver.Value(s)) for s in starts), note)

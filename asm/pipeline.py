@@ -46,6 +46,11 @@ NEGATED = {"beq": "bne", "bne": "beq", "blt": "bge", "bge": "blt", "bltu": "bgeu
            "bgeu": "bltu", "beqz": "bnez", "bnez": "beqz"}
 MAX_II_TRIES = 16
 
+MAX_PIPELINE_II = 256
+"""The largest minimum II the modulo scheduler tries: its reservation table has a row per
+cycle of the II, so its cost grows with the II, which a legal load latency (up to 4,096
+cycles) sets; such a loop is list-scheduled as a plain block instead."""
+
 
 @dataclass(frozen=True)
 class Placed:
@@ -282,6 +287,11 @@ def pipeline_loop(ops: list[Op], proc: Processor, config: MachineConfig, temps: 
     clash = sorted(set(temps) & used)
     if clash:
         report.reason = f".temps {register_name(clash[0])} is used by the loop"
+        return None
+    if report.mii > MAX_PIPELINE_II:
+        report.reason = (f"its minimum II {report.mii:,} is over {MAX_PIPELINE_II} "
+                         "(asm.pipeline.MAX_PIPELINE_II): a pass that long gains nothing "
+                         "from overlapping the next")
         return None
     reads = value_of_reads(g)
     reason = "no schedule found"

@@ -15,6 +15,7 @@ from netsushisen.asm.checker import check_bundle
 from netsushisen.asm.dependences import dependences, ends_block
 from netsushisen.asm.objects import Op, SourceLoc
 from netsushisen.asm.parser import Directive, Loc
+from netsushisen.isa.errors import Diagnostic
 from netsushisen.asm.pipeline import Layout, Placed, PipelineReport, materialize, pipeline_loop
 from netsushisen.asm.scheduler import list_schedule
 from netsushisen.isa.config import MachineConfig
@@ -44,6 +45,37 @@ class Region:
     deadout: list[int] = field(default_factory=list)  # `.deadout`: dead at every exit
     temps_auto: bool = False  # `.temps auto`: every register no physical name uses
     vregs: dict[str, Loc] = field(default_factory=dict)  # `.vreg` names the assembler allocates
+
+
+MAX_REGION_OPS = 2048
+"""Operations of one `.sched` region (2,048): far more than a kernel's hot code (the bundled
+kernels' largest region has a few hundred); a longer one is refused at the line that passes it,
+while the source is read, so a generated 50,000-line region costs seconds, not minutes."""
+
+MAX_REGION_LABELS = 1024
+"""Labels inside one `.sched` region (each starts a block the scheduler lays out apart)."""
+
+MAX_SIDE_EXITS = 256
+"""Branches inside one `.deadout` superblock (side exits): the scheduler ranks every operation
+by the exits after it."""
+
+MAX_PIPELINE_OPS = 128
+"""Operations of one `.pipeline` loop: the modulo scheduler tries up to MAX_II_TRIES initiation
+intervals, each placing every operation against every row; a longer loop is scheduled as a
+plain block, its information saying why (a 300-operation loop took 30 s)."""
+
+
+def region_problem(region: Region, ops: list[Op]) -> str | None:
+    """Why a region is beyond its documented limits before it is scheduled (None if not)."""
+    if len(region.starts) > MAX_REGION_LABELS:
+        return (f"this .sched region has {len(region.starts):,} labels, more than "
+                f"{MAX_REGION_LABELS:,} (asm.regions.MAX_REGION_LABELS): split it")
+    if region.deadout:
+        exits = sum(1 for op in ops if op.opcode.kind == "branch")
+        if exits > MAX_SIDE_EXITS:
+            return (f"this .deadout region has {exits:,} side exits, more than "
+                    f"{MAX_SIDE_EXITS:,} (asm.regions.MAX_SIDE_EXITS): split it")
+    return None
 
 
 def blocks(n: int, ops: list[Op], starts: set[int]) -> list[tuple[int, int]]:
@@ -105,6 +137,10 @@ def schedule_region(ops: list[Op], targets: list[int | None], starts: set[int],
             if targets[b - 1] != a:
                 report.ops = len(body)
                 report.reason = "it is not a single-block loop (its last operation does not branch back to its head)"
+            elif len(body) > MAX_PIPELINE_OPS:
+                report.ops = len(body)
+                report.reason = (f"{len(body):,} operations, more than {MAX_PIPELINE_OPS} "
+                                 "(asm.regions.MAX_PIPELINE_OPS)")
             else:
                 sub = pipeline_loop(body, proc, config, temps, report, inorder)
                 if sub is not None:
@@ -326,6 +362,11 @@ class RegionAssembly:
                 addr, i = addr + 1, i + 1
                 continue
             ops = [resolved[k][0] for k in range(r.first, r.end)]
+            problem = region_problem(r, ops)
+            if problem:
+                from netsushisen.asm.assembler import AssemblyError
+
+                raise AssemblyError(Diagnostic(problem, r.loc.file, r.loc.line, r.loc.col))
             self.region_lines |= {(s.file, s.line, s.via) for k in range(r.first, r.end)
                                   for s in sources[k]}
             targets = []

@@ -17,6 +17,8 @@ folded modulo II into the rows of a modulo reservation table.
 
 from __future__ import annotations
 
+import bisect
+
 from collections import Counter
 from dataclasses import dataclass, field
 
@@ -43,6 +45,8 @@ class Reservations:
     def __init__(self, proc: Processor, config: MachineConfig, ii: int | None = None):
         self.proc, self.config, self.ii = proc, config, ii
         self.rows: dict[int, _Row] = {}
+        self.issued: list[int] = []  # sorted cycles holding an operation (list schedules)
+        self.held: list[tuple[int, int]] = []  # (first, last) cycles a placed load holds
 
     def _row(self, cycle: int) -> _Row:
         key = cycle % self.ii if self.ii else cycle
@@ -51,7 +55,8 @@ class Reservations:
             row = self.rows[key] = _Row()
         return row
 
-    def _claims(self, op: Op, cycle: int, latency: int, hold: int, reads) -> list:
+    def _claims(self, op: Op, cycle: int, latency: int, hold: int, reads,
+                holds: bool = True) -> list:
         unit = None if op.opcode.kind == "nop" else self.proc.unit(op.opcode.unit)
         out = []
         if unit is not None:
@@ -64,16 +69,35 @@ class Reservations:
             out.append((cycle + latency, "completions", n))
         if op.opcode.is_control:
             out.append((cycle, "control", 1))
-        for k in range(1, hold):
+        for k in range(1, hold if holds else 1):
             out.append((cycle + k, "blocked", 1))
         return out
+
+    def unheld(self, cycle: int) -> int:
+        """The first cycle from `cycle` on that no placed load holds (list schedules): no
+        operation can issue in a held cycle, so the scheduler goes past them at once."""
+        k = bisect.bisect_right(self.held, (cycle, 1 << 62)) - 1
+        while 0 <= k < len(self.held) and self.held[k][0] <= cycle <= self.held[k][1]:
+            cycle = self.held[k][1] + 1
+            k += 1
+        return cycle
+
+    def _hold_clear(self, cycle: int, hold: int) -> bool:
+        """Whether no operation is placed in the cycles a load issued in `cycle` holds
+        (cycle+1 .. cycle+hold-1), found by bisection in the sorted issue cycles, not by a
+        claim per held cycle: a check costs log(placed), never the load's latency times the
+        attempts (the list scheduler's horizon does not grow with a 4,096-cycle load)."""
+        k = bisect.bisect_left(self.issued, cycle + 1)
+        return k == len(self.issued) or self.issued[k] > cycle + hold - 1
 
     def fits(self, op: Op, cycle: int, latency: int, hold: int, reads=None) -> bool:
         """Whether `op` can issue in `cycle` beside what is placed (`reads`: the register names
         it reads, if not `op.reads()` — the modulo scheduler passes names per iteration)."""
         reads = frozenset(op.reads() if reads is None else reads)
-        claims = self._claims(op, cycle, latency, hold, reads)
         if self.ii and hold > self.ii:  # a load holding issue for a whole II blocks its own row
+            return False
+        claims = self._claims(op, cycle, latency, hold, reads, holds=bool(self.ii))
+        if not self.ii and hold > 1 and not self._hold_clear(cycle, hold):
             return False
         proc = self.proc
         # group claims per row (a modulo row may be claimed twice by one op)
@@ -117,6 +141,10 @@ class Reservations:
             elif kind == "op":
                 row.ops += 1
                 row.reads |= v
+                if not self.ii and row.ops == 1:
+                    bisect.insort(self.issued, c)
+                if not self.ii and hold > 1:
+                    bisect.insort(self.held, (c + 1, c + hold - 1))
             else:
                 setattr(row, kind, getattr(row, kind) + v)
 
@@ -147,7 +175,7 @@ def issue_times(ops: list[Op] | tuple[Op, ...], proc: Processor, config: Machine
     # a superblock's side exits first: an operation ranks by the first control transfer at or
     # after it (serial order), so what an exit waits for is placed before what may be hoisted
     ends = [j for j, op in enumerate(g.ops) if op.opcode.kind in BLOCK_END_KINDS]
-    rank = [next((k for k, j in enumerate(ends) if j >= i), len(ends)) for i in range(n)]
+    rank = [bisect.bisect_left(ends, i) for i in range(n)]  # the first end at or after i
     height = list(g.heights)
     if len(ends) > 1:  # ... and within a rank, the longest path to that exit (not past it)
         for k, end in enumerate(ends):
@@ -179,5 +207,7 @@ def issue_times(ops: list[Op] | tuple[Op, ...], proc: Processor, config: Machine
         if any(earliest[i] <= cycle and res.fits(g.ops[i], cycle, g.latencies[i], g.holds[i])
                for i in ready):
             continue
-        cycle += 1
+        # no cycle before the earliest a ready operation may issue in can take one: go there at
+        # once (a load of 4,096 cycles must not cost 4,096 turns of this loop)
+        cycle = res.unheld(max(cycle + 1, min((earliest[i] for i in ready), default=cycle + 1)))
     return time  # type: ignore[return-value]

@@ -212,6 +212,24 @@ def plan_layout(scene: Scene, config: MachineConfig | None = None, priorities=No
                           scene_words=scene_words)
 
 
+def check_fixed_grid(config: MachineConfig, os_base: int = OS_BASE) -> None:
+    """Before the grid is built: a fixed `grid.top_resolution` whose voxels alone cannot fit OS
+    memory is refused from the configuration, at once (building a 256³ grid to find out took
+    19-53 s); the same message `plan_layout` gives a built grid that does not fit."""
+    from netsushisen.host.grid import WORDS_PER_VOXEL
+
+    top = config.grid.top_resolution
+    if top <= 0:
+        return
+    words = TOP_HEADER_WORDS + top ** 3 * WORDS_PER_VOXEL
+    if os_base + words > config.os.local_words:
+        raise ConfigError(Diagnostic(
+            f"voxel data (at least {words:,} words: grid.top_resolution {top} is {top ** 3:,} "
+            f"top voxels) at OS local address {os_base} do not fit os.local_words = "
+            f"{config.os.local_words}; raise os.local_words or choose a smaller "
+            "grid.top_resolution", file="config"))
+
+
 def database_bytes(scene: Scene, config: MachineConfig | None = None,
                    grid: Grid | None = None) -> dict[str, int]:
     """Bytes of voxel_data, primitive_list, shape_data and luminance_data (`scene info`)."""

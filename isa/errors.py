@@ -56,6 +56,17 @@ class NetsushisenError(Exception):
     def format(self) -> str:
         return "\n".join(d.format() for d in self.diagnostics)
 
+    @property
+    def path(self) -> str | None:
+        """The file the first message is about (None when it names none): for a notebook, the
+        `file` of `file:line:col: error: ...`."""
+        return self.diagnostics[0].file if self.diagnostics else None
+
+    @property
+    def line(self) -> int | None:
+        """The 1-based line of the first message (None when it names none)."""
+        return self.diagnostics[0].line if self.diagnostics else None
+
     def __reduce__(self):
         """Copy and pickle by state: subclasses take other constructor arguments (a run fault
         takes a processor, a cycle and a message), so rebuilding through __init__ is wrong."""

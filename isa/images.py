@@ -170,7 +170,14 @@ def load_image(path: str | Path) -> MemoryImage:
     if p.suffix == ".npz":
         return _load_npz(p)
     try:
-        data = json.loads(p.read_text(encoding="utf-8"))
+        from netsushisen.isa import numbers
+
+        data = numbers.loads(p.read_text(encoding="utf-8"), finite=False)
+        bad = numbers.first_problem(data, finite=False)
+        if bad:
+            raise NetsushisenError(Diagnostic(f"{bad[0]}: {bad[1]}", file=str(p)))
+    except RecursionError:
+        raise NetsushisenError(Diagnostic("not valid JSON: nested too deeply", file=str(p))) from None
     except json.JSONDecodeError as err:
         raise NetsushisenError(Diagnostic(f"not valid JSON: {err.msg}", file=str(p),
                                           line=err.lineno, col=err.colno)) from None

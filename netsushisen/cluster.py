@@ -98,8 +98,10 @@ def connect(scheduler: str | None, workers: int | None):
         greeting(scheduler)
         try:
             return Client(scheduler, timeout="10s"), None
-        except (OSError, TimeoutError, ValueError, TypeError, MemoryError, EOFError) as err:
-            # MemoryError: a server that is not Dask's (its reply read as a frame length)
+        except Exception as err:  # noqa: BLE001
+            # whatever Dask's reader raises on a server that breaks its protocol after a
+            # plausible greeting (MemoryError: its reply read as a frame length; struct.error:
+            # half a frame; msgpack's errors: bytes that do not decode) is this one line
             raise NetsushisenError(f"--scheduler {scheduler}: cannot connect "
                                    f"({type(err).__name__}: {str(err)[:200]})") from None
     n = workers or os.cpu_count() or 1

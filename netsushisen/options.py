@@ -376,6 +376,15 @@ def check_output_folders(*paths: str | None) -> None:
                                                   file=str(path)))
 
 
+def check_output_dir(path: str | Path) -> None:
+    """Before any work: an output folder that exists is a folder (a sweep must not compute for
+    minutes and then fail to make DIR/points inside a regular file)."""
+    p = Path(path)
+    if os.path.lexists(p) and not p.is_dir():
+        raise NetsushisenError(Diagnostic("the output folder is a file (or a dangling link): "
+                                          "give a folder", file=str(p)))
+
+
 def write_output(path: str, write) -> None:
     """`write(tmp)` for the file `path`, atomically and never through a link
     (isa/outputs.py); an OSError (no such folder, no permission, a full disk) as a

@@ -235,8 +235,9 @@ class PaperRun:
 
 def output_folder(out: Path) -> Path:
     """The output folder, made; a file in its place is an error."""
-    if out.exists() and not out.is_dir():
-        raise NetsushisenError(Diagnostic("the output folder is a file", file=str(out)))
+    from netsushisen.options import check_output_dir
+
+    check_output_dir(out)
     out.mkdir(parents=True, exist_ok=True)
     return out
 

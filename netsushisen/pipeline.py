@@ -27,7 +27,7 @@ from netsushisen.asm.objects import Program
 from netsushisen.emulator.engine import EXIT_CODES, Engine, RunResult, default_engine, make_engine
 from netsushisen.isa.errors import ConfigError, Diagnostic
 from netsushisen.host.catalog import load_scene
-from netsushisen.host.databases import MachineImages, build_images
+from netsushisen.host.databases import MachineImages, build_images, check_fixed_grid
 from netsushisen.host.golden import to_u8
 from netsushisen.host.grid import build_grid
 from netsushisen.host.prepass import PrepassResult, run_prepass
@@ -255,6 +255,7 @@ def kernel_inputs(scene: Scene | str, config: MachineConfig, res: int = 32,
         scene = cached(("scene",), lambda: load_scene(name))
     config.validate()
     check_fifo_depth(config)
+    check_fixed_grid(config)
     grid = cached(("grid", repr(config.grid), config.os.local_words, config.precision),
                   lambda: build_grid(scene, config))
     prepass = run_prepass(scene, config, res=res, corners=corners, grid=grid)

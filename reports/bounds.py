@@ -261,7 +261,7 @@ def bounds_report(stats: dict, proc: str | None = None, top: int | None = None,
         blocks.sort(key=lambda b: (-heat[b.start], b.start))
         blocks = blocks[:20 if top is None else top]
         for b in blocks:
-            if b.optimum is None and 0 < b.ops <= optimum_ops:
+            if b.optimum is None and not b.optimum_note and 0 < b.ops <= optimum_ops:
                 add_optimum(program, b, config)
         rows.append((name, chosen_loops + blocks, counts))
     from netsushisen.reports.floor import floor_sections

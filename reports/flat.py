@@ -95,12 +95,16 @@ def format_flat(stats: dict) -> str:
 
 
 def _number(text: str) -> int | float | None:
+    """A value's number (its digits bounded before conversion: isa/numbers.py), None when it
+    is not one."""
+    from netsushisen.isa import numbers
+
     try:
-        return int(text)
+        return numbers.integer(text)
     except ValueError:
         pass
     try:
-        return float(text)
+        return numbers.real(text)
     except ValueError:
         return None
 
@@ -119,6 +123,7 @@ def is_flat(text: str) -> bool:
 
 def parse_flat(text: str, source: str = "<flat>") -> dict:
     """A flat dump back into the statistics file's structure (the listings aside)."""
+    from netsushisen.isa import numbers
     from netsushisen.isa.errors import Diagnostic
     from netsushisen.reports.tables import StatsError
 
@@ -140,32 +145,43 @@ def parse_flat(text: str, source: str = "<flat>") -> dict:
                                             line=number)) from None
         else:
             value = parse_value(rest.split()[0])
-        _place(stats, name, value)
+        problem = numbers.check(value) or _place(stats, name, value)
+        if problem:
+            raise StatsError(Diagnostic(f"{name}: {problem}", file=source, line=number))
     for name in LISTS:
         section, key = name.split(".")
         d = stats.get(section, {}).get(key)
         if isinstance(d, dict):
+            if not all(k.isdigit() and len(k) < 10 for k in d):
+                raise StatsError(Diagnostic(f"{name}: a list's entries are named by their index "
+                                            "(0, 1, ...)", file=source))
             stats[section][key] = [d[k] for k in sorted(d, key=int)]
     return stats
 
 
-def _set(d: dict, keys: list[str], value: object) -> None:
-    for k in keys[:-1]:
+def _set(d: dict, keys: list[str], value: object) -> str | None:
+    """Place a value at its path; why not when the names do not form a tree (a value where a
+    group of names is, or a group under a value)."""
+    for i, k in enumerate(keys[:-1]):
         d = d.setdefault(k, {})
+        if not isinstance(d, dict):
+            return f"'{'.'.join(keys[:i + 1])}' is a value, not a group of statistics"
+    if isinstance(d.get(keys[-1]), dict):
+        return f"'{'.'.join(keys)}' is a group of statistics, not a value"
     d[keys[-1]] = value
+    return None
 
 
-def _place(stats: dict, name: str, value: object) -> None:
+def _place(stats: dict, name: str, value: object) -> str | None:
     parts = name.split(".")
     if parts[0].startswith("pe") and parts[0][2:].isdigit() and len(parts) >= 3:
         proc, key = f"{parts[0]}.{parts[1]}", parts[2]
         if key == "regions":
-            _set(stats, ["memory", proc, "regions", ".".join(parts[3:5]), *parts[5:]], value)
-        elif key in MEMORY_KEYS:
-            _set(stats, ["memory", proc, *parts[2:]], value)
-        else:
-            _set(stats, ["processors", proc, *parts[2:]], value)
-    elif parts[0] == "fifos":
-        _set(stats, ["fifos", ".".join(parts[1:-1]), parts[-1]], value)
-    else:
-        _set(stats, parts, value)
+            return _set(stats, ["memory", proc, "regions", ".".join(parts[3:5]), *parts[5:]],
+                        value)
+        if key in MEMORY_KEYS:
+            return _set(stats, ["memory", proc, *parts[2:]], value)
+        return _set(stats, ["processors", proc, *parts[2:]], value)
+    if parts[0] == "fifos":
+        return _set(stats, ["fifos", ".".join(parts[1:-1]), parts[-1]], value)
+    return _set(stats, parts, value)

@@ -85,15 +85,19 @@ def load_stats(path: str | Path) -> dict:
         raise StatsError(Diagnostic("this is a directory, not a statistics file", file=str(p))) from None
     except UnicodeDecodeError:
         raise StatsError(Diagnostic("not a text file (expected statistics JSON)", file=str(p))) from None
+    from netsushisen.isa import numbers
     from netsushisen.reports.flat import is_flat, parse_flat
 
     try:
-        data = parse_flat(text, str(p)) if is_flat(text) else json.loads(text)
+        data = parse_flat(text, str(p)) if is_flat(text) else numbers.loads(text)
     except json.JSONDecodeError as err:
         raise StatsError(Diagnostic(f"not valid JSON: {err.msg}", file=str(p), line=err.lineno,
                                     col=err.colno)) from None
     except RecursionError:
         raise StatsError(Diagnostic("not valid JSON: nested too deeply", file=str(p))) from None
+    bad = numbers.first_problem(data)
+    if bad:
+        raise StatsError(Diagnostic(f"{bad[0]}: {bad[1]}", file=str(p)))
     schema = data.get("schema") if isinstance(data, dict) else None
     if not isinstance(schema, dict) or schema.get("name") != SCHEMA_NAME:
         raise StatsError(Diagnostic(f"not a {SCHEMA_NAME} statistics file (write one with "
@@ -285,6 +289,7 @@ REPORTS: dict[str, tuple[str, str]] = {
     "annotate": ("netsushisen.reports.annotate", "annotate_sections"),
     "diff": ("netsushisen.reports.diff", "diff_sections"),
     "floor": ("netsushisen.reports.floor", "floor_sections"),
+    "bounds": ("netsushisen.reports.bounds", "bounds_report"),
 }
 """The reports made of sections: name -> (module, function(stats, ...) -> [Section]). `report
 KIND` and the Python API's `.table(KIND)` both read them through `report_sections` (`floor` is

@@ -185,3 +185,50 @@ def test_config_dump_describes_every_field_with_unit_and_default(cli, tmp_path):
     (tmp_path / "c.toml").write_text(out)
     code, out, _ = cli("config", "--check", tmp_path / "c.toml")
     assert code == 0 and out.startswith(f"{tmp_path / 'c.toml'}: ok")
+
+
+def test_the_kernel_experiment_runs_as_written():
+    """issue 42 item 5: a `.sched` loop written, run at three latencies, tabulated."""
+    scope: dict = {}
+    exec(compile(doc_block("## A kernel experiment, end to end"), "docs/api.md", "exec"), scope)
+    study = scope["study"]
+    assert list(study.columns) == ["t_r", "cycles", "II", "sum"]
+    assert list(study["sum"]) == [248.0] * 3  # sum over k < 64 of (2k mod 5)(2k+1 mod 5)
+    assert list(study["cycles"]) == sorted(study["cycles"]) and study["cycles"].is_unique
+    assert study["II"].iloc[0] < study["II"].iloc[2]
+    text = (ROOT / "docs" / "api.md").read_text(encoding="utf-8")
+    for row in study.itertuples():  # the table the page shows is this run's
+        assert f"| {row.t_r} | {row.cycles:,} | {row.II} | {row.sum} |" in text
+
+
+def test_natural_inputs_of_run_and_a_short_repr(tmp_path):
+    """issue 42 item 5: a path, a source string, a Program, a dict of either; an image as a
+    path, a dict or the object; a short repr and a notebook view."""
+    from netsushisen.isa.images import image_from_json
+
+    src = ".proc ic\n.reg acc = r5\n        lf acc, 68.0\n        ldr r6, [r0 + 1]\n        halt\n"
+    path = tmp_path / "k.s"
+    path.write_text(src)
+    image = {"ic.resident": [0.0, 2.5]}
+    (tmp_path / "img.json").write_text(json.dumps(image))
+    prog = nss.assemble(path)
+    for programs in (str(path), path, src, prog, {"ic": prog}, {"ic": str(path)}, [prog]):
+        for img in (image, str(tmp_path / "img.json"), image_from_json(image)):
+            r = nss.run(programs, image=img, engine="reference")
+            regs = r.registers("ic")
+            assert regs.loc["r5", "name"] == "acc" and regs.loc["r5", "float"] == 68.0
+            assert regs.loc["r6", "float"] == 2.5 and regs.loc["r5", "int"] == 1116209152
+    assert len(repr(r)) < 200 and "halted" in repr(r)
+    assert "<table>" in r._repr_html_()
+    with pytest.raises(nss.NetsushisenError) as err:
+        nss.run(".proc ic\n  nope r1\n  halt\n")
+    assert err.value.path == "<string>" and err.value.line == 2
+
+
+def test_a_render_result_is_short_and_shows_in_a_notebook(tiny):
+    assert isinstance(tiny.image, np.ndarray)
+    assert len(repr(tiny)) < 2000 and "cycles=" in repr(tiny)
+    html = tiny._repr_html_()
+    assert "data:image/png;base64," in html and len(html) < 200_000
+    bounds = tiny.table("bounds")
+    assert list(bounds.columns)[:2] == ["processor", "loop"] and len(bounds)

@@ -10,6 +10,7 @@ import json
 import os
 import signal
 import socket
+import struct
 import subprocess
 import sys
 import threading
@@ -277,3 +278,30 @@ def test_accuracy_reuses_a_finished_scene_axis_unit_and_fresh_measures_again(tmp
     fresh = json.loads((tmp_path / "a" / "accuracy.json").read_text())["axes"]
     assert [_untimed(r) for r in fresh["precision"]] == [_untimed(r) for r in rows["precision"]]
     assert [r["timing"] for r in fresh["precision"]] != [r["timing"] for r in rows["precision"]]
+
+
+HALF_FRAMES = {  # a Dask greeting's 8-byte length, then less than it announced (issue 46 Why 4)
+    "length-only": struct.pack("<Q", 16),
+    "half-header": struct.pack("<Q", 16) + b"\x01\x00\x00",
+    "short-frame": struct.pack("<Q", 8) + struct.pack("<Q", 1) + b"\x00",
+    "bad-msgpack": struct.pack("<Q", 24) + struct.pack("<Q", 1) + struct.pack("<Q", 8) + b"\xc1" * 8,
+}
+
+
+@pytest.mark.parametrize("reply", sorted(HALF_FRAMES))
+@pytest.mark.parametrize("command", ["sweep", "numerics"])
+def test_a_scheduler_that_answers_half_a_frame_is_one_line(tmp_path, cli, command, reply):
+    """A server that begins like Dask, then breaks its own protocol: one line, exit 1, within the
+    greeting's time (Dask's reader raised struct.error: internal error, exit 70)."""
+    import time
+
+    server = _Server(HALF_FRAMES[reply])
+    start = time.monotonic()
+    try:
+        code, out, err = cli(command, *COMMANDS[command](tmp_path), "--scheduler", server.address)
+    finally:
+        server.close()
+    assert code == 1 and "Traceback" not in err and "internal error" not in err, err
+    assert len(err.strip().splitlines()) == 1, err
+    assert f"--scheduler {server.address}: cannot connect" in err
+    assert time.monotonic() - start < 30

@@ -115,3 +115,22 @@ def test_coincident_primitives_are_refused_by_the_grid_pairs_they_imply(tmp_path
     assert main(["golden", str(scene), "--res", "2"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "limits.MAX_GRID_CANDIDATES" in err[0], err
+
+
+@pytest.mark.parametrize("sets", [["grid.top_resolution=256"],
+                                  ["grid.top_resolution=256", "grid.sub_resolution=256",
+                                   "grid.subdivide_threshold=0"]])
+def test_a_grid_at_its_maximum_is_refused_from_the_configuration(tmp_path, capsys, sets):
+    """issue 46 Why 7: refused after 19-53 s of building the grid; the README promises a
+    refusal within a second (here: before any grid work, the process's imports aside)."""
+    import time
+
+    args = ["render", "tetra", "--res", "2", "-o", str(tmp_path / "t.png")]
+    for s in sets:
+        args += ["--set", s]
+    start = time.monotonic()
+    assert main(args) == 1
+    assert time.monotonic() - start < 5
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "grid.top_resolution 256 is 16,777,216 top voxels" in err[0], err
+    assert "do not fit os.local_words = 65536" in err[0] and not (tmp_path / "t.png").exists()

@@ -241,3 +241,16 @@ def test_failed_corrupt_and_repeated_points_heal_on_the_next_run(tmp_path, cli):
     code, text, _ = cli("sweep", twice, "--out", out, "--no-retry")
     assert text.strip().splitlines()[-1] == \
         "sweep: 2 points (2 more repeat one), 0 computed, 2 cached, 1 failed"
+
+
+def test_an_out_that_is_a_regular_file_is_refused_before_work(tmp_path, cli):
+    """issue 46 Why 4: `--out FILE` was a NotADirectoryError after the first point."""
+    spec = tmp_path / "s.toml"
+    spec.write_text('scenes = ["tetra:1"]\nres = 4\n[vary]\n"ic_memory.cache_bytes" = [1024]\n')
+    out = tmp_path / "results"
+    out.write_text("keep")
+    code, _, err = cli("sweep", spec, "--out", out, "--scheduler", "tcp://127.0.0.1:9")
+    assert code == 1 and "Traceback" not in err
+    assert err.strip() == (f"{out}: error: the output folder is a file (or a dangling link): "
+                           "give a folder")
+    assert out.read_text() == "keep"

@@ -13,8 +13,11 @@ The cache folder is `$NETSUSHISEN_CACHE`, else `~/.cache/netsushisen`, else a fo
 user's own in the temporary folder (`netsushisen-cache-UID`, mode 0700, refused if another user
 owns it or others may write it: numba's index is a pickle, so a planted one would run code).
 Each entry carries `checksums.json`, the SHA-256 of every file numba wrote, recorded when the
-process that compiled it ends; a load checks it first, and an entry that does not match (flipped
-bytes, a truncated index) is discarded and rebuilt with one line saying so.
+process that compiled it ends; a load checks it first, and an entry that is not as the cache
+wrote it (flipped bytes, a truncated index, a link anywhere in it, the entry itself a link,
+numba's files without checksums and no live process compiling them) is discarded and rebuilt
+with one line saying so. Links are never followed, and the writability probe creates a name of
+its own with O_CREAT|O_EXCL|O_NOFOLLOW.
 """
 
 from __future__ import annotations
@@ -125,48 +128,115 @@ def _cache_root() -> Path:
         path = Path(base) / "compiled"
         try:
             path.mkdir(parents=True, exist_ok=True)
-            probe = path / ".writable"
-            probe.touch()
+            _probe(path)
             return path
         except OSError:
             continue
     raise OSError("no writable cache folder for the compiled engine (set NETSUSHISEN_CACHE)")
 
 
+def _probe(folder: Path) -> None:
+    """Whether this process may write in `folder` (OSError if not), found by creating a file of
+    its own there with O_CREAT|O_EXCL|O_NOFOLLOW and removing it: a name planted in the folder
+    (a link to a file elsewhere) is never opened, so the check never writes outside it."""
+    import secrets
+
+    probe = folder / f".writable-{os.getpid()}-{secrets.token_hex(4)}"
+    fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
+    os.close(fd)
+    os.unlink(probe)
+
+
 CHECKSUMS = "checksums.json"
+COMPILING = ".compiling-"
+"""An entry's marker while a process that found it unrecorded compiles into it (the name ends
+with its process id): numba's files without checksums are that process's work in progress,
+not a corrupt entry, as long as it lives."""
+
+
+def _is_link_or_odd(path: Path, want_dir: bool) -> bool:
+    """Whether `path` exists as anything but what the cache writes there (a link, dangling or
+    not; a file where a folder belongs, or the reverse). lstat only: never followed."""
+    import stat
+
+    try:
+        st = os.lstat(path)
+    except FileNotFoundError:
+        return False
+    return not (stat.S_ISDIR(st.st_mode) if want_dir else stat.S_ISREG(st.st_mode))
 
 
 def _cache_sums(folder: Path) -> dict[str, str]:
-    """SHA-256 of every file numba wrote in an entry (its __pycache__)."""
+    """SHA-256 of every file numba wrote in an entry (its __pycache__); a name that is not a
+    regular file (a link) gets no digest, so it never matches."""
     cache = folder / "__pycache__"
-    if not cache.is_dir():
+    if _is_link_or_odd(cache, want_dir=True) or not cache.is_dir():
         return {}
-    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(cache.iterdir()) if p.is_file() and not p.name.startswith(".")}
+    return {p.name: ("not a file" if _is_link_or_odd(p, want_dir=False)
+                     else hashlib.sha256(p.read_bytes()).hexdigest())
+            for p in sorted(cache.iterdir()) if not p.name.startswith(".")}
+
+
+def _compiling_elsewhere(folder: Path) -> bool:
+    """Whether a live process marked the entry as its compile in progress."""
+    for marker in folder.glob(COMPILING + "*"):
+        pid = marker.name[len(COMPILING):]
+        if pid.isdigit() and int(pid) != os.getpid():
+            try:
+                os.kill(int(pid), 0)
+                return True
+            except PermissionError:
+                return True
+            except (OSError, OverflowError):
+                marker.unlink(missing_ok=True)  # its process is gone
+    return False
+
+
+def _discard(folder: Path) -> None:
+    """numba's files and the checksums of an entry, removed without following a link."""
+    import shutil
+
+    cache = folder / "__pycache__"
+    if _is_link_or_odd(cache, want_dir=True):
+        cache.unlink()
+    else:
+        shutil.rmtree(cache, ignore_errors=True)
+    (folder / CHECKSUMS).unlink(missing_ok=True)
 
 
 def verify_cache(folder: Path) -> str | None:
-    """Check an entry against its checksums; a mismatch discards numba's files (they are
-    rebuilt) and returns the line that says so; None when the entry is sound or unrecorded."""
+    """Check an entry against its checksums; an entry not as the cache wrote it (a file that
+    does not match its checksum, a link anywhere, numba's files without checksums and no live
+    process compiling them) has numba's files discarded (they are rebuilt) and returns the
+    line that says so; None when the entry is sound or empty."""
     import json
-    import shutil
 
     recorded = folder / CHECKSUMS
-    try:
-        sums = json.loads(recorded.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        return None
-    except (OSError, ValueError):
-        sums = None
     actual = _cache_sums(folder)
-    if isinstance(sums, dict) and all(actual.get(name) == digest for name, digest in sums.items()):
-        return None
-    bad = "checksums.json" if not isinstance(sums, dict) else next(
-        name for name, digest in sums.items() if actual.get(name) != digest)
-    shutil.rmtree(folder / "__pycache__", ignore_errors=True)
-    recorded.unlink(missing_ok=True)
-    return (f"netsushisen: the compiled engine's cache {folder} was corrupt ({bad} does not "
-            "match its checksum): discarded, compiling again")
+    odd = _is_link_or_odd(folder / "__pycache__", want_dir=True)
+    bad: str | None = None
+    if odd:
+        bad = "__pycache__ is not a folder"
+    elif _is_link_or_odd(recorded, want_dir=False):
+        bad = "checksums.json is not a file"
+    elif not recorded.exists():
+        if not actual or _compiling_elsewhere(folder):
+            return None
+        bad = "numba's files have no checksums.json"
+    else:
+        try:
+            sums = json.loads(recorded.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            sums = None
+        if isinstance(sums, dict) and all(actual.get(name) == digest
+                                          for name, digest in sums.items()):
+            return None
+        bad = "checksums.json does not match its checksum" if not isinstance(sums, dict) else next(
+            f"{name} does not match its checksum" for name, digest in sums.items()
+            if actual.get(name) != digest)
+    _discard(folder)
+    return (f"netsushisen: the compiled engine's cache {folder} was corrupt ({bad}): "
+            "discarded, compiling again")
 
 
 def record_cache(folder: Path) -> None:
@@ -179,7 +249,8 @@ def record_cache(folder: Path) -> None:
     sums = _cache_sums(folder)
     recorded = folder / CHECKSUMS
     try:
-        if not sums or json.loads(recorded.read_text(encoding="utf-8")) == sums:
+        if not sums or "not a file" in sums.values() or _is_link_or_odd(recorded, False) or \
+                json.loads(recorded.read_text(encoding="utf-8")) == sums:
             return
     except (OSError, ValueError):
         pass
@@ -187,6 +258,20 @@ def record_cache(folder: Path) -> None:
         write_text(recorded, json.dumps(sums, indent=1, sort_keys=True) + "\n")
     except Exception:  # noqa: BLE001 - a cache that cannot be recorded is only unverified
         pass
+    finally:
+        (folder / f"{COMPILING}{os.getpid()}").unlink(missing_ok=True)
+
+
+def _entry(root: Path, key: str) -> Path:
+    """The entry folder of `key`, made; a link or a file in its place (dangling or not) is
+    removed (the link itself, never its target) with one line, and the entry built anew."""
+    folder = root / key
+    if _is_link_or_odd(folder, want_dir=True):
+        folder.unlink()
+        print(f"netsushisen: the compiled engine's cache {folder} was not a folder (a link or "
+              "a file): discarded, compiling again", file=sys.stderr)
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
 
 
 @functools.lru_cache(maxsize=None)
@@ -245,15 +330,20 @@ def load(precision: str):
     text, key = source(precision)
     if key in _loaded:
         return _loaded[key]
-    folder = _cache_root() / key
-    folder.mkdir(parents=True, exist_ok=True)
+    folder = _entry(_cache_root(), key)
     note = verify_cache(folder)
     if note:
         print(note, file=sys.stderr)
+    if not (folder / CHECKSUMS).exists():  # this process's compile: not corrupt while it runs
+        with contextlib.suppress(OSError):
+            os.close(os.open(folder / f"{COMPILING}{os.getpid()}",
+                             os.O_WRONLY | os.O_CREAT | os.O_NOFOLLOW, 0o600))
     import atexit
 
     atexit.register(record_cache, folder)
     path = folder / f"nss_loop_{key}.py"
+    if _is_link_or_odd(path, want_dir=False):
+        path.unlink()
     if not path.exists() or path.read_text(encoding="utf-8") != text:
         tmp = path.with_suffix(f".{os.getpid()}.tmp")
         tmp.write_text(text, encoding="utf-8")

@@ -27,7 +27,7 @@ from pathlib import Path
 
 from netsushisen.cluster import add_cluster_options, check_cluster_options
 from netsushisen.isa.errors import NetsushisenError
-from netsushisen.options import add_output, add_quiet
+from netsushisen.options import add_output, add_quiet, check_output_dir
 from netsushisen.sweep import check_sweep_footprint, engine_of, load_spec, run_sweep
 
 
@@ -61,6 +61,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if args.results:
         raise NetsushisenError(f"sweep: unexpected argument {args.results!r} (only `sweep plot` takes RESULTS)")
+    check_output_dir(args.out or "sweep")
     check_cluster_options(args)
     spec = load_spec(args.spec)
     engine = engine_of(args.engine or spec.engine)

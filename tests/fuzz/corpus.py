@@ -16,7 +16,8 @@ from dataclasses import dataclass, field
 
 SEED = 30
 
-CATEGORIES = ("config", "set", "nff", "asm", "object", "stats", "spec", "scheduler", "files")
+CATEGORIES = ("config", "set", "nff", "asm", "object", "stats", "spec", "scheduler", "files",
+              "linear", "numbers", "api", "cache")
 
 
 @dataclass(frozen=True)
@@ -27,6 +28,21 @@ class Case:
     name: str
     argv: tuple[str, ...]
     files: dict[str, bytes] = field(default_factory=dict, hash=False)
+    python: str = ""
+    """Python code run instead of the command line (the API and cache cases): `nss` is the
+    package; a NetsushisenError is its one error line and exit 1 (API_HARNESS)."""
+
+
+API_HARNESS = """import sys
+import netsushisen as nss
+try:
+    exec(compile(sys.argv[1], "<case>", "exec"), {"nss": nss})
+except nss.NetsushisenError as err:
+    print(err, file=sys.stderr)
+    sys.exit(1)
+"""
+"""How a `python` case runs: only the API's own errors are expected; anything else is a
+traceback, which breaks the rule."""
 
 
 HOSTILE = ["-1", "0", "-0.0", "1e308", "-1e308", "nan", "inf", "-inf", "2147483648",
@@ -328,6 +344,146 @@ def _scheduler_cases() -> list[Case]:
                  {"spec.toml": SPEC.encode()}) for i, address in enumerate(SCHEDULERS)]
 
 
+LINEAR_OPS = ["ld r{a}, [r{b} + {k}]", "st r{a}, [r{b} + {k}]", "addi r{a}, r{b}, {k}",
+              "fadd r{a}, r{b}, r{a}", "fmul r{a}, r{a}, r{b}", "beq r{a}, r0, out",
+              "ldr r{a}, [r{b} + {k}]", "li r{a}, {k}"]
+
+
+def _linear_cases(rng: random.Random, n: int) -> list[Case]:
+    """Linear assembly (issue 46, Why 1-2): `.sched` regions, `.pipeline` loops and `.deadout`
+    superblocks of random operations and sizes up to past every limit, with latencies up to
+    the configuration's."""
+    out = []
+    for i in range(n):
+        size = rng.choice([1, 10, 200, 2047, 2049, 5000])
+        ops = [rng.choice(LINEAR_OPS).format(a=rng.randint(1, 30), b=rng.randint(0, 30),
+                                             k=rng.randint(0, 99)) for _ in range(size)]
+        head = rng.choice([[".sched"], [".sched inorder"], [".sched", ".deadout r31"],
+                           [".sched", ".temps r40-r47", ".pipeline"]])
+        label = ["loop:"] if head[-1] == ".pipeline" else []
+        tail = ["        blt r1, r2, loop"] if label else []
+        body = [".proc ic", *head] + [f"{label[0] if label and k == 0 else ''}        {op}"
+                                      for k, op in enumerate(ops)] + tail
+        text = "\n".join(body + ["        halt", ".endsched", "out:    halt"]) + "\n"
+        argv = ["asm", "k.s", "-o", "k.o"]
+        if rng.random() < 0.4:
+            argv += ["--set", f"ic_memory.t_r={rng.choice([1, 64, 1024, 4096])}"]
+        if rng.random() < 0.3:
+            argv += ["--bounds", "--optimum-ops", str(rng.choice([0, 40, 100000]))]
+        out.append(Case("linear", f"linear-{i}", tuple(argv), {"k.s": text.encode()}))
+    out.append(Case("linear", "dot-t_r-4096", ("asm", "dot.s", "--set", "ic_memory.t_r=4096",
+                                               "-o", "d.o"), {"dot.s": _dot_source()}))
+    return out
+
+
+def _dot_source() -> bytes:
+    from pathlib import Path
+
+    return (Path(__file__).resolve().parents[2] / "kernels" / "examples" / "dot_ic.s").read_bytes()
+
+
+NUMBERS = ["1" + "0" * 100_000, "-" + "9" * 5000, "1e999999", "NaN", "Infinity", "-Infinity",
+           str(10 ** 400), str(1 << 64), str(-(1 << 63) - 1)]
+
+
+def _number_cases(rng: random.Random, base: dict) -> list[Case]:
+    """Statistics and object files with numbers no count can be (issue 46, Why 3), for every
+    reader: each report, disasm, run; and a flat dump whose names are not a tree."""
+    out = []
+    reports = ["flat", "ilp", "stalls", "annotate", "memory", "diff", "bounds"]
+    for i, raw in enumerate(NUMBERS):
+        data = json.loads(json.dumps(base))
+        data["processors"]["pe0.os"]["stalls"]["branch"] = "@@"
+        text = json.dumps(data).replace('"@@"', raw).encode()
+        report = reports[i % len(reports)]
+        argv = ("report", report, "good.json", "stats.json") if report == "diff" else \
+            ("report", report, "stats.json")
+        out.append(Case("numbers", f"numbers-stats-{i}", argv,
+                        {"stats.json": text, "good.json": json.dumps(base).encode()}))
+        obj = _base_object()
+        obj["bundles"][0][0][1] = "@@"
+        blob = json.dumps(obj).replace('"@@"', raw).encode()
+        argv = ("disasm", "prog.o") if i % 2 else ("run", "--os", "prog.o", "--engine", "reference")
+        out.append(Case("numbers", f"numbers-object-{i}", argv, {"prog.o": blob}))
+    for i, flat in enumerate(["processors 5\nprocessors.pe0.ic.cycles.sub 3\n",
+                              "processors.pe0.ic.cycles.sub 3\nprocessors 5\n",
+                              "pe0.ic.cycles 1e999999\n", "pe0.ic.cycles " + "7" * 9000 + "\n",
+                              "dis.messages_per_pe.x 1\n"]):
+        out.append(Case("numbers", f"numbers-flat-{i}", ("report", "ilp", "stats.txt"),
+                        {"stats.txt": flat.encode()}))
+    return out
+
+
+API_CALLS = ['nss.render("tetra", res="64")', 'nss.render("tetra", res=2.5)',
+             'nss.render("tetra", res=True)', 'nss.render("tetra", res=None)',
+             'nss.golden("tetra", res="8")', "nss.render(None)", "nss.render(42)",
+             'nss.render("tetra", res=2, set=[1, 2])', 'nss.render("tetra", res=2, config=123)',
+             "nss.assemble(None)", 'nss.assemble(b".proc ic\\n halt\\n")',
+             'nss.assemble(".proc ic\\n halt\\n", defines=["N"])', 'nss.run({"ic": 5})',
+             'nss.load_stats("stats.txt")', "nss.scene(5)", "nss.run(5)",
+             'nss.run(".proc ic\\n halt\\n", image=5, engine="reference")',
+             'r = nss.run(".proc ic\\n halt\\n", engine="reference"); r.table(None)',
+             'r = nss.run(".proc ic\\n halt\\n", engine="reference"); r.table(5)',
+             'r = nss.run(".proc ic\\n halt\\n", engine="reference"); r.table("ilp", top="x")',
+             'r = nss.run(".proc ic\\n halt\\n", engine="reference"); r.table("stalls", proc="ic")',
+             'r = nss.run(".proc ic\\n halt\\n", engine="reference"); r.registers(None)',
+             'r = nss.run(".proc ic\\n halt\\n", engine="reference"); r.table("diff", other=3)',
+             'nss.run({"m": "x.s"})', 'nss.run("nosuch.s")', 'nss.assemble("nosuch.s")',
+             'nss.render("tetra", res=2, pes=0)', 'nss.render("tetra", res=2, precision="fp16")']
+
+
+def _api_cases() -> list[Case]:
+    """The Python API with wrong types and values (issue 46, Why 8)."""
+    flat = b"processors 5\nprocessors.pe0.ic.cycles.sub 3\n"
+    return [Case("api", f"api-{i}", ("api",), {"stats.txt": flat}, python=code)
+            for i, code in enumerate(API_CALLS)]
+
+
+CACHE_STATES = {
+    "dangling-entry": "(root / KEY).symlink_to(outside / 'entry')",
+    "file-entry": "(root / KEY).write_text('x')",
+    "garbage-nbi": "(root / KEY / '__pycache__').mkdir(parents=True); "
+                   "(root / KEY / '__pycache__' / 'a.nbi').write_bytes(b'17\\n' + b'x' * 40)",
+    "pickle-nbi": "(root / KEY / '__pycache__').mkdir(parents=True); "
+                  "(root / KEY / '__pycache__' / 'a.nbi').write_bytes(b'\\x80\\x04garbage')",
+    "linked-pycache": "(root / KEY).mkdir(); (root / KEY / '__pycache__').symlink_to(outside)",
+    "linked-nbi": "(root / KEY / '__pycache__').mkdir(parents=True); "
+                  "(root / KEY / '__pycache__' / 'a.nbi').symlink_to(outside / 'secret')",
+    "bad-checksums": "(root / KEY / '__pycache__').mkdir(parents=True); "
+                     "(root / KEY / 'checksums.json').write_text('{')",
+    "linked-probe": "(root / '.writable').symlink_to(outside / 'created')",
+}
+
+
+CACHE_CASE = """import os
+from pathlib import Path
+from netsushisen.emulator.compiled import build
+KEY = "0123456789abcdef"
+here = Path.cwd()
+root = here / "cache" / "compiled"
+root.mkdir(parents=True)
+outside = here / "outside"
+outside.mkdir()
+(outside / "secret").write_text("keep")
+{state}
+os.environ["NETSUSHISEN_CACHE"] = str(here / "cache")
+assert build._cache_root() == root
+entry = build._entry(root, KEY)
+build.verify_cache(entry)
+assert entry.is_dir() and not entry.is_symlink()
+assert sorted(p.name for p in outside.iterdir()) == ["secret"], "a write outside the cache"
+assert (outside / "secret").read_text() == "keep"
+assert build.verify_cache(entry) is None, "not healed"
+"""
+
+
+def _cache_cases() -> list[Case]:
+    """Cache entries not as the cache wrote them (issue 46, Why 5-6): each is discarded and
+    rebuilt, nothing outside the cache is written (the checks are the case's asserts)."""
+    return [Case("cache", f"cache-{name}", ("cache",), {}, python=CACHE_CASE.format(state=state))
+            for name, state in CACHE_STATES.items()]
+
+
 def _file_cases() -> list[Case]:
     return [Case("files", f"files-{i}", argv) for i, argv in enumerate(FILES)]
 
@@ -342,6 +498,9 @@ def cases(per_category: int = 40, stats_base: dict | None = None) -> list[Case]:
     if stats_base is not None:
         out += _stats_cases(rng, per_category, stats_base)
     out += _spec_cases(rng, per_category // 2) + _scheduler_cases() + _file_cases()
+    out += _linear_cases(rng, per_category // 2) + _api_cases() + _cache_cases()
+    if stats_base is not None:
+        out += _number_cases(rng, stats_base)
     obj = _base_object()
     obj["bundles"][0][0][3] = 2 ** 70
     regressions = [c if c.name != "2**70" else Case(c.category, c.name, c.argv,

@@ -23,7 +23,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from fuzz.corpus import CATEGORIES, Case, base_stats, cases  # noqa: E402
+from fuzz.corpus import API_HARNESS, CATEGORIES, Case, base_stats, cases  # noqa: E402
 
 TIME_LIMIT = 60.0
 """Seconds one input may take (issue 30's acceptance)."""
@@ -66,7 +66,9 @@ def run_case(case: Case, python: str = sys.executable) -> Outcome:
         env.pop("NETSUSHISEN_DEBUG")
         start = time.perf_counter()
         with open(Path(tmp) / ".stderr", "w+b") as err:
-            proc = subprocess.Popen([python, "-m", "netsushisen.cli", *case.argv], cwd=tmp,
+            argv = ([python, "-c", API_HARNESS, case.python] if case.python
+                    else [python, "-m", "netsushisen.cli", *case.argv])
+            proc = subprocess.Popen(argv, cwd=tmp,
                                     stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                     stderr=err, env=env)
             code: int | None = None

@@ -1,0 +1,138 @@
+"""issue 46 Why 1-2: every cost of the assembler bounded before work or near-linear — a region's
+operations, labels and side exits and a loop's operations have documented limits
+(asm/regions.py), the dependence graph is linear past MAX_ALIAS_OPS local accesses, the list
+scheduler's horizon does not grow with a load's latency, and CP-SAT states its outcome
+(asm/optimum.py)."""
+
+from __future__ import annotations
+
+import random
+import time
+from pathlib import Path
+
+import pytest
+
+from netsushisen.asm import regions
+from netsushisen.asm.dependences import MAX_ALIAS_OPS, dependences
+from netsushisen.asm.assembler import assemble_text
+from netsushisen.isa.config import MachineConfig, load_config
+from netsushisen.isa.processors import PROCESSORS
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _write(tmp_path: Path, lines: list[str], name: str = "k.s") -> Path:
+    path = tmp_path / name
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _timed(cli, *args) -> tuple[int, str, str, float]:
+    start = time.monotonic()
+    code, out, err = cli(*args)
+    return code, out, err, time.monotonic() - start
+
+
+def test_a_50000_operation_region_is_refused_while_read(cli, tmp_path):
+    body = [f"        addi r{2 + k % 30}, r{2 + (k + 7) % 30}, 1" for k in range(50_000)]
+    path = _write(tmp_path, [".proc ic", ".sched", *body, "        halt", ".endsched"])
+    code, out, err, seconds = _timed(cli, "asm", path, "-o", tmp_path / "k.o")
+    assert code == 1 and "Traceback" not in err and seconds < 10
+    line = regions.MAX_REGION_OPS + 3
+    assert err.strip() == (f"{path}:{line}:9: error: the .sched region opened at line 2 passes "
+                           f"{regions.MAX_REGION_OPS:,} operations (asm.regions.MAX_REGION_OPS): "
+                           "split it or close it with .endsched sooner")
+    assert not (tmp_path / "k.o").exists()
+
+
+def test_a_region_at_its_operation_limit_assembles(tmp_path):
+    n = regions.MAX_REGION_OPS - 1  # and the halt
+    body = "\n".join(f"        addi r{2 + k % 30}, r{2 + (k + 7) % 30}, 1" for k in range(n))
+    program = assemble_text(f".proc ic\n.sched\n{body}\n        halt\n.endsched\n")
+    assert sum(len(b) for b in program.bundles) == n + 1
+
+
+def test_a_deadout_region_with_1000_side_exits_is_refused(cli, tmp_path):
+    """(the issue's 3,000 exits with their operations pass the region's operation limit first)"""
+    body = []
+    for k in range(1000):
+        body += [f"        addi r{2 + k % 20}, r{2 + k % 20}, 1", f"        beq r{2 + k % 20}, r0, out"]
+    path = _write(tmp_path, [".proc ic", ".sched", ".deadout r30", *body, "        halt",
+                             ".endsched", "out:    halt"])
+    code, out, err, seconds = _timed(cli, "asm", path, "-o", tmp_path / "k.o")
+    assert code == 1 and seconds < 10 and len(err.strip().splitlines()) == 1
+    assert "1,000 side exits, more than 256 (asm.regions.MAX_SIDE_EXITS)" in err
+
+
+def test_a_region_with_2000_labels_is_refused(cli, tmp_path):
+    body = [f"l{k}:    addi r2, r2, 1" for k in range(2000)]
+    path = _write(tmp_path, [".proc ic", ".sched", *body, "        halt", ".endsched"])
+    code, out, err, seconds = _timed(cli, "asm", path, "--bounds", "--optimum-ops", "0")
+    assert code == 1 and seconds < 10 and len(err.strip().splitlines()) == 1
+    assert "passes 1,024 labels (asm.regions.MAX_REGION_LABELS)" in err
+
+
+def test_a_long_pipeline_loop_is_scheduled_plain_with_its_reason(cli, tmp_path):
+    body = [f"        fadd r{10 + k % 20}, r{10 + k % 20}, r3" for k in range(300)]
+    path = _write(tmp_path, [".proc ic", ".sched", ".temps r40-r47", "        li r1, 0",
+                             "        li r9, 8", ".pipeline", "loop:   addi r1, r1, 1", *body,
+                             "        blt r1, r9, loop", "        halt", ".endsched"])
+    code, out, err, seconds = _timed(cli, "asm", path, "-o", tmp_path / "k.o")
+    assert code == 0 and seconds < 10
+    assert "loop 'loop' not pipelined: 302 operations, more than 128" in err
+
+
+@pytest.mark.parametrize("t_r", [1024, 4096])
+def test_a_legal_load_latency_assembles_the_shipped_dot_product(cli, tmp_path, t_r):
+    """t_r 1,024 took 8.8 s, 2,048 35.6 s: the scheduler's horizon grew with the latency."""
+    code, out, err, seconds = _timed(cli, "asm", ROOT / "kernels" / "examples" / "dot_ic.s",
+                                     "--set", f"ic_memory.t_r={t_r}", "-o", tmp_path / "d.o")
+    assert code == 0 and seconds < 10, err
+    assert "over 256 (asm.pipeline.MAX_PIPELINE_II)" in err
+
+
+def test_the_optimum_of_a_2000_operation_block_is_an_outcome_line(cli, tmp_path, monkeypatch):
+    """Why 2: `internal error: MemoryError: std::bad_alloc` after 46 s."""
+    rng = random.Random(1)
+    lines = [".proc ic"] + [f"    {rng.choice(['fadd', 'fmul', 'fsub'])} r{rng.randint(1, 40)}, "
+                            f"r{rng.randint(1, 40)}, r{rng.randint(1, 40)}" for _ in range(2000)]
+    path = _write(tmp_path, lines + ["    halt"])
+    monkeypatch.setenv("COLUMNS", "250")
+    code, out, err, seconds = _timed(cli, "asm", path, "--bounds", "--optimum-ops", "100000")
+    assert code == 0 and seconds < 15, err
+    assert "too large: 2,001 operations × " in out and "issue slots and edges" in out
+
+
+def _mem_ops(n: int) -> list:
+    text = "\n".join(f"        {'st' if k % 3 == 0 else 'ld'} r{2 + k % 20}, [r{30 + k % 5} + {k % 100}]"
+                     for k in range(n))
+    return [op for b in assemble_text(f".proc ic\n{text}\n        halt\n").bundles for op in b]
+
+
+def test_many_local_accesses_make_a_linear_chain_that_keeps_every_alias():
+    ops = _mem_ops(3 * MAX_ALIAS_OPS)
+    g = dependences(ops, PROCESSORS["ic"], MachineConfig())
+    memory = [e for e in g.edges if e.kind == "memory"]
+    assert len(memory) == len(ops) - 2  # one edge a consecutive pair of accesses
+    times = [0] * len(ops)
+    for e in sorted(g.edges, key=lambda e: e.dst):  # earliest times over the chain
+        times[e.dst] = max(times[e.dst], times[e.src] + e.latency)
+    for i in range(len(ops) - 1):  # every store before every later load, by at least 1
+        if ops[i].opcode.kind == "store":
+            later = [j for j in range(i + 1, len(ops) - 1) if ops[j].opcode.kind == "load"]
+            assert all(times[j] >= times[i] + 1 for j in later[:50])
+    few = _mem_ops(MAX_ALIAS_OPS // 2)  # under the limit: pairwise, as before
+    pairs = [e for e in dependences(few, PROCESSORS["ic"], MachineConfig()).edges
+             if e.kind == "memory"]
+    assert len(pairs) > len(few)
+
+
+def test_side_exit_edges_are_linear_and_keep_the_schedule():
+    lines = []
+    for k in range(60):
+        lines += [f"        addi r{2 + k % 10}, r{2 + k % 10}, 1", f"        beq r{2 + k % 10}, r0, out"]
+    program = assemble_text(".proc ic\n" + "\n".join(lines) + "\nout:    halt\n")
+    ops = [op for b in program.bundles for op in b]
+    g = dependences(ops, PROCESSORS["ic"], MachineConfig(), deadout=frozenset({30}))
+    control = [e for e in g.edges if e.kind == "control"]
+    assert len(control) <= 3 * len(ops)

@@ -145,7 +145,7 @@ def register_index(name: str, aliases: dict[str, tuple[int, Loc]] | None = None)
 
 
 def _read_source(path: Path, display: str) -> str:
-    from netsushisen.limits import read_input
+    from netsushisen.isa.limits import read_input
 
     data = read_input(path, "source file")
     bad = data.find(b"\x00")

@@ -128,3 +128,19 @@ def test_every_array_has_its_declared_shape_and_dtype():
     st.arrays["bpc"] = st.arrays["bpc"][:, :-1]
     st.arrays["regs"] = st.arrays["regs"].astype("int32")
     assert [p.split(":")[0] for p in St.check_shapes(st)] == ["regs", "bpc"]
+
+
+def test_the_loops_parameters_are_the_arrays_table_in_order():
+    """run_loop's and run_cycles' positional parameters, and run_loop's call of run_cycles,
+    are ARRAYS' names in ARG_ORDER (typed by hand in loop.py, so held to the table here: an
+    array added to ARRAYS and not to the loop, or out of order, fails)."""
+    import ast
+    from pathlib import Path
+
+    tree = ast.parse((Path(St.__file__).parent / "loop.py").read_text())
+    funcs = {f.name: f for f in tree.body if isinstance(f, ast.FunctionDef)}
+    for name in ("run_loop", "run_cycles"):
+        assert tuple(a.arg for a in funcs[name].args.args) == St.ARG_ORDER, name
+    calls = [n for n in ast.walk(funcs["run_loop"]) if isinstance(n, ast.Call)
+             and getattr(n.func, "id", None) == "run_cycles"]
+    assert [tuple(a.id for a in c.args) for c in calls] == [St.ARG_ORDER]

@@ -157,7 +157,7 @@ def _where(loc: Loc) -> str:
 
 
 def _read_source(path: Path, display: str) -> str:
-    from netsushisen.limits import read_input
+    from netsushisen.isa.limits import read_input
 
     data = read_input(path, "source file")
     bad = data.find(b"\x00")

@@ -112,7 +112,7 @@ def evaluate(expr, lookup: Lookup, is_defined: Callable[[str], bool] | None = No
 def _bounded(v: Number) -> Number:
     """An integer result within limits.MAX_CONSTANT_BITS: `.equ`s that square the previous one
     would otherwise grow without end (2^40 squarings) and hang the assembler."""
-    from netsushisen.limits import MAX_CONSTANT_BITS
+    from netsushisen.isa.limits import MAX_CONSTANT_BITS
 
     if isinstance(v, int) and v.bit_length() > MAX_CONSTANT_BITS:
         raise ExprError(f"integer of more than {MAX_CONSTANT_BITS} bits in a constant expression "

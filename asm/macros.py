@@ -33,7 +33,7 @@ from pathlib import Path
 from netsushisen.asm.parser import Chunk, Expansion, Loc, parse_chunk, parse_macro_header
 from netsushisen.isa.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.opcodes import OPCODES
-from netsushisen.limits import MAX_EXPANDED_CHARS, MAX_EXPANDED_LINES, MAX_STATEMENT_CHARS
+from netsushisen.isa.limits import MAX_EXPANDED_CHARS, MAX_EXPANDED_LINES, MAX_STATEMENT_CHARS
 
 MAX_EXPANSION_DEPTH = 64
 """Macro invocations and `.rept`s nested deeper than this are an error (a macro that invokes

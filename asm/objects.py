@@ -302,7 +302,7 @@ class Program:
     def load(cls, path: str | Path) -> "Program":
         p = Path(path)
         try:
-            from netsushisen.limits import read_input
+            from netsushisen.isa.limits import read_input
 
             from netsushisen.isa import numbers
 

@@ -354,7 +354,7 @@ def parse_chunk(chunk: Chunk) -> Statement | Diagnostic:
     """Parse one logical statement; a syntax error comes back as a located Diagnostic, and so
     does a statement longer than limits.MAX_STATEMENT_CHARS or an expression deeper than
     limits.MAX_EXPRESSION_DEPTH (the tree is walked recursively afterwards)."""
-    from netsushisen.limits import MAX_EXPRESSION_DEPTH, MAX_STATEMENT_CHARS
+    from netsushisen.isa.limits import MAX_EXPRESSION_DEPTH, MAX_STATEMENT_CHARS
 
     if len(chunk.text) > MAX_STATEMENT_CHARS:
         return Diagnostic(f"statement of {len(chunk.text):,} characters, more than "

@@ -301,7 +301,7 @@ def _overlap(units: _Units, u: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np
 
 def _expand(lo_idx: np.ndarray, hi_idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """All integer cells of K index boxes: (owner row (M,), cell index (M, 3))."""
-    from netsushisen.limits import check_grid_candidates
+    from netsushisen.isa.limits import check_grid_candidates
 
     n = np.maximum(hi_idx - lo_idx + 1, 0)
     cnt = n.prod(axis=1)

@@ -68,7 +68,7 @@ _MAX_SHOWN = 160  # longest source line quoted in a diagnostic
 def read_nff(path: str | Path) -> Scene:
     """Read an NFF file. Any problem with the file (missing, unreadable, malformed) is a
     `SceneError` located at the offending record."""
-    from netsushisen.limits import check_primitives, read_input
+    from netsushisen.isa.limits import check_primitives, read_input
 
     path = Path(path)
     try:

@@ -44,8 +44,9 @@ from netsushisen.host.prepass import coarse_resolution
 from netsushisen.host.scenes import Scene
 from netsushisen.isa.config import MachineConfig, apply_override, dump_toml
 from netsushisen.pipeline import RenderResult, RenderSetup, finish, prepare
-from netsushisen.reports.accuracy import (Row, Timing, fidelity_errors, hit_id_share,
-                                          ic_regions, image_errors,
+from netsushisen.reports.accuracy import (PER_STRATUM, Row, Timing, fidelity_errors,  # noqa: F401
+                                          hit_id_share, ic_regions, image_errors,
+                                          strata_bounds, stratified_tiles,
                                           memory_point, ray_errors, regression_estimate, relative,
                                           traced_rays)
 from netsushisen.emulator.tracesim import TraceMemory
@@ -500,41 +501,6 @@ def tile_auxiliary(setup: RenderSetup, n_tiles: int = TILES) -> dict[str, list[i
     rays = np.bincount(g.trace_pixel, minlength=n)
     cut = lambda a: [int(a[lo:hi].sum()) for lo, hi in zip(bounds, bounds[1:])]  # noqa: E731
     return {"tests": cut(tests), "rays": cut(rays)}
-
-
-PER_STRATUM = 3
-"""Tiles drawn in each stratum of consecutive tiles. Three: with two the stratified jackknife's
-spread within a stratum is too unstable (coverage 89–94 %); with four, 10 % of 64 tiles (6) is
-one unstratified stratum, whose heavy tail (background tiles of zero cycles) covered 93.0 % on
-tetra 32²; three gives 6 tiles two strata, and Satterthwaite's degrees of freedom in
-`regression_estimate` account for the few samples per stratum (docs/accuracy.md)."""
-
-
-def strata_bounds(n_tiles: int, n: int, per_stratum: int = PER_STRATUM) -> list[int]:
-    """Bounds of the strata of an n-tile sample: n // per_stratum runs of consecutive tiles (DIS
-    order), as equal as they come; [0, n_tiles] for fewer than 2·per_stratum tiles."""
-    return np.linspace(0, n_tiles, max(1, n // per_stratum) + 1).round().astype(int).tolist()
-
-
-def stratified_tiles(rng: np.random.Generator, n_tiles: int, n: int, per_stratum: int = PER_STRATUM
-                     ) -> list[int]:
-    """n tiles of n_tiles: n // H at random in each of the H strata of `strata_bounds` (the
-    remainder one more each in the first strata with room), sorted.
-
-    Why strata: a tile's cycles follow where it lies in the image (background rows against the
-    objects; next tiles' cycles correlate 0.84 on tetra, 0.75 on balls at 32x32), so a simple
-    random sample of the tiles can fall mostly on the cheap rows; spread over the strata, every
-    part of the image is sampled in proportion."""
-    bounds = strata_bounds(n_tiles, n, per_stratum)
-    sizes = np.diff(bounds)
-    take = np.minimum(n // len(sizes), sizes)
-    while take.sum() < n:  # the remainder, one more each, to the first strata with room
-        room = np.flatnonzero(take < sizes)
-        take[room[:n - int(take.sum())]] += 1
-    out = []
-    for lo, size, k in zip(bounds, sizes, take):
-        out += (lo + rng.choice(size, min(k, size), replace=False)).tolist()
-    return sorted(out)
 
 
 def sampled_row(scene: str, share: float, tiles: dict[int, dict], chosen: list[int], truth: dict,

@@ -18,7 +18,7 @@ the same and is checked the same way wherever it appears:
                                 N outside 1..MAX_RES with one line before anything is allocated
     check_footprint(what, config, width, engine, golden=, quiet=)
                                 the run's frame against the machine's pixel index and its
-                                estimated memory against this host's (netsushisen/limits.py):
+                                estimated memory against this host's (isa/limits.py):
                                 one line if it cannot fit, its size printed if it is large
     check_output_folders(*paths), write_output(path, write), fresh_output(stem)
                                 outputs: folders checked before the run, OSErrors as located
@@ -59,22 +59,21 @@ import argparse
 import difflib
 import os
 import re
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from netsushisen.isa.errors import Diagnostic, NetsushisenError
 from netsushisen.isa.config import MachineConfig, load_config
 from netsushisen.isa.processors import STAGES
-from netsushisen.limits import (MAX_SIDE, Footprint, check_frame, check_host, machine_bytes,
-                                render_footprint)
+from netsushisen.isa.limits import (MAX_SIDE, Footprint, check_frame, check_host,
+                                    machine_bytes, render_footprint)
 
 if TYPE_CHECKING:
-    from netsushisen.timeline import Window
+    from netsushisen.timeline import TimelineRequest
 
 MAX_RES = MAX_SIDE - 1
 """The largest --res the machine can number: 46,339, so that even the SPD corners' (N+1)² eye
-rays fit the frame's 32-bit pixel index (netsushisen/limits.py). Whether this host can hold
+rays fit the frame's 32-bit pixel index (isa/limits.py). Whether this host can hold
 the run is `check_footprint`'s question, asked before anything is allocated."""
 
 
@@ -302,7 +301,7 @@ def check_footprint(what: str, config: MachineConfig | None, width: int, engine:
     """Before any allocation: a width×height (default square) frame must fit the machine's
     pixel index, and the run (a machine run of `config` on `engine`, and/or the golden model)
     this host's memory; a large run prints its size (unless quiet). One-line errors
-    (netsushisen/limits.py)."""
+    (isa/limits.py)."""
     height = width if height is None else height
     check_frame(width, height, f"{option} {width}" if option == "--res" else option)
     pes = f" on {config.pes:,} PE{'s' if config.pes != 1 else ''}" if config and engine else ""
@@ -496,16 +495,6 @@ def machine_inputs(args: argparse.Namespace, extra_programs: list[str] = ()):
 # --timeline FILE [--cycles A:B] [--procs PROCS]: a pipeline timeline of a window of the run
 
 
-@dataclass(frozen=True)
-class TimelineRequest:
-    """What --timeline asks for: the file (its extension says the format), the window of
-    cycles and the processors shown (name prefixes; None: every one)."""
-
-    path: str
-    window: Window
-    processors: list[str] | None
-
-
 def add_timeline(parser: argparse.ArgumentParser, cycles: bool = True) -> None:
     """--timeline, --procs and (unless the command has it already) --cycles."""
     parser.add_argument("--timeline", metavar="FILE",
@@ -524,7 +513,7 @@ def timeline_from_args(args: argparse.Namespace,
     extension, a malformed or too long --cycles, or --procs (or --cycles, when `owns_cycles`:
     the command's --cycles is only the timeline's) without --timeline."""
     from netsushisen.emulator.trace import parse_processors
-    from netsushisen.timeline import timeline_window
+    from netsushisen.timeline import TimelineRequest, timeline_window
     from netsushisen.reports.timeline import timeline_format
 
     if not args.timeline:

@@ -40,7 +40,8 @@ from netsushisen.host.prepass import coarse_resolution
 from netsushisen.isa.config import MachineConfig
 from netsushisen.isa.regions import GLOBAL
 from netsushisen.paper_sweep import golden_chunks, replay_figures, sized_config
-from netsushisen.reports.paper_data import PaperOptions
+from netsushisen.reports.paper_data import (FINDINGS_LOCAL_WORDS, FINDINGS_POINT,  # noqa: F401
+                                            PaperOptions)
 
 SERIAL = {"SERIAL_TREES": 1}
 """The kernels' serial ray-tree mode (with one slot)."""
@@ -103,14 +104,6 @@ def pes_config(config: MachineConfig, pes: int = PE_CANDIDATE) -> MachineConfig:
     c = copy.deepcopy(config)
     c.pes, c.distribution = pes, "static"
     return c
-
-
-FINDINGS_POINT = "findings' reading: records, lists local"
-"""The label of `--on-machine`'s row in the reading the findings use (`machine_check(lists_local=True)`)."""
-
-FINDINGS_LOCAL_WORDS = 1 << 18
-"""IC's local words in the findings' reading: room for IC's data and the lists (tetra's ~99 K
-words, rings' ~106 K; the default 65536 holds neither)."""
 
 
 def findings_config(scene, config: MachineConfig) -> MachineConfig:

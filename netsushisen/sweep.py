@@ -51,7 +51,7 @@ from typing import Any
 from netsushisen import __version__
 from netsushisen.cluster import ResultCache, Task, kernel_digest, run_tasks, scene_digest
 from netsushisen.isa.errors import Diagnostic, NetsushisenError
-from netsushisen.limits import MAX_CONSTANT_BITS, MAX_SWEEP_POINTS, read_input
+from netsushisen.isa.limits import MAX_CONSTANT_BITS, MAX_SWEEP_POINTS, read_input
 from netsushisen.isa.config import MachineConfig, apply_override, dump_toml, load_config
 from netsushisen.options import MAX_RES
 from netsushisen.reports.sweep_table import write_results
@@ -407,8 +407,8 @@ FAILED = ("error", "fault", "deadlock", "max_cycles", "interrupted", "lost")
 
 def check_sweep_footprint(spec: Spec, engine: str, quiet: bool) -> None:
     """Before the cluster starts: the largest point must fit a worker's host (and the machine's
-    frame); a large one is announced (netsushisen/limits.py)."""
-    from netsushisen.limits import machine_bytes
+    frame); a large one is announced (isa/limits.py)."""
+    from netsushisen.isa.limits import machine_bytes
     from netsushisen.options import check_footprint
 
     configs = [point_config(spec, p) for p in points(spec)]

@@ -22,7 +22,6 @@ from netsushisen.isa.errors import NetsushisenError
 if TYPE_CHECKING:
     from netsushisen.emulator.engine import Engine
     from netsushisen.emulator.machine import RunResult
-    from netsushisen.options import TimelineRequest
     from netsushisen.progress import RunMonitor
 
 
@@ -47,6 +46,18 @@ class Window:
     first: int
     end: int
     default: bool
+
+
+@dataclass(frozen=True)
+class TimelineRequest:
+    """What --timeline asks for (options.timeline_from_args reads it): the file (its extension
+    says the format), the window of cycles and the processors shown (name prefixes; None:
+    every one). It lives here, beside its window, so options imports the timeline and not the
+    reverse."""
+
+    path: str
+    window: Window
+    processors: list[str] | None
 
 
 def timeline_window(cycles: str | None) -> Window:

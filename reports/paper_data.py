@@ -27,6 +27,14 @@ from typing import Callable
 
 import numpy as np
 
+FINDINGS_POINT = "findings' reading: records, lists local"
+"""The label of `--on-machine`'s row in the reading the findings use (`machine_check(lists_local=True)`)."""
+
+FINDINGS_LOCAL_WORDS = 1 << 18
+"""IC's local words in the findings' reading: room for IC's data and the lists (tetra's ~99 K
+words, rings' ~106 K; the default 65536 holds neither)."""
+
+
 PAPER_SCENES = ("tetra", "balls", "mount", "rings")
 CACHE_SHARES = tuple(round(0.1 * i, 2) for i in range(1, 11))  # Figure 4
 LOCAL_SHARES = (0.1, 0.3, 0.5)  # Figure 5

@@ -12,9 +12,9 @@ from netsushisen.reports.paper import (PAPER_RES, PAPER_TABLE1, RAY_ORDER, TABLE
                                        VERDICTS, Finding, _pct, _yn, common_readings, fig4_miss,
                                        fig5_best, fig5_curve, fig5_row, findings, ray_order_rows,
                                        split_readings, stated_changes, table2)
-from netsushisen.reports.paper_data import COUNTINGS, LOCAL_SHARES, SceneData
+from netsushisen.reports.paper_data import (COUNTINGS, FINDINGS_LOCAL_WORDS, FINDINGS_POINT,
+                                            LOCAL_SHARES, SceneData)
 from netsushisen.reports.paper_judge import PARTLY, TOLERANCE, TREND_ALPHA
-from netsushisen.paper_machine import FINDINGS_LOCAL_WORDS, FINDINGS_POINT
 
 DEFAULTS_ARGUED = [
     "- **Per primitive reference is the paper's counting.** Figure 3 counts references per "

@@ -76,7 +76,7 @@ def load_stats(path: str | Path) -> dict:
     (`report flat`, reports/flat.py); one located error otherwise."""
     p = Path(path)
     try:
-        from netsushisen.limits import read_input
+        from netsushisen.isa.limits import read_input
 
         text = read_input(p, "statistics file").decode("utf-8")
     except FileNotFoundError:

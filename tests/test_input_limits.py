@@ -1,4 +1,4 @@
-"""Limits on the inputs that size work (issue 30, item 1; netsushisen/limits.py): the
+"""Limits on the inputs that size work (issue 30, item 1; isa/limits.py): the
 assembler's total expansion and expression size, sweep specs, NFF primitive counts, deep
 TOML / JSON and files that are not regular files are each refused before the work, in one line
 naming the limit."""
@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from netsushisen import limits
+from netsushisen.isa import limits
 from netsushisen.asm.assembler import assemble_text
 from netsushisen.cli import main
 from netsushisen.isa.errors import NetsushisenError

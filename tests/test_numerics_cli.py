@@ -244,7 +244,7 @@ def test_balls_colour_beyond_tolerance_is_unstable():
 def test_numerics_memory_is_refused_before_work(cli, tmp_path, monkeypatch):
     """A --res whose golden renders and comparison would not fit: one line naming the need and
     what is available, before the scene is read."""
-    from netsushisen import limits
+    from netsushisen.isa import limits
     monkeypatch.setattr(limits, "available_bytes", lambda: 1 << 30)
     code, out, err = cli("numerics", "no_such.nff", "--res", 400, "--out", tmp_path / "o")
     assert code == 1 and len(err.strip().splitlines()) == 1

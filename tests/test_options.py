@@ -130,7 +130,7 @@ def test_set_is_one_option_everywhere(cli, tmp_path):
 
 
 # ---------------------------------------------------------------------------------------------
-# Limits before work (netsushisen/limits.py)
+# Limits before work (isa/limits.py)
 
 
 def test_too_many_pes_or_too_large_an_image_is_one_line_before_any_work(cli, tmp_path, no_work,
@@ -138,7 +138,7 @@ def test_too_many_pes_or_too_large_an_image_is_one_line_before_any_work(cli, tmp
     """On a host with 16 GiB free, 100,000 PEs (~2.5 MiB each even on the reference engine), an
     8192² render (~1 KiB an eye ray) or a 3000² golden image (~3 KiB an eye ray) are refused at
     once, naming the limit, with nothing written."""
-    from netsushisen import limits
+    from netsushisen.isa import limits
 
     monkeypatch.setattr(limits, "available_bytes", lambda: 16 * limits.GiB)
     pes = [_one_line_error(cli, "render", "tetra", "--pes", "100000", "-o", tmp_path / "t.png"),
@@ -187,7 +187,7 @@ def test_deep_fifos_count_against_host_memory(cli, tmp_path, no_work):
 
 
 def test_large_runs_announce_their_size(monkeypatch):
-    from netsushisen import limits
+    from netsushisen.isa import limits
     from netsushisen.isa.config import MachineConfig
 
     lines: list[str] = []
@@ -265,7 +265,7 @@ def test_fields_outside_their_range_are_refused_with_the_range(setting, message,
 
 def _at_limit(setting: str) -> str:
     """A legal value of the field: its bound nearest the refused one."""
-    from netsushisen import limits
+    from netsushisen.isa import limits
 
     path, value = setting.split("=")
     low, high, _ = limits.FIELD_LIMITS.get(path, limits.FIELD_LIMITS["ring.link_latency"])

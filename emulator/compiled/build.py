@@ -5,7 +5,8 @@ Nothing about an opcode is typed here: `exec_alu` and `exec_branch` are generate
 calls, compiled by numba) applied to its source operands read as the table's types, and the
 result turned into a word by its result type. The generated text and loop.py are written into
 one module in a cache folder named by a hash of everything compiled into it (the generated
-text, loop.py, bits.py, state.py, ../cacherule.py, the ISA modules, numba's and numpy's versions), so numba's
+text, loop.py, bits.py, state.py, ../cacherule.py, the ISA modules, the stall ids state.py
+numbers from isa/stalls.py, numba's and numpy's versions), so numba's
 on-disk cache (`cache=True`) never serves code compiled from an older source: a change anywhere
 makes a new folder. Compilation takes about 45 s the first time, then loads from disk.
 
@@ -283,8 +284,10 @@ def source(precision: str) -> tuple[str, str]:
     h = hashlib.sha256(text.encode())
     for path in (HERE / "bits.py", HERE / "state.py", HERE.parent / "cacherule.py",
                  ISA / "opcodes.py", ISA / "words.py",
-                 ISA / "libm.py"):
+                 ISA / "libm.py", ISA / "stalls.py"):
         h.update(path.read_bytes())
+    from netsushisen.emulator.compiled.state import CAUSES  # the stall ids the loop bakes in
+    h.update(repr(CAUSES).encode())
     h.update(f"numba {numba.__version__} numpy {np.__version__} {sys.version}".encode())
     return text, h.hexdigest()[:16]
 

@@ -12,7 +12,7 @@ The index constants below name the columns of those arrays; loop.py imports them
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -97,26 +97,36 @@ KINDS = ("alu", "load", "store", "branch", "jump", "jumpr", "call", "ret", "send
 
 SPACES = ("local", "resident", "global")
 SP_LOCAL, SP_RESIDENT, SP_GLOBAL = range(3)
-PORTS = ("ring", "host", "col")
+PORTS = S.FIFO_PORTS  # ("ring", "host", "col"): a port id is its index
 
 MNEMONICS = tuple(OPCODES)
 MN_ID = {m: i for i, m in enumerate(MNEMONICS)}
 NM = len(MNEMONICS)
 
-# stall causes: ids of the reference engine's cause strings
-CAUSE_NONE, CAUSE_HALTED, CAUSE_BRANCH, CAUSE_LOCAL, CAUSE_RESIDENT, CAUSE_CACHE_HIT, \
-    CAUSE_CACHE_MISS, CAUSE_WRITE_PORT, CAUSE_FIFO_ANY = range(9)
-CAUSE_FIFO_EMPTY = 9  # + port id
-CAUSE_FIFO_FULL = 12  # + port id
-CAUSE_OPERAND = 15  # + producer mnemonic id + 1 ("" producer: + 0)
-CAUSE_WAW = CAUSE_OPERAND + NM + 1
-CAUSE_UNIT = CAUSE_WAW + NM + 1
-CAUSES: tuple[str, ...] = (
-    ("", "halted", S.BRANCH, S.LOCAL, S.RESIDENT, S.CACHE_HIT, S.CACHE_MISS, S.WRITE_PORT,
-     S.FIFO_ANY)
-    + tuple(S.stall(S.FIFO_EMPTY, p) for p in PORTS) + tuple(S.stall(S.FIFO_FULL, p) for p in PORTS)
-    + tuple(S.stall(k, m) for k in (S.OPERAND, S.WAW, S.UNIT_BUSY) for m in ("",) + MNEMONICS))
+# stall causes: ids of the reference engine's cause strings, numbered from the one stall table
+# (isa/stalls.py: each concrete cause in table order, a family's parameters in PARAMETERS
+# order) after the core's two states that are no stall, "" and "halted"
+CAUSES: tuple[str, ...] = ("", "halted") + S.concrete_causes()
 """The names of isa/stalls.py's causes (and the core's "" and "halted" states) by id."""
+
+
+def _family_base(family: str, values: tuple[str, ...]) -> int:
+    """The id of a family's first parameter; the loop adds the parameter's index (a port id,
+    a mnemonic id + 1), so the table must list the family's values in that order."""
+    base = CAUSES.index(S.stall(family, values[0]))
+    assert CAUSES[base:base + len(values)] == tuple(S.stall(family, v) for v in values), family
+    return base
+
+
+CAUSE_NONE, CAUSE_HALTED, CAUSE_BRANCH, CAUSE_LOCAL, CAUSE_RESIDENT, CAUSE_CACHE_HIT, \
+    CAUSE_CACHE_MISS, CAUSE_WRITE_PORT, CAUSE_FIFO_ANY = (
+        CAUSES.index(c) for c in ("", "halted", S.BRANCH, S.LOCAL, S.RESIDENT, S.CACHE_HIT,
+                                  S.CACHE_MISS, S.WRITE_PORT, S.FIFO_ANY))
+CAUSE_FIFO_EMPTY = _family_base(S.FIFO_EMPTY, PORTS)  # + port id
+CAUSE_FIFO_FULL = _family_base(S.FIFO_FULL, PORTS)  # + port id
+CAUSE_OPERAND = _family_base(S.OPERAND, ("",) + MNEMONICS)  # + producer mnemonic id + 1
+CAUSE_WAW = _family_base(S.WAW, ("",) + MNEMONICS)
+CAUSE_UNIT = _family_base(S.UNIT_BUSY, ("",) + MNEMONICS)
 CAUSE_ID = {c: i for i, c in enumerate(CAUSES)}
 MEMORY_CAUSE = {S.LOCAL: CAUSE_LOCAL, S.RESIDENT: CAUSE_RESIDENT, S.CACHE_HIT: CAUSE_CACHE_HIT,
                 S.CACHE_MISS: CAUSE_CACHE_MISS}
@@ -173,6 +183,8 @@ class State:
     fifos: list
     region_names: list[str]
     mask: int
+    dims: dict = field(default_factory=dict)
+    """The sizes ARRAYS' shapes name (DIMS), as flatten found them."""
 
     def args(self) -> tuple:
         a = self.arrays
@@ -181,51 +193,93 @@ class State:
 
 @dataclass(frozen=True)
 class Array:
-    """One array the loop takes: its element type, its shape (in the sizes flatten finds: P
-    processors, NB bundles, W write-back slots, F FIFOs, K = 3·PEs CMUs, ...) and whether the
-    loop only reads it (the decoded program, the layouts, the messages to send)."""
+    """One array the loop takes: its element type, its shape and initial fill, and whether the
+    loop only reads it (the decoded program, the layouts, the messages to send). A shape is a
+    tuple of sizes: an int (a column count such as N_C), or the name of a size flatten finds
+    (DIMS). flatten allocates each array from its entry (`_new`) and `check_shapes` holds every
+    array it returns to its entry, so the table is the layout, not a comment on it."""
 
     dtype: str
-    shape: str
+    """A numpy dtype; "uint32|int64": the memory words, uint32 for fp32 and int64 for fp64."""
+    shape: tuple
     read_only: bool = False
+    fill: int = 0
+    note: str = ""
 
+
+DIMS = {
+    "P": "processors", "NB": "bundles of the longest program (at least 1)",
+    "W": "write-back slots, a power of two past any latency", "SLOTS": "operations a bundle",
+    "CAUSES": "stall-cause ids (len(CAUSES))", "F": "FIFOs", "CAP": "a FIFO's ring buffer",
+    "PES": "PEs", "K": "CMUs (3 a PE)", "IN": "inputs of the widest CMU",
+    "WORDS": "words of every memory segment", "SEGMENTS": "memory segments",
+    "LINES": "lines of every cache (sets × ways, a set's ways MRU first)",
+    "REGIONS": "database regions", "MAPPED": "mapped words", "NAMES": "region names",
+    "PRIMS": "primitives", "MSGS1": "host messages + 1", "HOSTWORDS": "host words",
+    "H": "frame height", "WIDTH": "frame width",
+    "LREC": "1 + recorded loads' capacity: lrec[0] their count, then C_RECORD's codes (a run "
+            "that records none: 1)",
+}
+"""The sizes an ARRAYS shape may name; flatten finds them (State.dims)."""
 
 ARRAYS: dict[str, Array] = {
-    "g": Array("int64", "(8,) G_*"), "until": Array("int", "scalar: the chunk's last cycle + 1"),
-    "cs": Array("int64", "(P, N_C) C_*"), "regs": Array("int64", "(P, 64)"),
-    "ready": Array("int64", "(P, 64)"), "prod": Array("int64", "(P, 64)"),
-    "wbn": Array("int64", "(P, W)"), "wbr": Array("int64", "(P, W, 4)"),
-    "wbw": Array("int64", "(P, W, 4)"), "busy": Array("int64", "(P, 2, 4)"),
-    "occ": Array("int64", "(P, 2, 4)"), "unitn": Array("int64", "(P, 2)", True),
-    "stpc": Array("int64", "(P, NB, causes)"), "bpc": Array("int64", "(P, NB)"),
-    "ops": Array("int32", "(P, NB, slots, N_O) O_*", True),
-    "opk": Array("int64", "(P, NB, slots, 2)", True),
-    "opf": Array("float64", "(P, NB, slots)", True),
-    "bun": Array("int32", "(P, NB, N_B) B_*", True), "recvq": Array("int64", "(P, 3)", True),
-    "sendq": Array("int64", "(P, 3)", True), "fq": Array("int64", "(F, 14) Q_*"),
-    "fbt": Array("int64", "(F, capacity)"), "fbw": Array("int64", "(F, capacity)"),
-    "mem": Array("uint32|int64", "(words of every segment,)"),
-    "seg": Array("int64", "(segments, 2)", True),
-    "ctags": Array("int64", "(lines of every cache,) sets × ways, a set's ways MRU first"),
-    "rg": Array("int32", "(regions, 2)", True), "rmap": Array("int64", "(P, 3, 2)", True),
-    "rdense": Array("int32", "(mapped words,)", True),
-    "rcnt": Array("int64", "(P, 3, region names, 3)"), "pcnt": Array("int64", "(P, 3, primitives)"),
-    "cm": Array("int64", "(K, 8) M_*"), "cin": Array("int64", "(K, inputs)", True),
-    "cout": Array("int64", "(K, inputs)", True), "route": Array("int64", "(K, inputs)"),
-    "rem": Array("int64", "(K, inputs)"), "lown": Array("int64", "(K, inputs)"),
-    "linkw": Array("int64", "(K,)"), "pes": Array("int64", "(PEs, 6) P_*"),
-    "dis": Array("int64", "(4,) D_*"), "dcur": Array("int64", "(PEs,)"),
-    "doff": Array("int64", "(PEs,)"), "dup": Array("int64", "(PEs,)"),
-    "dasg": Array("int64", "(PEs,)"), "moff": Array("int64", "(messages + 1,)", True),
-    "mwords": Array("int64", "(host words,)", True), "col": Array("int64", "(4,) L_*"),
-    "cpart": Array("int64", "(PEs, 8)"), "cplen": Array("int64", "(PEs,)"),
-    "frame": Array("float64", "(height, width, 3)"), "ids": Array("int32", "(height, width)"),
-    "cflags": Array("int64", "(causes,)", True), "pw": Array("int64", "(PEs, W_WAKE + 3) W_*"),
-    "lrec": Array("int64", "(1 + capacity,) recorded loads: lrec[0] their count, then C_RECORD's "
-                  "codes (a run records none: (1,))"),
-    "finfo": Array("int64", "(8,) fault kind and where"),
+    "g": Array("int64", (8,), note="G_*"), "until": Array("int", (), note="the chunk's last cycle + 1"),
+    "cs": Array("int64", ("P", N_C), note="C_*"), "regs": Array("int64", ("P", 64)),
+    "ready": Array("int64", ("P", 64)), "prod": Array("int64", ("P", 64), fill=-1),
+    "wbn": Array("int64", ("P", "W")), "wbr": Array("int64", ("P", "W", 4)),
+    "wbw": Array("int64", ("P", "W", 4)), "busy": Array("int64", ("P", 2, 4)),
+    "occ": Array("int64", ("P", 2, 4), fill=-1), "unitn": Array("int64", ("P", 2), True),
+    "stpc": Array("int64", ("P", "NB", "CAUSES")), "bpc": Array("int64", ("P", "NB")),
+    "ops": Array("int32", ("P", "NB", "SLOTS", N_O), True, note="O_*"),
+    "opk": Array("int64", ("P", "NB", "SLOTS", 2), True),
+    "opf": Array("float64", ("P", "NB", "SLOTS"), True),
+    "bun": Array("int32", ("P", "NB", N_B), True, note="B_*"),
+    "recvq": Array("int64", ("P", 3), True, fill=-1),
+    "sendq": Array("int64", ("P", 3), True, fill=-1), "fq": Array("int64", ("F", 14), note="Q_*"),
+    "fbt": Array("int64", ("F", "CAP")), "fbw": Array("int64", ("F", "CAP")),
+    "mem": Array("uint32|int64", ("WORDS",)),
+    "seg": Array("int64", ("SEGMENTS", 2), True),
+    "ctags": Array("int64", ("LINES",)),
+    "rg": Array("int32", ("REGIONS", 2), True), "rmap": Array("int64", ("P", 3, 2), True),
+    "rdense": Array("int32", ("MAPPED",), True),
+    "rcnt": Array("int64", ("P", 3, "NAMES", 3)), "pcnt": Array("int64", ("P", 3, "PRIMS")),
+    "cm": Array("int64", ("K", 8), note="M_*"), "cin": Array("int64", ("K", "IN"), True),
+    "cout": Array("int64", ("K", "IN"), True),
+    "route": Array("int64", ("K", "IN"), fill=_ROUTE_NONE),
+    "rem": Array("int64", ("K", "IN")), "lown": Array("int64", ("K", "IN"), fill=-1),
+    "linkw": Array("int64", ("K",)), "pes": Array("int64", ("PES", 6), note="P_*"),
+    "dis": Array("int64", (4,), note="D_*"), "dcur": Array("int64", ("PES",)),
+    "doff": Array("int64", ("PES",)), "dup": Array("int64", ("PES",)),
+    "dasg": Array("int64", ("PES",)), "moff": Array("int64", ("MSGS1",), True),
+    "mwords": Array("int64", ("HOSTWORDS",), True), "col": Array("int64", (4,), note="L_*"),
+    "cpart": Array("int64", ("PES", 8)), "cplen": Array("int64", ("PES",)),
+    "frame": Array("float64", ("H", "WIDTH", 3)), "ids": Array("int32", ("H", "WIDTH")),
+    "cflags": Array("int64", ("CAUSES",), True),
+    "pw": Array("int64", ("PES", W_WAKE + 3), note="W_*"),
+    "lrec": Array("int64", ("LREC",), note="recorded loads"),
+    "finfo": Array("int64", (8,), note="fault kind and where"),
 }
 """Every array the loop takes, in its argument order (loop.py unpacks them in this order)."""
+
+
+def shape_of(name: str, dims: dict[str, int]) -> tuple[int, ...]:
+    """The shape ARRAYS declares for array `name`, its named sizes read from `dims`."""
+    return tuple(dims[d] if isinstance(d, str) else d for d in ARRAYS[name].shape)
+
+
+def check_shapes(st: State) -> list[str]:
+    """Every array of `st` whose shape or dtype is not its ARRAYS entry's (empty: all are)."""
+    out = []
+    for name, spec in ARRAYS.items():
+        v = st.arrays[name]
+        if not spec.shape:
+            if not isinstance(v, int):
+                out.append(f"{name}: {type(v).__name__}, not a scalar")
+            continue
+        if v.shape != shape_of(name, st.dims) or str(v.dtype) not in spec.dtype.split("|"):
+            out.append(f"{name}: {v.dtype}{v.shape}, declared {spec.dtype}{shape_of(name, st.dims)}")
+    return out
+
 
 ARG_ORDER = tuple(ARRAYS)
 READ_ONLY = frozenset(k for k, v in ARRAYS.items() if v.read_only)
@@ -346,9 +400,10 @@ flight, queues, memories, counters by region and PC — are structures flatten a
 convert explicitly, and canonical compares whole)."""
 
 
-def _new(name: str, shape, fill: int = 0) -> np.ndarray:
-    """Array `name` of ARRAYS, of its declared dtype, filled with `fill`."""
-    return np.full(shape, fill, ARRAYS[name].dtype)
+def _new(name: str, dims: dict[str, int]) -> np.ndarray:
+    """Array `name` as ARRAYS declares it: its dtype, its shape (sizes from `dims`), its fill."""
+    spec = ARRAYS[name]
+    return np.full(shape_of(name, dims), spec.fill, spec.dtype)
 
 
 def _words(a: np.ndarray) -> np.ndarray:
@@ -385,34 +440,22 @@ def flatten(machine: Machine) -> State:
         W *= 2
 
     a: dict = {}
-    cs = _new("cs", (P, N_C))
-    regs = _new("regs", (P, 64))
-    ready = _new("ready", (P, 64))
-    prod = _new("prod", (P, 64), -1)
-    wbn = _new("wbn", (P, W))
-    wbr = _new("wbr", (P, W, 4))
-    wbw = _new("wbw", (P, W, 4))
-    busy = _new("busy", (P, 2, 4))
-    occ = _new("occ", (P, 2, 4), -1)
-    unitn = _new("unitn", (P, 2))
-    stpc = _new("stpc", (P, NB, len(CAUSES)))
-    bpc = _new("bpc", (P, NB))
-    ops = _new("ops", (P, NB, MAXOPS, N_O))  # small fields: half the cache footprint
-    opk = _new("opk", (P, NB, MAXOPS, 2))  # the integer immediate and memory offset
-    opf = _new("opf", (P, NB, MAXOPS))  # the float immediate
-    bun = _new("bun", (P, NB, N_B))
-    recvq = _new("recvq", (P, 3), -1)
-    sendq = _new("sendq", (P, 3), -1)
+    dims = {"P": P, "NB": NB, "SLOTS": MAXOPS, "W": W, "CAUSES": len(CAUSES), "PES": npes,
+            "K": 3 * npes}
+    # ops: small fields (half the cache footprint); opk: the integer immediate and memory
+    # offset; opf: the float immediate
+    cs, regs, ready, prod, wbn, wbr, wbw, busy, occ, unitn, stpc, bpc, ops, opk, opf, bun, \
+        recvq, sendq = (_new(n, dims) for n in (
+            "cs", "regs", "ready", "prod", "wbn", "wbr", "wbw", "busy", "occ", "unitn", "stpc",
+            "bpc", "ops", "opk", "opf", "bun", "recvq", "sendq"))
 
     # FIFOs, in each PE's fixed order
     fifos = [f for pe in machine.pes for f in pe.ring.fifos()]
     fid = {id(f): i for i, f in enumerate(fifos)}
     # each FIFO a ring buffer of a power-of-two size (loop.py wraps its indices with a mask)
     cap = 1 << (max(f.capacity for f in fifos) - 1).bit_length()
-    fq = _new("fq", (len(fifos), 14))
-    fbt = _new("fbt", (len(fifos), cap))
-    fbw = _new("fbw", (len(fifos), cap))
-    pw = _new("pw", (npes, W_WAKE + 3))
+    dims.update(F=len(fifos), CAP=cap)
+    fq, fbt, fbw, pw = (_new(n, dims) for n in ("fq", "fbt", "fbw", "pw"))
     cmu_input = {id(f): (s, k) for pe in machine.pes for s, cmu in enumerate(pe.ring.cmus)
                  for k, f in enumerate(cmu.inputs)}
     per_pe = len(fifos) // npes
@@ -442,7 +485,7 @@ def flatten(machine: Machine) -> State:
     gseg = {stage: add_seg(g.words) for stage, g in machine.globals.items()}
     region_names: list[str] = []
     rg_parts: list[tuple[int, int]] = []  # per region: (name id, primitive or -1)
-    rmap = _new("rmap", (P, 3, 2))
+    rmap = _new("rmap", dims)
     rmap[:, :, 1] = -1
     max_prim = 0
     tags: list[np.ndarray] = []
@@ -488,8 +531,9 @@ def flatten(machine: Machine) -> State:
     # side by side (one cache line per counted access)
     rg = np.array(rg_parts, np.int32) if rg_parts else np.zeros((1, 2), np.int32)
     rdense = np.concatenate(dense_parts) if dense_parts else np.zeros(1, np.int32)
-    rcnt = _new("rcnt", (P, 3, max(len(region_names), 1), 3))
-    pcnt = _new("pcnt", (P, 3, max(max_prim, 1)))
+    dims.update(NAMES=max(len(region_names), 1), PRIMS=max(max_prim, 1), REGIONS=len(rg),
+                MAPPED=len(rdense))
+    rcnt, pcnt = _new("rcnt", dims), _new("pcnt", dims)
 
     for p, core in enumerate(cores):
         mem = core.memory
@@ -560,16 +604,9 @@ def flatten(machine: Machine) -> State:
         _decode(core, units, ops[p], opk[p], opf[p], bun[p])
 
     # CMUs and links
-    K = 3 * npes
-    nin = max(len(cmu.inputs) for pe in machine.pes for cmu in pe.ring.cmus)
-    cm = _new("cm", (K, 8))
-    cin = _new("cin", (K, nin))
-    cout = _new("cout", (K, nin))
-    route = _new("route", (K, nin), _ROUTE_NONE)
-    rem = _new("rem", (K, nin))
-    lown = _new("lown", (K, nin), -1)
-    linkw = _new("linkw", K)
-    pes = _new("pes", (npes, 6))
+    dims["IN"] = max(len(cmu.inputs) for pe in machine.pes for cmu in pe.ring.cmus)
+    cm, cin, cout, route, rem, lown, linkw, pes = (_new(n, dims) for n in (
+        "cm", "cin", "cout", "route", "rem", "lown", "linkw", "pes"))
     for i, pe in enumerate(machine.pes):
         for s, stage in enumerate(STAGES):
             m = 3 * i + s
@@ -588,20 +625,21 @@ def flatten(machine: Machine) -> State:
                   fid[id(pe.ring.host)], fid[id(pe.ring.col)])
 
     d = machine.dis
-    moff = _new("moff", len(d.messages) + 1)
+    dims["MSGS1"] = len(d.messages) + 1
+    moff = _new("moff", dims)
     for k, msg in enumerate(d.messages):
         moff[k + 1] = moff[k] + len(msg)
     mwords = np.array([_as_signed(int(w) & mask) for msg in d.messages for w in msg] or [0],
                       np.int64)
     col = machine.col
-    cpart = _new("cpart", (npes, 8))
-    cplen = _new("cplen", npes)
+    cpart, cplen = _new("cpart", dims), _new("cplen", dims)
     for i, part in enumerate(col.partial):
         cplen[i] = len(part)
         for k, w in enumerate(part):
             cpart[i, k] = _as_signed(int(w) & mask)
 
-    seg = _new("seg", (len(segs), 2))
+    dims["SEGMENTS"] = len(segs)
+    seg = _new("seg", dims)
     off = 0
     for i, s in enumerate(segs):
         seg[i] = (off, len(s))
@@ -624,11 +662,13 @@ def flatten(machine: Machine) -> State:
         moff=moff, mwords=mwords,
         col=np.array([0, 0, col.width, col.height], np.int64),  # 0: LAYOUT
         cpart=cpart, cplen=cplen, frame=col.frame, ids=col.ids, cflags=CAUSE_FLAGS, pw=pw,
-        lrec=_new("lrec", 1 + (RECORD_CAPACITY if cs[:, C_RECORD].any() else 0)),
+        lrec=np.zeros(1 + (RECORD_CAPACITY if cs[:, C_RECORD].any() else 0), np.int64),
         finfo=np.zeros(8, np.int64))
     for component in LAYOUT:
         component.read(machine, a)
-    return State(a, fifos, region_names, mask)
+    dims.update(WORDS=len(a["mem"]), LINES=len(a["ctags"]), HOSTWORDS=len(mwords),
+                H=col.frame.shape[0], WIDTH=col.frame.shape[1], LREC=len(a["lrec"]))
+    return State(a, fifos, region_names, mask, dims)
 
 
 def _counters(mem) -> tuple:

@@ -39,7 +39,7 @@ from netsushisen.cluster import add_cluster_options, check_cluster_options
 from netsushisen.isa.errors import Diagnostic, NetsushisenError
 from netsushisen.host.catalog import load_scene
 from netsushisen.host.images import encode_png
-from netsushisen.limits import check_host, numerics_footprint
+from netsushisen.isa.limits import check_host, numerics_footprint
 from netsushisen.options import (add_config_options, add_engine, add_output, add_quiet,
                                  add_resolution, check_resolution, config_overrides,
                                  engine_from_args)

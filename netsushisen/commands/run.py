@@ -31,7 +31,7 @@ import sys
 
 from netsushisen.isa.outputs import replacing
 from netsushisen.isa.errors import NetsushisenError
-from netsushisen.limits import check_words
+from netsushisen.isa.limits import check_words
 from netsushisen.options import (add_engine, add_json, add_program_options, add_quiet, add_timeline,
                                  check_footprint,
                                  check_output_folders, engine_from_args, machine_inputs,

@@ -30,7 +30,7 @@ TIME_LIMIT = 60.0
 
 MEMORY_CEILING = 2 << 30
 """Peak resident memory one input may take (2 GiB): the tools refuse what would need more
-(netsushisen/limits.py) before allocating it."""
+(isa/limits.py) before allocating it."""
 
 
 @dataclass

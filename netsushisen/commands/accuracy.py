@@ -108,7 +108,7 @@ def run(args: argparse.Namespace) -> int:
 
     from netsushisen.accuracy import run_study
     from netsushisen.host.nff import format_nff
-    from netsushisen.reports.accuracy_report import tables_text, write_all
+    from netsushisen.reports.accuracy_report import agreement_lines, tables_text, write_all
 
     start = time.perf_counter()
     study = run_study(scenes, axes, args.res, config, engine, args.seed, args.repeats,
@@ -125,6 +125,8 @@ def run(args: argparse.Namespace) -> int:
     paths = write_all(out, rows, meta) if rows else []
     if not args.quiet and rows:
         print(tables_text(rows), end="")
+        for line in agreement_lines(rows):
+            print(line)
         print("warm-up (compile and first run, charged to no row): "
               + ", ".join(f"{k} {v:.1f} s" for k, v in warm.items()))
     if interrupted:

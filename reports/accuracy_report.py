@@ -5,13 +5,15 @@ The tables are `reports/tables.Section`s, so they print and turn into Markdown t
 other report of the project does. A Pareto plot puts each setting where a researcher weighs it:
 the further left the cheaper, the lower the closer to the truth; a step line per scene joins its
 Pareto front (the settings no other beats in both); an error of exactly 0 cannot sit on a log
-axis, so it is drawn on a dashed floor line marked "exact".
+axis, so the error axis is linear below a tenth of the smallest error that is not 0 and an exact
+setting sits at 0 itself, on a dashed line the legend names.
 """
 
 from __future__ import annotations
 
 import csv
 import json
+import math
 from pathlib import Path
 
 from netsushisen.isa.outputs import replacing, write_file, write_text
@@ -237,20 +239,49 @@ def pareto_front(xs: list[float], ys: list[float]) -> tuple[list[float], list[fl
     return fx, fy
 
 
+def tick_text(v: float, _pos=None) -> str:
+    """A tick label in plain digits (0.2, 1, 50, 1e-05 for the tiny): never '3×10⁻¹'."""
+    if v == 0:
+        return "0"
+    return f"{v:g}"
+
+
+def readable_log_axis(axis, values: list[float]) -> None:
+    """Major ticks at 1, 2, 5 × 10^k in plain digits and no minor labels, so neighbouring labels
+    cannot collide (matplotlib labels minor ticks of a short log range, '3×10⁻¹4×10⁻¹')."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    span = max(values) / min(values) if values and min(values) > 0 else 10.0
+    subs = (1.0, 2.0, 5.0) if span < 1e3 else (1.0,)
+    axis.set_major_locator(LogLocator(base=10, subs=subs))
+    axis.set_major_formatter(FuncFormatter(tick_text))
+    axis.set_minor_formatter(NullFormatter())
+
+
 def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
+    """Error against the seconds the axis compares. Errors of exactly 0 are drawn at 0: the
+    y axis is logarithmic above `linear` (a tenth of the smallest error that is not 0) and
+    linear below it, and the legend says so (a log axis has no 0)."""
     plt = _plt()
+    from matplotlib.lines import Line2D
+    from matplotlib.ticker import FuncFormatter, NullFormatter, SymmetricalLogLocator
+
     metric, label = PLOT_METRIC[axis]
     settings = list(dict.fromkeys(r.setting for r in rows))
     scenes = list(dict.fromkeys(r.scene for r in rows))
     positive = [r.error[metric] for r in rows if r.error.get(metric)]
-    floor = min(positive) / 10 if positive else 1e-3
-    fig, ax = plt.subplots(figsize=(8.5, 5.2), dpi=110)
+    # a power of ten at most a tenth of the smallest error that is not 0: round tick labels
+    linear = 10.0 ** math.floor(math.log10(min(positive) / 10)) if positive else 1e-3
+    fig, ax = plt.subplots(figsize=(9.5, 5.6), dpi=110)
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    xs_all, has = [], {"spread": False, "interval": False, "emulated": False, "zero": False}
     for si, scene in enumerate(scenes):
         c = colours[si % len(colours)]
         mine = sorted((r for r in rows if r.scene == scene), key=plot_seconds)
         xs = [max(plot_seconds(r), 1e-4) for r in mine]
-        ys = [r.error[metric] or floor for r in mine]
+        ys = [float(r.error[metric]) for r in mine]
+        xs_all += xs
+        has["zero"] |= any(y == 0 for y in ys)
         # an emulated precision's wall time is not its cost: off the front, drawn hollow, labelled
         costed = [(x, y) for r, x, y in zip(mine, xs, ys) if not r.emulated]
         fx, fy = pareto_front([x for x, _ in costed], [y for _, y in costed])
@@ -258,6 +289,7 @@ def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
         for r, x, y in zip(mine, xs, ys):
             m = MARKERS[settings.index(r.setting) % len(MARKERS)]
             if r.emulated:
+                has["emulated"] = True
                 ax.scatter([x], [y], marker=m, s=55, facecolors="none", edgecolors=c,
                            linewidths=1.2, zorder=3)
                 ax.annotate("emulation", (x, y), textcoords="offset points",
@@ -266,33 +298,52 @@ def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
                 ax.scatter([x], [y], marker=m, s=130 if r.truth else 55, color=c,
                            edgecolors="black" if r.truth else "none", linewidths=1.6, zorder=3)
             if r.timing is not None and len(r.timing.runs) > 1:  # the spread of the repeated runs
+                has["spread"] = True
                 _, lo, hi = r.timing.spread()
-                ax.plot([max(lo, 1e-4), max(hi, 1e-4)], [y, y],
-                        color=c, lw=0.8, alpha=0.6)
+                ax.plot([max(lo, 1e-4), max(hi, 1e-4)], [y, y], color=c, lw=0.8, alpha=0.6)
+                xs_all += [max(lo, 1e-4), max(hi, 1e-4)]
             if r.ci_low is not None and axis == "fidelity":
+                has["interval"] = True
                 truth = next(t for t in rows if t.scene == scene and t.truth).values["cycles"]
                 # the interval as the errors it allows: from its nearest to its farthest end, and
-                # down to the exact floor when it contains the truth (an error of 0 is allowed)
+                # down to 0 when it contains the truth (an error of 0 is allowed)
                 lo, hi = (r.ci_low - truth) / truth, (r.ci_high - truth) / truth
                 near = 0.0 if lo <= 0 <= hi else min(abs(lo), abs(hi))
-                ax.plot([x, x], [max(near, floor), max(abs(lo), abs(hi), floor)], color=c,
-                        lw=1, alpha=0.6)
+                ax.plot([x, x], [near, max(abs(lo), abs(hi))], color=c, lw=1.4, alpha=0.6)
     ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.axhline(floor, color="grey", ls="--", lw=0.8)
-    ax.text(ax.get_xlim()[0], floor, " exact (error 0)", va="bottom", ha="left",
-            fontsize=8, color="grey")
-    ax.set_xlabel("wall seconds, median of repeated runs (log; bars: min–max)")
-    ax.set_ylabel(f"{label} (log)")
+    readable_log_axis(ax.xaxis, xs_all)
+    ax.set_yscale("symlog", linthresh=linear, linscale=0.4)
+    ax.set_ylim(-0.15 * linear, 2.0 * max(positive) if positive else 10 * linear)
+    ax.yaxis.set_major_locator(SymmetricalLogLocator(base=10, linthresh=linear))
+    ax.yaxis.set_major_formatter(FuncFormatter(tick_text))
+    ax.yaxis.set_minor_formatter(NullFormatter())
+    if has["zero"]:
+        ax.axhline(0, color="grey", ls="--", lw=0.8)
+    ax.set_xlabel("seconds the axis compares (machine rows: the machine run; " +
+                  {"precision": "golden rows: the render",
+                   "depth": "the machine at that depth",
+                   "prepass": "the pre-pass",
+                   "fidelity": "all but host preparation"}[axis] + "), median, log")
+    ax.set_ylabel(f"{label}\n(log above {tick_text(linear)}, linear below: 0 is exact)")
     ax.set_title(f"{TITLES[axis]} — {res}×{res}")
-    from matplotlib.lines import Line2D
-
     scene_h = [Line2D([], [], color=colours[i % len(colours)], marker="o", ls="", label=s)
                for i, s in enumerate(scenes)]
+    scene_h.append(Line2D([], [], color="grey", alpha=0.45, lw=1.2, label="Pareto front"))
     set_h = [Line2D([], [], color="black", marker=MARKERS[i % len(MARKERS)], ls="", label=s)
              for i, s in enumerate(settings)]
     set_h.append(Line2D([], [], color="white", marker="o", markeredgecolor="black", ms=10, ls="",
                         label="truth (black edge)"))
+    if has["emulated"]:
+        set_h.append(Line2D([], [], color="black", marker="o", markerfacecolor="none", ls="",
+                            label="emulation (hollow: time is not its cost)"))
+    if has["spread"]:
+        set_h.append(Line2D([], [], color="black", lw=0.8, alpha=0.6,
+                            label="min–max of the repeated runs"))
+    if has["interval"]:
+        set_h.append(Line2D([0], [0], color="black", lw=1.4, alpha=0.6, marker="|", ms=10,
+                            label="95 % interval as errors it allows"))
+    if has["zero"]:
+        set_h.append(Line2D([], [], color="grey", ls="--", lw=0.8, label="error 0 (exact)"))
     first = ax.legend(handles=scene_h, loc="lower left", bbox_to_anchor=(1.01, 0), fontsize=8,
                       title="scene")
     ax.add_artist(first)

@@ -423,7 +423,10 @@ def test_cli_bad_input_is_one_line(cli, tmp_path):
                          (("nosuchscene",), "nosuchscene"),
                          (("tetra", "--res", "0"), "--res 0"),
                          (("tetra", "--engine", "warp"), "warp"),
-                         (("tetra", "--repeats", "0"), "--repeats 0")):
+                         (("tetra", "--repeats", "0"), "--repeats 0"),
+                         (("tetra", "--sizes", "16"), "at least two sizes"),
+                         (("tetra", "--sizes", "16,x"), "--sizes '16,x'"),
+                         (("tetra", "--sizes", "16,0"), "--res 0")):
         code, out, err = cli("accuracy", *argv, "--out", tmp_path / "x", "--quiet")
         assert code == 1, (argv, err)
         assert needle in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
@@ -500,3 +503,70 @@ def test_a_depth_the_machine_cannot_hold_leaves_a_golden_row_not_a_failed_study(
     section = axis_section("depth", rows)
     (cells,) = [r for r in section.rows if "(truth)" in str(r[1])]
     assert section.cell("cycles", cells[section.columns.index("cycles")]) == "-"
+
+
+# ------------------------------------------------------------------------------------------------
+# Scaling with size (issue 43 item 3) and the README's tables (item 4)
+
+
+def _sized(res, setting, machine, rays=None, ci=False, truth=False):
+    tm = Timing.of_parts({"host": [1.0] * len(machine), "load": [0.2] * len(machine),
+                          "machine": machine}, ["load", "machine"] if ci or truth else ["machine"])
+    return Row("fidelity" if ci or truth else "precision", "tetra", setting, truth, {}, tm.median,
+               {} if rays is None else {"rays": rays}, "", timing=tm,
+               ci_low=1.0 if ci else None, ci_high=2.0 if ci else None)
+
+
+def test_per_ray_fit_predicts_a_larger_size_and_says_how_well_it_fits():
+    from netsushisen.reports.accuracy_scaling import fit_line, measured_sentence, scalings
+
+    f = fit_line([100, 200, 400], [1.1, 1.2, 1.4])  # exactly 1 + 0.001·rays
+    assert (f.a, f.b, f.r2) == pytest.approx((1.0, 0.001, 1.0))
+    assert fit_line([100, 200, 400], [1.0, 1.5, 1.2]).r2 < 0.5  # scattered: a poor fit says so
+    with pytest.raises(ValueError):
+        fit_line([100, 100], [1.0, 2.0])
+    studies = {n: {"precision": [_sized(n, "machine fp32", [0.01 + 1e-5 * n * n] * 2, rays=n * n)]}
+               for n in (16, 32, 64)}
+    (s,) = scalings(studies, 512)
+    assert s.predicted == pytest.approx(0.01 + 1e-5 * 512 * 512) and s.fit.r2 == pytest.approx(1.0)
+    good = {"scene": "tetra", "setting": "machine fp32", "stage": "compared",
+            "seconds": s.predicted * 1.1}
+    assert "(-9.1%: within 20 %)" in measured_sentence([s], good)
+    assert "NOT within" in measured_sentence([s], good | {"seconds": s.predicted * 1.5})
+
+
+def test_sampled_speedup_against_size_flips_where_the_run_is_long():
+    from netsushisen.reports.accuracy_scaling import sampled_speedups
+
+    studies = {16: {"fidelity": [_sized(16, "(d) full", [0.1], truth=True),
+                                 _sized(16, "(c) sampled 10 %", [0.5], ci=True)]},
+               128: {"fidelity": [_sized(128, "(d) full", [20.0], truth=True),
+                                  _sized(128, "(c) sampled 10 %", [3.0], ci=True)]}}
+    ups = sampled_speedups(studies)
+    assert [u["res"] for u in ups] == [16, 128]
+    assert ups[0]["speedup"] < 1 < ups[1]["speedup"]
+
+
+def test_readme_tables_show_median_and_spread_and_replace_an_older_header(tmp_path):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "accuracy_tables", Path(__file__).resolve().parents[1] / "tools" / "accuracy_tables.py")
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    err = {"rmse_u8": 0.0, "hit_ids": 0.0}
+
+    def row(setting, machine, cycles):
+        t = Timing.of_parts({"host": [1.0, 1.1], "machine": machine}, ["machine"])
+        return Row("precision", "tetra", setting, setting == "golden fp64", err, t.median,
+                   {"cycles": cycles}, "", timing=t).to_json()
+
+    data = {"axes": {"precision": [row(s, [0.1, 0.12], 5) for s in (
+        "golden fp64", "golden fp32", "golden fp16", "golden bf16 scene")]
+        + [row("machine fp32", [0.17, 0.19], 100), row("machine fp64", [0.2, 0.22], 114)]}}
+    table = tool.tables(data)["precision"]
+    assert "0.180 (0.170–0.190) s → 0.210 (0.200–0.220) s" in table
+    readme = tmp_path / "README.md"
+    readme.write_text("x\n\n| scene | golden fp32 | old columns |\n| --- | --- |\n| a | b |\n\ny\n")
+    tool.write(readme, {"precision": table})
+    assert readme.read_text() == f"x\n\n{table}\n\ny\n"

@@ -319,11 +319,11 @@ def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
     ax.yaxis.set_minor_formatter(NullFormatter())
     if has["zero"]:
         ax.axhline(0, color="grey", ls="--", lw=0.8)
-    ax.set_xlabel("seconds the axis compares (machine rows: the machine run; " +
-                  {"precision": "golden rows: the render",
-                   "depth": "the machine at that depth",
-                   "prepass": "the pre-pass",
-                   "fidelity": "all but host preparation"}[axis] + "), median, log")
+    ax.set_xlabel("seconds compared, median of the repeated runs (log): " + {
+        "precision": "golden rows: the render; machine rows: the machine run",
+        "depth": "the machine run at that depth",
+        "prepass": "the pre-pass",
+        "fidelity": "all but host preparation (sampled: every tile + auxiliary render)"}[axis])
     ax.set_ylabel(f"{label}\n(log above {tick_text(linear)}, linear below: 0 is exact)")
     ax.set_title(f"{TITLES[axis]} — {res}×{res}")
     scene_h = [Line2D([], [], color=colours[i % len(colours)], marker="o", ls="", label=s)
@@ -340,8 +340,8 @@ def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
         set_h.append(Line2D([], [], color="black", lw=0.8, alpha=0.6,
                             label="min–max of the repeated runs"))
     if has["interval"]:
-        set_h.append(Line2D([0], [0], color="black", lw=1.4, alpha=0.6, marker="|", ms=10,
-                            label="95 % interval as errors it allows"))
+        set_h.append(Line2D([], [], color="black", alpha=0.6, marker="|", ms=14, mew=1.4, ls="",
+                            label="95 % interval (sampled),\nas the errors it allows"))
     if has["zero"]:
         set_h.append(Line2D([], [], color="grey", ls="--", lw=0.8, label="error 0 (exact)"))
     first = ax.legend(handles=scene_h, loc="lower left", bbox_to_anchor=(1.01, 0), fontsize=8,

@@ -11,6 +11,10 @@ read +79 % in time while its cycles rose 14 %. A machine run is timed as four st
   machine  the cycle loop alone: the figure the precision and depth axes compare
   readout  the compiled engine's write-back and `finish` (frame, ids, ray counts, statistics)
 
+The machine stage is also kept as this process's CPU seconds (`machine_cpu`, not part of a run's
+total): on a shared machine wall time grows with everyone else's load (a 512x512 tetra run took
+196 s of wall time at one load and 455 s at another), CPU time does not.
+
 Why interleaved: one setting's repeats in a row share whatever else the machine was doing then;
 round-robin (every setting once, then again) spreads that over all settings alike.
 
@@ -52,19 +56,20 @@ def run_parts(setup: RenderSetup, engine: str, max_cycles: int | None = None
     end cleanly is bad input for a study (a cycle limit within `max_cycles` is expected)."""
     t0 = time.perf_counter()
     eng = setup.engine(engine)
-    t1 = time.perf_counter()
+    t1, c1 = time.perf_counter(), time.process_time()
     run = eng.run(max_cycles)
-    t2 = time.perf_counter()
+    t2, c2 = time.perf_counter(), time.process_time()
     result = finish(setup, eng, run)
     t3 = time.perf_counter()
     phases = getattr(eng, "phases", None) or {}
     flatten, back = phases.get("flatten", 0.0), phases.get("write_back", 0.0)
+    fixed_cpu = phases.get("flatten_cpu", 0.0) + phases.get("write_back_cpu", 0.0)
     if run.status not in ("halted", "finished") and not (max_cycles and run.status == "max_cycles"):
         raise MachineStopped(f"{setup.scene.name} {setup.res}x{setup.res}: the machine run ended "
                              f"{run.status} at cycle {run.cycles:,}"
                              + (f": {run.error.format()}" if run.error else ""))
     return result, {"load": t1 - t0 + flatten, "machine": max(0.0, t2 - t1 - flatten - back),
-                    "readout": back + t3 - t2}
+                    "readout": back + t3 - t2, "machine_cpu": max(0.0, c2 - c1 - fixed_cpu)}
 
 
 def machine_job(scene: Scene, config: MachineConfig, res: int, engine: str,

@@ -130,8 +130,10 @@ class Timing:
 
     @staticmethod
     def of_parts(parts: dict[str, list[float]], basis: list[str] | tuple[str, ...] = ()) -> "Timing":
-        """A timing from each stage's per-run seconds; a run's total is their sum."""
-        runs = [sum(v) for v in zip(*parts.values())] if parts else []
+        """A timing from each stage's per-run seconds; a run's total is their sum (`*_cpu`
+        entries, CPU seconds of a stage already counted, are kept but not added)."""
+        wall = [v for k, v in parts.items() if not k.endswith("_cpu")]
+        runs = [sum(v) for v in zip(*wall)] if wall else []
         return Timing.of(runs, parts, basis)
 
 

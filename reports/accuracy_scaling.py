@@ -74,7 +74,8 @@ class Scaling:
 
 def scalings(studies: dict[int, dict[str, list[Row]]], predict_res: int) -> list[Scaling]:
     """Every (axis, scene, setting) timed at two sizes or more, fitted on its compared seconds
-    and, for machine rows, on the machine stage alone (the run a larger study repeats)."""
+    and, for machine rows, on the machine stage alone (the run a larger study repeats) and on
+    its CPU seconds (`machine_cpu`: what a loaded, shared machine does not inflate)."""
     groups: dict[tuple[str, str, str, str], list[tuple[int, int, float, float, float]]] = {}
     for res, axes in sorted(studies.items()):
         for axis, rows in axes.items():
@@ -84,6 +85,8 @@ def scalings(studies: dict[int, dict[str, list[Row]]], predict_res: int) -> list
                 stages = [("compared", None)]
                 if "machine" in r.timing.parts and r.timing.basis != ["machine"]:
                     stages.append(("machine", ["machine"]))
+                if "machine_cpu" in r.timing.parts:  # immune to other processes' load
+                    stages.append(("machine_cpu", ["machine_cpu"]))
                 for name, which in stages:
                     m, lo, hi = r.timing.spread(which)
                     groups.setdefault((axis, r.scene, r.setting, name), []).append(

@@ -218,7 +218,8 @@ def test_precision_axis(engine_name):
     assert all(len(r.timing.runs) == (1 if s in emulated else 2) and r.seconds == r.timing.median
                for s, r in rows.items())
     m = rows["machine fp32"].timing
-    assert set(m.components) == {"host", "load", "machine", "readout"} and m.basis == ["machine"]
+    assert set(m.components) == {"host", "load", "machine", "readout", "machine_cpu"}
+    assert m.basis == ["machine"]
     assert 0 < m.components["host"] < m.high and m.compared == pytest.approx(m.components["machine"])
     assert rows["machine fp32"].run and rows["machine fp32"].run != rows["machine fp64"].run
 
@@ -343,6 +344,9 @@ def test_timing_stages_compare_the_basis_not_the_total():
     assert t.runs == pytest.approx([1.7, 1.82, 1.71]) and t.median == pytest.approx(1.71)
     assert t.spread() == pytest.approx((0.11, 0.10, 0.12)) and t.compared == pytest.approx(0.11)
     assert t.spread(["host", "load"]) == pytest.approx((1.6, 1.6, 1.7))
+    # a stage's CPU seconds are kept beside it, not added to the run's total a second time
+    c = Timing.of_parts({"host": [1.0], "machine": [0.5], "machine_cpu": [0.4]}, ["machine"])
+    assert c.runs == [1.5] and c.spread(["machine_cpu"]) == (0.4, 0.4, 0.4)
 
     def row(setting, host, machine):
         tm = Timing.of_parts({"host": host, "machine": machine}, ["machine"])

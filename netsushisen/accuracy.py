@@ -334,13 +334,12 @@ def depth_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
         goldens[d] = (golden.render(scene, configs[d], res=res), time.perf_counter() - start)
     progress(f"{name} depth: machine at {', '.join(map(str, order))} ({repeats} rounds)")
     keys = {d: run_key(scene, c, res, engine) for d, c in configs.items()}
-    measured = round_robin({d: machine_job(scene, c, res, engine) for d, c in configs.items()},
-                           repeats, keys)
     rows = _Rows(emit)
     tg = goldens[truth_depth][0]
-    for d in order:
+
+    def row(d: int, measured) -> None:  # each depth's row sent on the moment it is final
         g, g_seconds = goldens[d]
-        outcome, parts = measured[d]
+        outcome, parts = measured
         if isinstance(outcome, MachineStopped):  # the machine cannot hold it: the golden row alone
             r, mt, stopped = None, Timing.of([g_seconds], {"golden": [g_seconds]}), str(outcome)
         else:
@@ -362,6 +361,9 @@ def depth_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
                          "truth_converged": converged,
                          "truth_depths_tried": len(tried)}, timing=mt,
                         run=keys[d] if r is not None else ""))
+
+    round_robin({d: machine_job(scene, c, res, engine) for d, c in configs.items()}, repeats, keys,
+                done=row)
     return sorted(rows, key=lambda r: r.values["depth"])
 
 

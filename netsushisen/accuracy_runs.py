@@ -101,11 +101,14 @@ KEEP = 4
 
 
 def round_robin(jobs: dict[K, Job], repeats: int, keys: dict[K, str] | None = None,
-                stops: tuple[type[BaseException], ...] = (MachineStopped,)) -> dict[K, Outcome]:
+                stops: tuple[type[BaseException], ...] = (MachineStopped,),
+                done: Callable[[K, Outcome], None] | None = None) -> dict[K, Outcome]:
     """Each job `repeats` times, round by round (every job once, then again), so no setting's
     repeats run in a row. A job whose `keys` entry was measured before in this process (same
     run_key, same repeats) is not run again: its runs are reused. A job raising one of `stops`
-    is dropped from later rounds; its outcome is the exception and the stages it had."""
+    is dropped from later rounds; its outcome is the exception and the stages it had.
+    `done(k, outcome)` is called as each setting becomes final (a reused one at once, the others
+    in the last round), so its row can be sent on before the round ends (Ctrl-C keeps it)."""
     keys = keys or {}
     out: dict[K, Outcome] = {}
     todo = []
@@ -114,11 +117,14 @@ def round_robin(jobs: dict[K, Job], repeats: int, keys: dict[K, str] | None = No
         if memo[0] is not None and memo in _MEASURED:
             out[k] = _MEASURED[memo]
             _MEASURED.move_to_end(memo)
+            if done:
+                done(k, out[k])
         else:
             todo.append(k)
     parts: dict[K, dict[str, list[float]]] = {k: {} for k in todo}
     last: dict[K, object] = {}
-    for _ in range(max(1, repeats)):
+    rounds = max(1, repeats)
+    for i in range(rounds):
         for k in todo:
             if isinstance(last.get(k), BaseException):
                 continue
@@ -126,11 +132,14 @@ def round_robin(jobs: dict[K, Job], repeats: int, keys: dict[K, str] | None = No
                 last[k], stage = jobs[k]()
             except stops as err:
                 last[k] = err
-                continue
-            for name, seconds in stage.items():
-                parts[k].setdefault(name, []).append(seconds)
+            else:
+                for name, seconds in stage.items():
+                    parts[k].setdefault(name, []).append(seconds)
+            if i == rounds - 1 or isinstance(last[k], BaseException):
+                out[k] = (last[k], parts[k])
+                if done:
+                    done(k, out[k])
     for k in todo:
-        out[k] = (last[k], parts[k])
         if keys.get(k) is not None and not isinstance(last[k], BaseException):
             _MEASURED[(keys[k], repeats)] = out[k]
             while len(_MEASURED) > KEEP:

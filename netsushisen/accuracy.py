@@ -13,12 +13,14 @@ renders (host/golden.py) and machine runs through the engine interface (via `ren
              reference engine
 
 Times: before any timed row, `warm_up` compiles and runs every engine path once per precision (a
-tiny render on the machine and on the golden model), so the one-time numba compile is reported
-once (`warm_up`'s seconds) and charged to no row. Each row is then timed over `REPEATS` runs (the
-CLI's --repeats) and shows their median and min–max spread (`reports.accuracy.Timing`). Every row
-includes host preparation: a golden row times `golden.render` with its grid built inside; a
-machine row times `prepare` (grid, pre-pass, memory images, kernels, eye rays) plus the engine's
-build, run and read-out, shown as the components "host" and "machine".
+tiny render on the machine), so the one-time numba compile is reported once (`warm_up`'s seconds)
+and charged to no row. Each row is then timed over `REPEATS` runs (the CLI's --repeats), the
+settings of an axis round-robin (netsushisen/accuracy_runs.py), split into stages — host
+preparation, engine load, machine run, read-out, and a sampled row's auxiliary golden render —
+each with its median and min–max spread (`reports.accuracy.Timing`). An axis compares the stage
+that is the setting's cost (`Timing.basis`: a machine row's machine stage). Identical machine
+configurations on different axes are measured once per worker and carry one run key, which the
+report checks (`reports.accuracy.identical_runs`).
 """
 
 from __future__ import annotations
@@ -38,12 +40,13 @@ import numpy as np
 
 from netsushisen.cluster import ResultCache, Task, content_key, kernel_digest, run_cached, scene_digest
 from netsushisen.emulator import stats as run_stats
-from netsushisen.isa.errors import NetsushisenError
 from netsushisen.host import golden
 from netsushisen.host.prepass import coarse_resolution
 from netsushisen.host.scenes import Scene
 from netsushisen.isa.config import MachineConfig, apply_override, dump_toml
 from netsushisen.pipeline import RenderResult, RenderSetup, finish, prepare
+from netsushisen.accuracy_runs import (MachineStopped, machine_job, round_robin, run_key, run_parts,
+                                       timed_job)
 from netsushisen.reports.accuracy import (PER_STRATUM, Row, Timing, fidelity_errors,  # noqa: F401
                                           hit_id_share, ic_regions, image_errors,
                                           strata_bounds, stratified_tiles,
@@ -111,25 +114,12 @@ def with_sets(config: MachineConfig, **fields) -> MachineConfig:
     return c
 
 
-class MachineStopped(NetsushisenError):
-    """A study's machine run that did not end cleanly (e.g. at a deep ray depth more rays wait
-    than OS's memory holds: `queue_overflow`)."""
-
-
 def run_machine(setup: RenderSetup, engine: str, max_cycles: int | None = None
                 ) -> tuple[RenderResult, float]:
-    """Run a prepared setup; (result, wall seconds). A run that does not end cleanly is bad
-    input for a study (a cycle limit within `max_cycles` is expected)."""
-    start = time.perf_counter()
-    eng = setup.engine(engine)
-    run = eng.run(max_cycles)
-    result = finish(setup, eng, run)
-    seconds = time.perf_counter() - start
-    if run.status not in ("halted", "finished") and not (max_cycles and run.status == "max_cycles"):
-        raise MachineStopped(f"{setup.scene.name} {setup.res}x{setup.res}: the machine run ended "
-                               f"{run.status} at cycle {run.cycles:,}"
-                               + (f": {run.error.format()}" if run.error else ""))
-    return result, seconds
+    """Run a prepared setup; (result, wall seconds of load, run and read-out). A run that does
+    not end cleanly raises MachineStopped (a cycle limit within `max_cycles` is expected)."""
+    result, parts = run_parts(setup, engine, max_cycles)
+    return result, sum(parts.values())
 
 
 def timed(fn: Callable[[], object], repeats: int = REPEATS) -> tuple[object, Timing]:
@@ -142,21 +132,32 @@ def timed(fn: Callable[[], object], repeats: int = REPEATS) -> tuple[object, Tim
     return result, Timing.of(runs)
 
 
+ENGINE_STAGES = ("load", "machine", "readout")
+"""A simulation's own stages (after host preparation): what the fidelity axis compares, since a
+sampled row's many short runs each pay the engine's load and read-out."""
+MACHINE_BASIS = ("machine",)
+"""What a machine row's axis compares: the cycle loop alone (host preparation, the engine's load
+and read-out are the same work at every setting and are shown beside it)."""
+
+
+def machine_timing(parts: dict[str, list[float]]) -> Timing:
+    """A machine row's timing: its stages, the machine stage compared."""
+    return Timing.of_parts(parts, MACHINE_BASIS)
+
+
 def machine_timed(scene: Scene, config: MachineConfig, res: int, engine: str,
                   repeats: int = REPEATS,
                   max_cycles: int | None = None) -> tuple[RenderSetup, RenderResult, Timing]:
-    """(setup, result, timing) of a machine row: `repeats` times host preparation (`prepare`)
-    then the engine's build, run and read-out; components "host" and "machine"."""
-    host, machine = [], []
-    setup = result = None
-    for _ in range(max(1, repeats)):
-        start = time.perf_counter()
-        setup = prepare(scene, config, res)
-        host.append(time.perf_counter() - start)
-        result, seconds = run_machine(setup, engine, max_cycles)
-        machine.append(seconds)
-    return setup, result, Timing.of([h + m for h, m in zip(host, machine)],
-                                    {"host": host, "machine": machine})
+    """(setup, result, timing) of one machine setting alone (`repeats` runs, each host
+    preparation then the engine: stages host, load, machine, readout); reused when this
+    configuration was measured before in this process."""
+    key = run_key(scene, config, res, engine)
+    (outcome, parts), = round_robin({key: machine_job(scene, config, res, engine, max_cycles)},
+                                    repeats, {key: key}).values()
+    if isinstance(outcome, BaseException):
+        raise outcome
+    setup, result = outcome
+    return setup, result, machine_timing(parts)
 
 
 def warm_up(scene: Scene, config: MachineConfig, engine: str,
@@ -223,63 +224,75 @@ def _image_row(axis, scene, setting, truth_img, u8, ids, rays, timing: Timing, c
                {"psnr_db": psnr} | (values or {}), timing=timing, emulated=setting in EMULATED)
 
 
-def _golden(scene: Scene, config: MachineConfig, res: int, precision: str | None, repeats: int):
-    """A golden render timed over `repeats` runs (grid built inside each: host preparation)."""
+def _golden_job(scene: Scene, config: MachineConfig, res: int, precision: str | None):
+    """A golden render (grid built inside: host preparation) as one job of stage "golden"."""
     def once():
         with np.errstate(all="ignore"):
             return golden.render(scene, config, res=res, precision=precision)
-    return timed(once, repeats)
+    return timed_job(once, "golden")
+
+
+def _golden(scene: Scene, config: MachineConfig, res: int, precision: str | None, repeats: int):
+    """A golden render timed over `repeats` runs."""
+    (g, parts), = round_robin({0: _golden_job(scene, config, res, precision)}, repeats).values()
+    return g, Timing.of_parts(parts)
 
 
 def precision_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
                    progress: Progress = _quiet, repeats: int = REPEATS,
                    emit: Emit | None = None) -> list[Row]:
+    """The golden model's precisions and the machine's, their repeats round-robin (the emulated
+    ones, whose time is not their cost, once); a golden row's seconds are its render, a machine
+    row compares its machine stage (host, load and read-out beside it)."""
     name = scene.name
-    progress(f"{name} precision: golden fp64")
-    truth, tt = _golden(scene, config, res, "fp64", repeats)
-    first = _image_row("precision", name, "golden fp64", truth, truth.image_u8,
-                       truth.hit_ids, truth.rays, tt, {"rays": traced_rays(truth.rays)},
-                       "the golden numpy model in float64: the truth")
-    first.truth = True
-    rows = _Rows(emit)
-    rows.append(first)
-    variants = (
-        ("golden fp32", scene, "fp32",
-         "the golden numpy model in float32 (the machine's precision)"),
-        ("golden fp16", scene, "fp16",
+    variants = {
+        "golden fp32": (scene, "fp32",
+                        "the golden numpy model in float32 (the machine's precision)"),
+        "golden fp16": (scene, "fp16",
          "the golden model run with numpy float16 as its precision: every stored value and every "
          "operation rounded to float16 (shine 100000 overflows to inf; Phong's pow goes through "
          "isa/libm.py in float64 and is rounded into the float16 pixel sums); its seconds are numpy's "
          "software emulation of float16, not what fp16 hardware would take: its cost is the rays "
          "traced"),
-        ("golden bf16 scene", round_scene(scene, round_bf16), "fp32", "every number of the scene "
-                                                                      "(vertices, normals, "
-                                                                      "centres, radii, cone ends, "
-                                                                      "materials, lights, camera) "
-                                                                      "rounded to bfloat16 (8 "
-                                                                      "significant bits, nearest "
-                                                                      "even); the golden model "
-                                                                      "then computes in float32 "
-                                                                      "(an emulation of bf16 "
-                                                                      "storage: its seconds are "
-                                                                      "not bf16's cost; its cost "
-                                                                      "is the rays traced)"),
-    )
-    for setting, sc, precision, how in variants:
+        "golden bf16 scene": (round_scene(scene, round_bf16), "fp32",
+                              "every number of the scene (vertices, normals, centres, radii, cone "
+                              "ends, materials, lights, camera) rounded to bfloat16 (8 significant "
+                              "bits, nearest even); the golden model then computes in float32 (an "
+                              "emulation of bf16 storage: its seconds are not bf16's cost; its "
+                              "cost is the rays traced)"),
+    }
+    configs = {p: with_sets(config, precision=p) for p in ("fp32", "fp64")}
+    jobs = {"golden fp64": _golden_job(scene, config, res, "fp64"),
+            "golden fp32": _golden_job(scene, config, res, "fp32")}
+    jobs |= {f"machine {p}": machine_job(scene, c, res, engine) for p, c in configs.items()}
+    keys = {f"machine {p}": run_key(scene, c, res, engine) for p, c in configs.items()}
+    progress(f"{name} precision: {', '.join(jobs)} ({repeats} rounds)")
+    measured = round_robin(jobs, repeats, keys)
+    for setting in EMULATED:
         progress(f"{name} precision: {setting}")
-        # an emulation's time is not the setting's cost: one run (fp16 is numpy's slowest path)
-        g, gt = _golden(sc, config, res, precision, 1 if setting in EMULATED else repeats)
-        rows.append(_image_row("precision", name, setting, truth, g.image_u8, g.hit_ids, g.rays, gt,
-                               {"rays": traced_rays(g.rays)}, how))
-    for precision in ("fp32", "fp64"):
-        progress(f"{name} precision: machine {precision}")
-        _, r, mt = machine_timed(scene, with_sets(config, precision=precision), res,
-                                 engine, repeats)
-        rows.append(_image_row("precision", name, f"machine {precision}", truth, r.image_u8,
-                               r.hit_ids, r.rays,
-                               mt, {"rays": traced_rays(r.rays), "cycles": r.run.cycles},
-                               f"the kernels on the {engine} engine in {precision}; cost in "
-                               "machine cycles; seconds: host preparation + the engine's run"))
+        sc, precision, _ = variants[setting]
+        measured |= round_robin({setting: _golden_job(sc, config, res, precision)}, 1)
+    truth, tparts = measured["golden fp64"]
+    first = _image_row("precision", name, "golden fp64", truth, truth.image_u8,
+                       truth.hit_ids, truth.rays, Timing.of_parts(tparts),
+                       {"rays": traced_rays(truth.rays)},
+                       "the golden numpy model in float64: the truth")
+    first.truth = True
+    rows = _Rows(emit)
+    rows.append(first)
+    for setting, (sc, precision, how) in variants.items():
+        g, parts = measured[setting]
+        rows.append(_image_row("precision", name, setting, truth, g.image_u8, g.hit_ids, g.rays,
+                               Timing.of_parts(parts), {"rays": traced_rays(g.rays)}, how))
+    for p in configs:
+        (_, r), parts = measured[f"machine {p}"]
+        row = _image_row("precision", name, f"machine {p}", truth, r.image_u8, r.hit_ids, r.rays,
+                         machine_timing(parts), {"rays": traced_rays(r.rays), "cycles": r.run.cycles},
+                         f"the kernels on the {engine} engine in {p}; cost in machine cycles; "
+                         "seconds: host preparation + engine load + machine run + read-out, the "
+                         "machine run compared")
+        row.run = keys[f"machine {p}"]
+        rows.append(row)
     return list(rows)
 
 
@@ -313,23 +326,30 @@ def depth_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
     at that depth); the golden render's time, which only serves the comparison, is not added."""
     name = scene.name
     truth_depth, converged, tried = converged_truth(scene, config, res, truth_depth, cap, progress)
-    rows = _Rows(emit)
-    tg = None
-    for d in dict.fromkeys((truth_depth, *depths)):  # the truth first: each row is final when made
-        progress(f"{name} depth {d}")
-        cfg = with_sets(config, **{"render.max_depth": d})
+    order = list(dict.fromkeys((truth_depth, *depths)))
+    configs = {d: with_sets(config, **{"render.max_depth": d}) for d in order}
+    goldens = {}
+    for d in order:
+        progress(f"{name} depth {d}: golden")
         start = time.perf_counter()
-        g = golden.render(scene, cfg, res=res)
-        g_seconds = time.perf_counter() - start
-        try:
-            _, r, mt = machine_timed(scene, cfg, res, engine, repeats)
-        except MachineStopped as err:  # the machine cannot hold this depth: the golden row alone
-            r, mt, stopped = None, Timing([g_seconds], {"golden": g_seconds}), str(err)
-        tg = g if tg is None else tg
+        goldens[d] = (golden.render(scene, configs[d], res=res), time.perf_counter() - start)
+    progress(f"{name} depth: machine at {', '.join(map(str, order))} ({repeats} rounds)")
+    keys = {d: run_key(scene, c, res, engine) for d, c in configs.items()}
+    rows = _Rows(emit)
+    tg = goldens[truth_depth][0]
+
+    def row(d: int, measured) -> None:  # each depth's row sent on the moment it is final
+        g, g_seconds = goldens[d]
+        outcome, parts = measured
+        if isinstance(outcome, MachineStopped):  # the machine cannot hold it: the golden row alone
+            r, mt, stopped = None, Timing.of([g_seconds], {"golden": [g_seconds]}), str(outcome)
+        else:
+            (_, r), mt = outcome, machine_timing(parts)
         errors, psnr = image_errors(g.image_u8, tg.image_u8)
         t = d == truth_depth
-        machine = (f"machine cycles and seconds (host preparation + run) on the {engine} engine "
-                   "(its rays " + ("equal" if r.rays == g.rays else "DIFFER from")
+        machine = (f"machine cycles and seconds (host preparation, engine load, machine run, "
+                   f"read-out; the machine run compared) on the {engine} engine (its rays "
+                   + ("equal" if r.rays == g.rays else "DIFFER from")
                    + " the golden model's)" if r is not None else
                    f"no machine cycles: {stopped}; seconds: the golden model's")
         rows.append(Row("depth", name, f"depth {d}", t, {k: 0.0 for k in errors} if t else errors,
@@ -340,7 +360,11 @@ def depth_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
                          "machine_rays": traced_rays(r.rays) if r else None,
                          "golden_seconds": g.seconds, "truth_depth": truth_depth,
                          "truth_converged": converged,
-                         "truth_depths_tried": len(tried)}, timing=mt))
+                         "truth_depths_tried": len(tried)}, timing=mt,
+                        run=keys[d] if r is not None else ""))
+
+    round_robin({d: machine_job(scene, c, res, engine) for d, c in configs.items()}, repeats, keys,
+                done=row)
     return sorted(rows, key=lambda r: r.values["depth"])
 
 
@@ -370,20 +394,28 @@ def prepass_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
     rows = _Rows(emit)
     truth = None
     measure_order = [res] + [s for s in sides if s != res]
+    configs = {side: with_sets(config, **{"prepass.share": (side / res) ** 2})
+               for side in measure_order}
+
+    def job(cfg):
+        inner = machine_job(scene, cfg, res, engine)
+
+        def run():
+            (setup, r), parts = inner()
+            return (setup, r), {"prepass": setup.prepass.seconds} | parts
+        return run
+
+    progress(f"{name} pre-pass: {', '.join(f'{s}x{s}' for s in measure_order)} ({repeats} rounds)")
+    measured = round_robin({side: job(c) for side, c in configs.items()}, repeats)
     for side in measure_order:
-        progress(f"{name} pre-pass {side}x{side}")
-        cfg = with_sets(config, **{"prepass.share": (side / res) ** 2})
-        pre_runs, main_runs, host_runs = [], [], []
-        for _ in range(max(1, repeats)):
-            start = time.perf_counter()
-            setup = prepare(scene, cfg, res)
-            host_runs.append(time.perf_counter() - start)
-            pre_runs.append(setup.prepass.seconds)
-            r, seconds = run_machine(setup, engine)
-            main_runs.append(seconds)
+        (setup, r), parts = measured[side]
         if setup.prepass.resolution != side:
             raise AssertionError(f"pre-pass side {setup.prepass.resolution}, wanted {side}")
-        timing = Timing.of(pre_runs, {"prepass": pre_runs, "host": host_runs, "machine": main_runs})
+        # the pre-pass is part of the host stage: its own stage is what this axis compares
+        parts = {"prepass": parts["prepass"],
+                 "host": [h - p for h, p in zip(parts["host"], parts["prepass"])]} | {
+            k: v for k, v in parts.items() if k not in ("prepass", "host")}
+        timing = Timing.of_parts(parts, ["prepass"])
         pre, point = setup.prepass, machine_point(r.stats)
         truth = point if truth is None else truth
         t = side == res
@@ -392,17 +424,19 @@ def prepass_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
                   "cycles": relative(point["cycles"], truth["cycles"])}
         rows.append(Row("prepass", name,
                         f"pre-pass {side}x{side}" + (" (config share)" if default else ""),
-                        t, errors, timing.median,
+                        t, errors, timing.compared,
                         {"rays": pre.eye_rays, "ray_share": pre.eye_rays / (res * res),
-                         "time_share": timing.median / timing.components["machine"],
+                         "time_share": timing.compared / timing.components["machine"],
                          "cycles": point["cycles"]},
                         f"golden pre-pass at {side}x{side} ranks primitives, the top "
                         f"{pre.resident_count} of {len(pre.priorities)} resident; the main "
                         f"{res}x{res} run on the {engine} engine gives ρ, t (IC shape data) and "
-                        f"cycles; error against the {res}x{res} ranking (ρ: absolute)",
+                        f"cycles; error against the {res}x{res} ranking (ρ: absolute); seconds: "
+                        "the pre-pass (its share: against the main run's machine stage)",
                         {"rho": point["rho"], "mu": point["mu"], "t": point["t"],
                          "resident_count": pre.resident_count,
-                         "main_seconds": timing.components["machine"]}, timing=timing))
+                         "main_seconds": timing.components["machine"]}, timing=timing,
+                        run=run_key(scene, configs[side], res, engine)))
     return [rows[measure_order.index(side)] for side in sides]
 
 
@@ -428,7 +462,8 @@ def sample_tiles(setup: RenderSetup, engine: str, tiles: list[int], n_tiles: int
                  progress: Progress = _quiet, repeats: int = 1, warm_tiles: int | None = None
                  ) -> dict[int, dict]:
     """Per sampled tile: its marginal cycles and IC counters, and the seconds spent (`runs`: each
-    of `repeats` repetitions of its two runs; `seconds`: their median).
+    of `repeats` repetitions of its two runs, the tiles round-robin; `parts`: their load,
+    machine and read-out stages; `seconds`: the runs' median).
 
     A tile is a run of consecutive eye samples in DIS order. Each is simulated after a warm-up —
     the tile before it — as one run (warm-up + tile) minus a run of the warm-up alone, so the
@@ -448,30 +483,36 @@ def sample_tiles(setup: RenderSetup, engine: str, tiles: list[int], n_tiles: int
     if warm_tiles is None:
         warm_tiles = warm_up_tiles(len(words), n_tiles)
 
-    def run(first: int, last: int) -> tuple[dict, float]:
+    def run(first: int, last: int) -> tuple[dict, dict[str, float]]:
         first = max(first, 0)  # tile 0 has no warm-up
         if first > last:
-            return {"cycles": 0, "res": 0, "acc": 0, "hits": 0}, 0.0
+            return {"cycles": 0, "res": 0, "acc": 0, "hits": 0}, {}
         sub = dataclasses.replace(setup, host_words=words[bounds[first]:bounds[last + 1]].ravel())
-        r, seconds = run_machine(sub, engine)
+        r, parts = run_parts(sub, engine)
         reg = ic_regions(r.stats)
         return {"cycles": r.run.cycles,
                 "res": reg.get("resident.shape_data", {}).get("accesses", 0),
                 "acc": reg.get("global.shape_data", {}).get("accesses", 0),
-                "hits": reg.get("global.shape_data", {}).get("hits", 0)}, seconds
+                "hits": reg.get("global.shape_data", {}).get("hits", 0)}, parts
 
+    def tile_job(tile: int):
+        def job():
+            both, p1 = run(tile - warm_tiles, tile)
+            warm, p2 = run(tile - warm_tiles, tile - 1)
+            stages = {k: p1.get(k, 0.0) + p2.get(k, 0.0) for k in ("load", "machine", "readout")}
+            return (both, warm), stages
+        return job
+
+    progress(f"{setup.scene.name} fidelity: {len(tiles)} sampled tiles ({repeats} rounds)")
+    measured = round_robin({t: tile_job(t) for t in tiles}, repeats)
     out = {}
-    for i, tile in enumerate(tiles):
-        progress(f"{setup.scene.name} fidelity: sampled tile {i + 1}/{len(tiles)}")
-        runs = []
-        for _ in range(max(1, repeats)):
-            both, s1 = run(tile - warm_tiles, tile)
-            warm, s2 = run(tile - warm_tiles, tile - 1)
-            runs.append(s1 + s2)
+    for tile in tiles:
+        (both, warm), parts = measured[tile]
+        runs = [sum(v) for v in zip(*parts.values())]
         out[tile] = {k: both[k] - warm[k]
                      for k in both} | {"seconds": float(np.median(runs)), "runs": runs,
-                                                            "simulated": both["cycles"]
-                                                            + warm["cycles"]}
+                                       "parts": parts,
+                                       "simulated": both["cycles"] + warm["cycles"]}
     return out
 
 
@@ -506,10 +547,12 @@ def tile_auxiliary(setup: RenderSetup, n_tiles: int = TILES) -> dict[str, list[i
 def sampled_row(scene: str, share: float, tiles: dict[int, dict], chosen: list[int], truth: dict,
                 mem: dict, n_tiles: int = TILES, engine: str = "compiled",
                 strata: list[int] | None = None, host: list[float] | None = None,
-                aux: list[float] | None = None) -> Row:
+                aux: list[float] | None = None, aux_seconds: list[float] | None = None) -> Row:
     """The SMARTS row of `chosen` tiles (their samples in `tiles`), drawn in the strata whose
     bounds are `strata` (None: one stratum, a simple random sample). Its time per repetition is
-    the host preparation (`host`, one per repetition) plus every chosen tile's two runs."""
+    the host preparation (`host`, one per repetition), every chosen tile's two runs (load,
+    machine, read-out) and the auxiliary golden render the estimator needs (`aux_seconds`, per
+    repetition); it compares all but the host preparation, which the full run shares."""
     bounds = strata or [0, n_tiles]
     samples = [tiles[t] for t in chosen]
     x = np.ones(n_tiles) if aux is None else np.asarray(aux, np.float64)
@@ -527,10 +570,17 @@ def sampled_row(scene: str, share: float, tiles: dict[int, dict], chosen: list[i
               "tiles": len(chosen), "strata": len(groups),
               "covers": bool(low <= truth["cycles"] <= high)}
     reps = min([len(s.get("runs", [s["seconds"]])) for s in samples] + [len(host or [0.0]) or 1])
-    tile_runs = [sum(s.get("runs", [s["seconds"]])[i] for s in samples) for i in range(reps)]
-    host_runs = (host or [0.0] * reps)[:reps]
-    timing = Timing.of([h + t for h, t in zip(host_runs, tile_runs)],
-                       {"host": host_runs, "machine": tile_runs})
+
+    def stage(s: dict, k: str, i: int) -> float:
+        if "parts" in s:
+            return s["parts"][k][i]
+        return s.get("runs", [s["seconds"]])[i] if k == "machine" else 0.0
+
+    parts = {"host": (host or [0.0] * reps)[:reps]} | {
+        k: [sum(stage(s, k, i) for s in samples) for i in range(reps)] for k in ENGINE_STAGES}
+    if aux_seconds:
+        parts["auxiliary"] = [aux_seconds[i % len(aux_seconds)] for i in range(reps)]
+    timing = Timing.of_parts(parts, [k for k in (*ENGINE_STAGES, "auxiliary") if k in parts])
     return Row("fidelity", scene, f"(c) sampled {100 * share:g} %", False,
                fidelity_errors(values, truth),
                timing.median, {"cycles": sum(s["simulated"] for s in samples)},
@@ -541,7 +591,8 @@ def sampled_row(scene: str, share: float, tiles: dict[int, dict], chosen: list[i
                "regression estimator on the golden model's intersection tests per tile, a 95 % "
                "interval from the stratified jackknife with Satterthwaite's degrees of freedom and "
                "the warm-up allowance in quadrature; ρ, μ, t from the tiles' IC counters; cost: "
-               "cycles simulated, warm-ups included; seconds: host preparation + the tiles' runs",
+               "cycles simulated, warm-ups included; seconds: host preparation + the tiles' runs (load, "
+               "machine, read-out) + the auxiliary golden render, all but the host compared",
                values, low, high, timing=timing)
 
 
@@ -552,9 +603,18 @@ def fidelity_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
     """Every row's seconds include host preparation (`prepare`, or the golden renders the model
     rows need) and are the median of `repeats` runs; the reference engine's row is one run."""
     name = scene.name
-    progress(f"{name} fidelity: full cycle-accurate")
-    setup, full, ft = machine_timed(scene, config, res, engine, repeats)
-    full_seconds = ft.components["machine"]
+    progress(f"{name} fidelity: full cycle-accurate and its {CALIBRATION_RES}x{CALIBRATION_RES} "
+             f"calibration ({repeats} rounds)")
+    cal_res = min(CALIBRATION_RES, res)
+    key = run_key(scene, config, res, engine)
+    measured = round_robin({"full": machine_job(scene, config, res, engine),
+                            "calibration": machine_job(scene, config, cal_res, engine)},
+                           repeats, {"full": key})
+    (setup, full), fparts = measured["full"]
+    ft = Timing.of_parts(fparts, ENGINE_STAGES)
+    (cal_setup, cal), cparts = measured["calibration"]
+    ct = Timing.of_parts(cparts)
+    full_seconds = ft.compared
     truth = machine_point(full.stats)
     mem = dataclasses.asdict(config.ic_memory)
     rows = _Rows(emit)
@@ -562,19 +622,24 @@ def fidelity_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
                     {k: 0.0 for k in ("cycles", "rho", "mu", "t")}, ft.median,
                     {"cycles": truth["cycles"]},
                     f"the whole render on the {engine} engine: the truth (seconds: host "
-                    "preparation + run)",
-                    dict(truth), timing=ft))
+                    "preparation + engine load + machine run + read-out; all but the host "
+                    "compared)",
+                    dict(truth), timing=ft, run=key))
     # the analytic and trace-driven rows take their cycles from one small machine run
     progress(f"{name} fidelity: analytic and trace-driven")
-    cal_res = min(CALIBRATION_RES, res)
-    cal_setup, cal, ct = machine_timed(scene, config, cal_res, engine, repeats)
     cal_refs = golden.render(scene, config, res=cal_res,
                              grid=cal_setup.images.layout.grid).total_references
     coarse = setup.prepass.resolution
-    (a_point, _, _), a_t = timed(lambda: trace_point(setup, coarse), repeats)
-    pre = ft.components["host"]  # the pre-pass and grid the analytic model needs: the setup's
-    a_timing = Timing.of([pre + x + c for x, c in zip(a_t.runs, ct.runs)],
-                         {"host": [pre] * len(a_t.runs), "model": a_t.runs, "calibration": ct.runs})
+    models = round_robin({"a": timed_job(lambda: trace_point(setup, coarse), "model"),
+                          "b": timed_job(lambda: trace_point(setup, res), "model")}, repeats)
+    pre = fparts["host"]  # the pre-pass and grid the models need: the full run's preparation
+
+    def model_timing(parts):
+        n = min(len(parts["model"]), len(ct.runs), len(pre))
+        return Timing.of_parts({"host": pre[:n], "model": parts["model"][:n],
+                                "calibration": ct.runs[:n]}, ["model", "calibration"])
+    (a_point, _, _), a_parts = models["a"]
+    a_timing = model_timing(a_parts)
     a = {"cycles": cal.run.cycles * (res / cal_res) ** 2, "rho": a_point["rho"],
          "mu": a_point["mu"], "t": a_point["t_model"]}
     rows.append(Row("fidelity", name, "(a) analytic", False, fidelity_errors(a, truth),
@@ -582,9 +647,8 @@ def fidelity_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
                     f"ρ and μ from the {coarse}x{coarse} pre-pass render's trace through the "
                     "resident + cache model, t from the paper's t_r·{ρ + (1 − ρ)(8 − 6μ)}; cycles "
                     f"= a {cal_res}x{cal_res} machine run × (pixels ratio)", a, timing=a_timing))
-    (b_point, refs, _), b_t = timed(lambda: trace_point(setup, res), repeats)
-    b_timing = Timing.of([pre + x + c for x, c in zip(b_t.runs, ct.runs)],
-                         {"host": [pre] * len(b_t.runs), "model": b_t.runs, "calibration": ct.runs})
+    (b_point, refs, _), b_parts = models["b"]
+    b_timing = model_timing(b_parts)
     b = {"cycles": cal.run.cycles * refs / max(cal_refs, 1), "rho": b_point["rho"],
          "mu": b_point["mu"], "t": b_point["t"]}
     rows.append(Row("fidelity", name, "(b) trace-driven", False, fidelity_errors(b, truth),
@@ -599,11 +663,15 @@ def fidelity_rows(scene: Scene, res: int, config: MachineConfig, engine: str,
     counts = [min(n_tiles, max(2, int(round(s * n_tiles)))) for s in shares]
     chosen = [stratified_tiles(rng, n_tiles, n) for n in counts]
     samples = sample_tiles(setup, engine, sorted(set().union(*chosen)), n_tiles, progress, repeats)
-    host = [ft.components["host"]] * max(1, repeats)
-    aux = tile_auxiliary(setup, n_tiles)["tests"]
+    # the estimator's auxiliary (every tile's golden intersection tests): one golden render,
+    # which each sampled row needs and is charged in full
+    progress(f"{name} fidelity: the sampled rows' auxiliary golden render ({repeats} runs)")
+    (aux, aux_parts), = round_robin({0: timed_job(lambda: tile_auxiliary(setup, n_tiles),
+                                                  "auxiliary")}, repeats).values()
     for share, n, tiles in zip(shares, counts, chosen):
         rows.append(sampled_row(name, share, samples, tiles, truth, mem, n_tiles, engine,
-                                strata_bounds(n_tiles, n), host, aux))
+                                strata_bounds(n_tiles, n), pre, aux["tests"],
+                                aux_parts["auxiliary"]))
     if engine != "reference" and reference_budget > 0:
         rows.append(reference_row(setup, full, full_seconds, truth, engine,
                                   reference_budget, progress, ft.components["host"]))
@@ -619,7 +687,8 @@ def reference_row(setup: RenderSetup, full: RenderResult, full_seconds: float,
     whole = truth["cycles"] <= budget
     progress(f"{name} fidelity: reference engine"
              + ("" if whole else f" (first {budget:,} cycles)"))
-    ref, seconds = run_machine(setup, "reference", None if whole else budget)
+    ref, parts = run_parts(setup, "reference", None if whole else budget)
+    seconds = sum(parts.values())
     if whole:
         other = full
     else:
@@ -640,8 +709,8 @@ def reference_row(setup: RenderSetup, full: RenderResult, full_seconds: float,
                point | {"identical": same, "seconds_full": estimate,
                         "speedup": (estimate - host_seconds) / full_seconds
                         if full_seconds else None},
-               timing=Timing.of([host_seconds + seconds],
-                                {"host": [host_seconds], "machine": [seconds]}))
+               timing=Timing.of_parts({"host": [host_seconds]} | {k: [v] for k, v in parts.items()},
+                                      ENGINE_STAGES))
 
 
 AXIS_RUNNERS = {"precision": precision_rows, "depth": depth_rows, "prepass": prepass_rows,

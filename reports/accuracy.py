@@ -51,6 +51,7 @@ class Row:
     ci_high: float | None = None
     timing: "Timing | None" = None  # the repeated runs behind `seconds` (their median)
     emulated: bool = False  # a precision computed in software: its seconds are not its cost
+    run: str = ""  # a machine row's configuration key (accuracy_runs.run_key): same key, same run
 
     def to_json(self) -> dict:
         out = {"scene": self.scene, "setting": self.setting, "truth": self.truth,
@@ -64,17 +65,24 @@ class Row:
             out["timing"] = self.timing.to_json()
         if self.emulated:
             out["emulated"] = True
+        if self.run:
+            out["run"] = self.run
         return out
 
 
 @dataclass
 class Timing:
-    """Wall seconds of a row over repeated runs (each run timed whole, every stage of the row's
-    basis in it) and the median of each component stage. The row's `seconds` is the median; two
-    rows whose [low, high] ranges overlap cannot be told apart by time (`indistinguishable`)."""
+    """Wall seconds of a row over repeated runs: each run's total (`runs`), each stage's per-run
+    seconds (`parts`: host, load, machine, readout, auxiliary, … as the row has them) and their
+    medians (`components`). `basis` names the stages an axis compares (a machine row: its machine
+    stage; empty: the whole run): the `compared` seconds, whose [low, high] spread decides
+    whether two rows can be told apart by time (`indistinguishable`). The row's `seconds` is the
+    median total."""
 
     runs: list[float]
     components: dict[str, float] = field(default_factory=dict)  # stage -> median seconds
+    parts: dict[str, list[float]] = field(default_factory=dict)  # stage -> per-run seconds
+    basis: list[str] = field(default_factory=list)
 
     @property
     def median(self) -> float:
@@ -88,28 +96,98 @@ class Timing:
     def high(self) -> float:
         return float(max(self.runs)) if self.runs else 0.0
 
+    def stage_runs(self, stages: list[str] | tuple[str, ...]) -> list[float]:
+        """Per run, the sum of these stages' seconds (the totals when a stage is missing)."""
+        if not stages or any(s not in self.parts for s in stages):
+            return list(self.runs)
+        return [sum(v) for v in zip(*(self.parts[s] for s in stages))]
+
+    def spread(self, stages: list[str] | tuple[str, ...] | None = None) -> tuple[float, float, float]:
+        """(median, low, high) of these stages per run (default: the basis)."""
+        x = self.stage_runs(self.basis if stages is None else stages)
+        return (float(np.median(x)), float(min(x)), float(max(x))) if x else (0.0, 0.0, 0.0)
+
+    @property
+    def compared(self) -> float:
+        """The median seconds an axis compares (the basis stages)."""
+        return self.spread()[0]
+
     def to_json(self) -> dict:
+        m, lo, hi = self.spread()
         return {"runs": [float(x) for x in self.runs], "median": self.median, "low": self.low,
-                "high": self.high, "components": {k: float(v) for k, v in self.components.items()}}
+                "high": self.high, "components": {k: float(v) for k, v in self.components.items()},
+                "parts": {k: [float(x) for x in v] for k, v in self.parts.items()},
+                "basis": list(self.basis),
+                "compared": {"median": m, "low": lo, "high": hi}}
 
     @staticmethod
-    def of(runs: list[float], components: dict[str, list[float]] | None = None) -> "Timing":
-        """A timing from each run's total and each component's per-run seconds."""
-        return Timing(list(runs), {k: float(np.median(v)) for k, v in (components or {}).items()})
+    def of(runs: list[float], components: dict[str, list[float]] | None = None,
+           basis: list[str] | tuple[str, ...] = ()) -> "Timing":
+        """A timing from each run's total and each stage's per-run seconds."""
+        components = components or {}
+        return Timing(list(runs), {k: float(np.median(v)) for k, v in components.items()},
+                      {k: [float(x) for x in v] for k, v in components.items()}, list(basis))
+
+    @staticmethod
+    def of_parts(parts: dict[str, list[float]], basis: list[str] | tuple[str, ...] = ()) -> "Timing":
+        """A timing from each stage's per-run seconds; a run's total is their sum (`*_cpu`
+        entries, CPU seconds of a stage already counted, are kept but not added)."""
+        wall = [v for k, v in parts.items() if not k.endswith("_cpu")]
+        runs = [sum(v) for v in zip(*wall)] if wall else []
+        return Timing.of(runs, parts, basis)
 
 
 def indistinguishable(a: Row, b: Row) -> bool:
-    """Whether two rows' repeated times overlap (min–max), so neither is measurably cheaper."""
+    """Whether two rows' compared times overlap (min–max of their repeated runs), so neither is
+    measurably cheaper."""
     if a.timing is None or b.timing is None:
         return False
-    return a.timing.low <= b.timing.high and b.timing.low <= a.timing.high
+    _, alo, ahi = a.timing.spread()
+    _, blo, bhi = b.timing.spread()
+    return alo <= bhi and blo <= ahi
 
 
 def time_ties(rows: list[Row]) -> list[tuple[str, str]]:
-    """Settings next to each other in median time whose spreads overlap (one scene's rows)."""
+    """Settings next to each other in compared time whose spreads overlap (one scene's rows)."""
     timed = sorted((r for r in rows if r.timing is not None and not r.emulated),
-                   key=lambda r: r.seconds)
+                   key=lambda r: r.timing.compared)
     return [(a.setting, b.setting) for a, b in zip(timed, timed[1:]) if indistinguishable(a, b)]
+
+
+@dataclass
+class Agreement:
+    """Rows of one scene that ran the same machine configuration (one `Row.run` key) on
+    different axes or settings, and whether their machine stages agree within their spread."""
+
+    scene: str
+    rows: list[tuple[str, str]]  # (axis, setting)
+    spreads: list[tuple[float, float, float]]  # machine seconds: (median, low, high)
+    agree: bool
+
+    def sentence(self) -> str:
+        parts = [f"{axis} {setting} {m:.3f} s ({lo:.3f}–{hi:.3f})"
+                 for (axis, setting), (m, lo, hi) in zip(self.rows, self.spreads)]
+        return (f"{self.scene}: the same configuration, machine seconds " + " = ".join(parts)
+                + (": agree within their spread" if self.agree
+                   else ": DISAGREE (their spreads do not overlap: the timing is not repeatable)"))
+
+
+def identical_runs(axes: dict[str, list[Row]], stage: str = "machine") -> list[Agreement]:
+    """Every group of rows (same scene, same run key, two or more rows) and whether their
+    `stage` spreads overlap: identical work must time alike, or the ranking is noise."""
+    groups: dict[tuple[str, str], list[tuple[str, Row]]] = {}
+    for axis, rows in axes.items():
+        for r in rows:
+            if r.run and r.timing is not None and stage in r.timing.parts:
+                groups.setdefault((r.scene, r.run), []).append((axis, r))
+    out = []
+    for (scene, _), members in groups.items():
+        if len(members) < 2:
+            continue
+        spreads = [r.timing.spread([stage]) for _, r in members]
+        agree = max(lo for _, lo, _ in spreads) <= min(hi for _, _, hi in spreads)
+        out.append(Agreement(scene, [(a, r.setting) for a, r in members], spreads, agree))
+    return out
 
 
 def _num(v):
@@ -413,6 +491,14 @@ def axis_sentences(axis: str, rows: list[Row]) -> list[str]:
                        "overlap): "
                        + "; ".join(f"{a} ≈ {b}" for a, b in ties) + ".")
         if axis == "precision":
+            m32 = next((r for r in mine if r.setting == "machine fp32"), None)
+            m64 = next((r for r in mine if r.setting == "machine fp64"), None)
+            if m32 and m64 and m32.timing and m64.timing and m32.cost.get("cycles"):
+                time_ratio = m64.timing.compared / m32.timing.compared if m32.timing.compared else 0
+                cycle_ratio = m64.cost["cycles"] / m32.cost["cycles"]
+                out.append(f"{scene}: fp64 costs the machine {100 * (cycle_ratio - 1):+.1f} % "
+                           f"cycles and {100 * (time_ratio - 1):+.1f} % machine-run time "
+                           f"(medians; {100 * abs(time_ratio - cycle_ratio):.1f} points apart).")
             worst = max(others, key=lambda r: r.error["rmse_u8"])
             exact = [r.setting for r in others if not any(r.error.values())]
             out.append(f"{scene}: the largest image error is {worst.setting} (RMS "

@@ -5,17 +5,19 @@ The tables are `reports/tables.Section`s, so they print and turn into Markdown t
 other report of the project does. A Pareto plot puts each setting where a researcher weighs it:
 the further left the cheaper, the lower the closer to the truth; a step line per scene joins its
 Pareto front (the settings no other beats in both); an error of exactly 0 cannot sit on a log
-axis, so it is drawn on a dashed floor line marked "exact".
+axis, so the error axis is linear below a tenth of the smallest error that is not 0 and an exact
+setting sits at 0 itself, on a dashed line the legend names.
 """
 
 from __future__ import annotations
 
 import csv
 import json
+import math
 from pathlib import Path
 
 from netsushisen.isa.outputs import replacing, write_file, write_text
-from netsushisen.reports.accuracy import AXES, RAY_KINDS, Row, axis_sentences
+from netsushisen.reports.accuracy import AXES, RAY_KINDS, Row, axis_sentences, identical_runs
 from netsushisen.reports.tables import Section, render_md, render_table
 
 SCHEMA = {"name": "netsushisen-accuracy", "version": 1}
@@ -72,14 +74,45 @@ def _psnr(row: Row) -> str:
     return "∞" if v is None else f"{v:.1f}"
 
 
+def spread_text(median: float, low: float, high: float, n: int, digits: int = 2) -> str:
+    """`median (low–high)`, the spread left out for one run."""
+    text = f"{median:.{digits}f}"
+    return text + (f" ({low:.{digits}f}–{high:.{digits}f})" if n > 1 else "")
+
+
 def _secs(row: Row) -> str:
-    """A row's seconds: median and (min–max) of its repeated runs; an emulated precision's
-    marked so (its time is numpy's software emulation, not the setting's cost)."""
+    """A row's total seconds: median and (min–max) of its repeated runs; an emulated
+    precision's marked so (its time is numpy's software emulation, not the setting's cost)."""
     t = row.timing
-    text = f"{row.seconds:.2f}"
-    if t is not None and len(t.runs) > 1:
-        text += f" ({t.low:.2f}–{t.high:.2f})"
+    text = spread_text(row.seconds, t.low, t.high, len(t.runs)) if t is not None else f"{row.seconds:.2f}"
     return text + (" emulation" if row.emulated else "")
+
+
+def _compared(row: Row) -> str:
+    """The seconds an axis compares (a machine row: its machine stage), with their spread."""
+    t = row.timing
+    if t is None:
+        return ""
+    m, lo, hi = t.spread()
+    return spread_text(m, lo, hi, len(t.runs), 3)
+
+
+def _stage(row: Row, stage: str) -> str:
+    t = row.timing
+    if t is None or stage not in t.parts:
+        return ""
+    m, lo, hi = t.spread([stage])
+    return spread_text(m, lo, hi, len(t.runs), 3)
+
+
+def compared_label(axis: str) -> str:
+    """What the `compared s` column of an axis is."""
+    return {"precision": "golden rows: the render; machine rows: the machine run",
+            "depth": "the machine run",
+            "prepass": "the pre-pass",
+            "fidelity": "everything but the host preparation: engine load, machine run and "
+                        "read-out (sampled rows: of every tile, plus the auxiliary golden "
+                        "render); models: the model and its calibration run"}[axis]
 
 
 def _ci(row: Row) -> str:
@@ -92,43 +125,52 @@ def axis_section(axis: str, rows: list[Row]) -> Section:
     """One table per axis: the settings' errors and costs, scenes one after another."""
     if axis == "precision":
         cols = ["scene", "setting", "hit ids", "RMS", "max", ">1 off", "PSNR dB", "rays err",
-                "seconds", "rays", "cycles"]
+                "compared s", "host s", "load s", "seconds", "rays", "cycles"]
         fmt = {"hit ids": "pct", "RMS": "f2", "max": "int", ">1 off": "pct", "rays err": "pct",
                "rays": "int", "cycles": "int"}
         body = [[r.scene, r.setting + (" (truth)" if r.truth else ""), r.error["hit_ids"],
                  r.error["rmse_u8"], r.error["max_u8"], r.error["channels_off"], _psnr(r),
-                 max(r.error[f"rays_{k}"] for k in RAY_KINDS), _secs(r), r.cost.get("rays"),
+                 max(r.error[f"rays_{k}"] for k in RAY_KINDS), _compared(r), _stage(r, "host"),
+                 _stage(r, "load"), _secs(r), r.cost.get("rays"),
                  r.cost.get("cycles")] for r in rows]
     elif axis == "depth":
-        cols = ["scene", "setting", "RMS", "max", ">1 off", "PSNR dB", "rays", "cycles", "seconds"]
+        cols = ["scene", "setting", "RMS", "max", ">1 off", "PSNR dB", "rays", "cycles",
+                "machine s", "host s", "load s", "seconds"]
         fmt = {"RMS": "f2", "max": "int", ">1 off": "pct", "rays": "int", "cycles": "int"}
         body = [[r.scene, r.setting + (" (truth)" if r.truth else ""), r.error["rmse_u8"],
                  r.error["max_u8"],
                  r.error["channels_off"], _psnr(r), r.cost["rays"], r.cost["cycles"],
-                 _secs(r)] for r in rows]
+                 _stage(r, "machine"), _stage(r, "host"), _stage(r, "load"), _secs(r)] for r in rows]
     elif axis == "prepass":
         cols = ["scene", "setting", "ρ", "t", "cycles", "ρ err", "t err", "cycles err", "eye rays",
-                "time share", "seconds"]
+                "time share", "pre-pass s", "machine s", "seconds"]
         fmt = {"ρ": "f3", "t": "f3", "cycles": "int", "ρ err": "f3", "t err": "pct",
                "cycles err": "pct", "eye rays": "int", "time share": "pct"}
         body = [[r.scene, r.setting + (" (truth)" if r.truth else ""),
                  r.values["rho"], r.values["t"],
                  r.cost["cycles"], r.error["rho"], r.error["t"], r.error["cycles"], r.cost["rays"],
-                 r.cost["time_share"], _secs(r)] for r in rows]
+                 r.cost["time_share"], _compared(r), _stage(r, "machine"), _secs(r)] for r in rows]
     else:
         cols = ["scene", "setting", "cycles", "95 % interval", "ρ", "μ", "t", "cycles err", "ρ err",
-                "μ err", "t err", "seconds", "simulated"]
+                "μ err", "t err", "compared s", "auxiliary s", "seconds", "simulated"]
         fmt = {"cycles": "int", "ρ": "f3", "μ": "f3", "t": "f3",
                "cycles err": "pct", "ρ err": "pct",
                "μ err": "pct", "t err": "pct", "simulated": "int"}
         body = [[r.scene, r.setting + (" (truth)" if r.truth else ""), r.values["cycles"], _ci(r),
                  r.values["rho"], r.values["mu"], r.values["t"], r.error["cycles"], r.error["rho"],
-                 r.error["mu"], r.error["t"], _secs(r), r.cost.get("cycles")] for r in rows]
+                 r.error["mu"], r.error["t"], _compared(r), _stage(r, "auxiliary"), _secs(r),
+                 r.cost.get("cycles")] for r in rows]
     return Section(axis, TITLES[axis], cols, body, fmt)
 
 
 def tables_text(axes: dict[str, list[Row]], width: int = 140) -> str:
     return render_table([axis_section(a, rows) for a, rows in axes.items()], width=width)
+
+
+def agreement_lines(axes: dict[str, list[Row]]) -> list[str]:
+    """One line per configuration run on several axes: its machine seconds there, and whether
+    they agree within their spread."""
+    return [a.sentence() for a in identical_runs(axes)]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -138,7 +180,10 @@ def tables_text(axes: dict[str, list[Row]], width: int = 140) -> str:
 def write_json(path: Path, axes: dict[str, list[Row]], meta: dict) -> None:
     data = {"schema": SCHEMA} | meta | {
         "axes": {a: [r.to_json() for r in rows] for a, rows in axes.items()},
-        "notes": {a: axis_sentences(a, rows) for a, rows in axes.items()}}
+        "notes": {a: axis_sentences(a, rows) for a, rows in axes.items()},
+        "identical_runs": [{"scene": g.scene, "rows": [list(r) for r in g.rows],
+                            "machine_seconds": [list(x) for x in g.spreads], "agree": g.agree}
+                           for g in identical_runs(axes)]}
     write_text(path, json.dumps(data, indent=1, allow_nan=False, ensure_ascii=False) + "\n")
 
 
@@ -176,8 +221,12 @@ MARKERS = "osD^v<>phX*P8"
 
 
 def plot_seconds(row: Row) -> float:
-    """A row's time on the plot: measured, or extrapolated to the whole run where it was cut."""
-    return float(row.values.get("seconds_full") or row.seconds)
+    """A row's time on the plot: the seconds its axis compares (`Timing.basis`), measured, or
+    extrapolated to the whole run where it was cut."""
+    t = row.timing
+    if row.values.get("seconds_full"):
+        return float(row.values["seconds_full"]) - (t.components.get("host", 0.0) if t else 0.0)
+    return t.compared if t is not None else float(row.seconds)
 
 
 def pareto_front(xs: list[float], ys: list[float]) -> tuple[list[float], list[float]]:
@@ -190,20 +239,49 @@ def pareto_front(xs: list[float], ys: list[float]) -> tuple[list[float], list[fl
     return fx, fy
 
 
+def tick_text(v: float, _pos=None) -> str:
+    """A tick label in plain digits (0.2, 1, 50, 1e-05 for the tiny): never '3×10⁻¹'."""
+    if v == 0:
+        return "0"
+    return f"{v:g}"
+
+
+def readable_log_axis(axis, values: list[float]) -> None:
+    """Major ticks at 1, 2, 5 × 10^k in plain digits and no minor labels, so neighbouring labels
+    cannot collide (matplotlib labels minor ticks of a short log range, '3×10⁻¹4×10⁻¹')."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    span = max(values) / min(values) if values and min(values) > 0 else 10.0
+    subs = (1.0, 2.0, 5.0) if span < 1e3 else (1.0,)
+    axis.set_major_locator(LogLocator(base=10, subs=subs))
+    axis.set_major_formatter(FuncFormatter(tick_text))
+    axis.set_minor_formatter(NullFormatter())
+
+
 def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
+    """Error against the seconds the axis compares. Errors of exactly 0 are drawn at 0: the
+    y axis is logarithmic above `linear` (a tenth of the smallest error that is not 0) and
+    linear below it, and the legend says so (a log axis has no 0)."""
     plt = _plt()
+    from matplotlib.lines import Line2D
+    from matplotlib.ticker import FuncFormatter, NullFormatter, SymmetricalLogLocator
+
     metric, label = PLOT_METRIC[axis]
     settings = list(dict.fromkeys(r.setting for r in rows))
     scenes = list(dict.fromkeys(r.scene for r in rows))
     positive = [r.error[metric] for r in rows if r.error.get(metric)]
-    floor = min(positive) / 10 if positive else 1e-3
-    fig, ax = plt.subplots(figsize=(8.5, 5.2), dpi=110)
+    # a power of ten at most a tenth of the smallest error that is not 0: round tick labels
+    linear = 10.0 ** math.floor(math.log10(min(positive) / 10)) if positive else 1e-3
+    fig, ax = plt.subplots(figsize=(9.5, 5.6), dpi=110)
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    xs_all, has = [], {"spread": False, "interval": False, "emulated": False, "zero": False}
     for si, scene in enumerate(scenes):
         c = colours[si % len(colours)]
         mine = sorted((r for r in rows if r.scene == scene), key=plot_seconds)
         xs = [max(plot_seconds(r), 1e-4) for r in mine]
-        ys = [r.error[metric] or floor for r in mine]
+        ys = [float(r.error[metric]) for r in mine]
+        xs_all += xs
+        has["zero"] |= any(y == 0 for y in ys)
         # an emulated precision's wall time is not its cost: off the front, drawn hollow, labelled
         costed = [(x, y) for r, x, y in zip(mine, xs, ys) if not r.emulated]
         fx, fy = pareto_front([x for x, _ in costed], [y for _, y in costed])
@@ -211,6 +289,7 @@ def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
         for r, x, y in zip(mine, xs, ys):
             m = MARKERS[settings.index(r.setting) % len(MARKERS)]
             if r.emulated:
+                has["emulated"] = True
                 ax.scatter([x], [y], marker=m, s=55, facecolors="none", edgecolors=c,
                            linewidths=1.2, zorder=3)
                 ax.annotate("emulation", (x, y), textcoords="offset points",
@@ -219,32 +298,52 @@ def write_plot(path: Path, axis: str, rows: list[Row], res: int) -> None:
                 ax.scatter([x], [y], marker=m, s=130 if r.truth else 55, color=c,
                            edgecolors="black" if r.truth else "none", linewidths=1.6, zorder=3)
             if r.timing is not None and len(r.timing.runs) > 1:  # the spread of the repeated runs
-                ax.plot([max(r.timing.low, 1e-4), max(r.timing.high, 1e-4)], [y, y],
-                        color=c, lw=0.8, alpha=0.6)
+                has["spread"] = True
+                _, lo, hi = r.timing.spread()
+                ax.plot([max(lo, 1e-4), max(hi, 1e-4)], [y, y], color=c, lw=0.8, alpha=0.6)
+                xs_all += [max(lo, 1e-4), max(hi, 1e-4)]
             if r.ci_low is not None and axis == "fidelity":
+                has["interval"] = True
                 truth = next(t for t in rows if t.scene == scene and t.truth).values["cycles"]
                 # the interval as the errors it allows: from its nearest to its farthest end, and
-                # down to the exact floor when it contains the truth (an error of 0 is allowed)
+                # down to 0 when it contains the truth (an error of 0 is allowed)
                 lo, hi = (r.ci_low - truth) / truth, (r.ci_high - truth) / truth
                 near = 0.0 if lo <= 0 <= hi else min(abs(lo), abs(hi))
-                ax.plot([x, x], [max(near, floor), max(abs(lo), abs(hi), floor)], color=c,
-                        lw=1, alpha=0.6)
+                ax.plot([x, x], [near, max(abs(lo), abs(hi))], color=c, lw=1.4, alpha=0.6)
     ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.axhline(floor, color="grey", ls="--", lw=0.8)
-    ax.text(ax.get_xlim()[0], floor, " exact (error 0)", va="bottom", ha="left",
-            fontsize=8, color="grey")
-    ax.set_xlabel("wall seconds, median of repeated runs (log; bars: min–max)")
-    ax.set_ylabel(f"{label} (log)")
+    readable_log_axis(ax.xaxis, xs_all)
+    ax.set_yscale("symlog", linthresh=linear, linscale=0.4)
+    ax.set_ylim(-0.15 * linear, 2.0 * max(positive) if positive else 10 * linear)
+    ax.yaxis.set_major_locator(SymmetricalLogLocator(base=10, linthresh=linear))
+    ax.yaxis.set_major_formatter(FuncFormatter(tick_text))
+    ax.yaxis.set_minor_formatter(NullFormatter())
+    if has["zero"]:
+        ax.axhline(0, color="grey", ls="--", lw=0.8)
+    ax.set_xlabel("seconds compared, median of the repeated runs (log): " + {
+        "precision": "golden rows: the render; machine rows: the machine run",
+        "depth": "the machine run at that depth",
+        "prepass": "the pre-pass",
+        "fidelity": "all but host preparation (sampled: every tile + auxiliary render)"}[axis])
+    ax.set_ylabel(f"{label}\n(log above {tick_text(linear)}, linear below: 0 is exact)")
     ax.set_title(f"{TITLES[axis]} — {res}×{res}")
-    from matplotlib.lines import Line2D
-
     scene_h = [Line2D([], [], color=colours[i % len(colours)], marker="o", ls="", label=s)
                for i, s in enumerate(scenes)]
+    scene_h.append(Line2D([], [], color="grey", alpha=0.45, lw=1.2, label="Pareto front"))
     set_h = [Line2D([], [], color="black", marker=MARKERS[i % len(MARKERS)], ls="", label=s)
              for i, s in enumerate(settings)]
     set_h.append(Line2D([], [], color="white", marker="o", markeredgecolor="black", ms=10, ls="",
                         label="truth (black edge)"))
+    if has["emulated"]:
+        set_h.append(Line2D([], [], color="black", marker="o", markerfacecolor="none", ls="",
+                            label="emulation (hollow: time is not its cost)"))
+    if has["spread"]:
+        set_h.append(Line2D([], [], color="black", lw=0.8, alpha=0.6,
+                            label="min–max of the repeated runs"))
+    if has["interval"]:
+        set_h.append(Line2D([], [], color="black", alpha=0.6, marker="|", ms=14, mew=1.4, ls="",
+                            label="95 % interval (sampled),\nas the errors it allows"))
+    if has["zero"]:
+        set_h.append(Line2D([], [], color="grey", ls="--", lw=0.8, label="error 0 (exact)"))
     first = ax.legend(handles=scene_h, loc="lower left", bbox_to_anchor=(1.01, 0), fontsize=8,
                       title="scene")
     ax.add_artist(first)
@@ -261,12 +360,15 @@ def report_markdown(axes: dict[str, list[Row]], meta: dict, files: list[str]) ->
     lines = ["# What accuracy costs", "",
              f"`{meta['command']}` — {meta['res']}×{meta['res']}, machine rows on the "
              f"`{meta['engine']}` engine, {meta['machine']}; {meta['seconds']:.0f} s in all.", "",
-             f"Times: every row's seconds are the median of {meta.get('repeats', 1)} runs, shown "
-             "with their (min–max) spread; every row includes host preparation (golden rows build "
-             "their grid; machine rows run `prepare` — grid, pre-pass, memory images, kernels — "
-             "and then the engine; the components are in accuracy.json). Settings whose spreads "
-             "overlap cannot be told apart by time. Before any timed row each path was compiled "
-             "and warmed once"
+             f"Times: every row was run {meta.get('repeats', 1)} times, the settings of an axis "
+             "round-robin (every setting once, then again), and each run split into stages: host "
+             "preparation (golden rows build their grid; machine rows run `prepare` — grid, "
+             "pre-pass, memory images, kernels), engine load, machine run (the cycle loop alone), "
+             "read-out, and for sampled rows the auxiliary golden render. Each stage is shown as "
+             "its median with the (min–max) spread; `compared s` is the stage an axis compares "
+             "(a machine row's machine run; accuracy.json: `timing.basis`, `timing.parts`), "
+             "`seconds` the whole. Settings whose compared spreads overlap cannot be told apart "
+             "by time. Before any timed row each path was compiled and warmed once"
              + (" (" + ", ".join(f"{k} {v:.1f} s" for k, v in warm.items()) + ")" if warm else "")
              + ": no row carries numba's compile. Rows marked `emulation` (golden fp16, golden "
                "bf16 scene) are computed in software: their time is not the precision's cost "
@@ -281,6 +383,13 @@ def report_markdown(axes: dict[str, list[Row]], meta: dict, files: list[str]) ->
                   render_md([axis_section(axis, rows)]).rstrip(), ""]
         lines += [f"- {s}" for s in axis_sentences(axis, rows)] + [""]
         lines += [f"![{axis}](accuracy_{axis}.png)", ""]
+    same = agreement_lines(axes)
+    if same:
+        lines += ["## Identical configurations", "",
+                  "The same machine configuration (scene, configuration, size, engine) on several "
+                  "axes is measured once per worker and reused; rows measured apart (several "
+                  "workers, a cluster, a cached unit) must agree within their spread:", ""]
+        lines += [f"- {line}" for line in same] + [""]
     lines += ["Files: " + ", ".join(f"`{f}`" for f in files), ""]
     return "\n".join(lines)
 

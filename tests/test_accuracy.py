@@ -18,6 +18,7 @@ from netsushisen.host.golden import render as golden_render
 from netsushisen.isa.config import MachineConfig
 from netsushisen.pipeline import render
 from netsushisen.reports.accuracy import (Row, Timing, axis_sentences, coverage, depth_settles,
+                                          identical_runs,
                                           image_errors, indistinguishable, regression_estimate, relative, sampled_estimate, stratified_estimate,
                                           time_ties, traced_rays)
 from netsushisen.reports.summary import memory_figures
@@ -217,7 +218,10 @@ def test_precision_axis(engine_name):
     assert all(len(r.timing.runs) == (1 if s in emulated else 2) and r.seconds == r.timing.median
                for s, r in rows.items())
     m = rows["machine fp32"].timing
-    assert set(m.components) == {"host", "machine"} and 0 < m.components["host"] < m.high
+    assert set(m.components) == {"host", "load", "machine", "readout", "machine_cpu"}
+    assert m.basis == ["machine"]
+    assert 0 < m.components["host"] < m.high and m.compared == pytest.approx(m.components["machine"])
+    assert rows["machine fp32"].run and rows["machine fp32"].run != rows["machine fp64"].run
 
 
 @pytest.mark.heavy
@@ -333,6 +337,75 @@ def test_timing_is_the_median_and_overlapping_spreads_are_ties():
     assert time_ties([a, row("e", [1.1], emulated=True)]) == []  # emulation's time is no cost
 
 
+def test_timing_stages_compare_the_basis_not_the_total():
+    """issue 43: a machine row's total is mostly host work; an axis compares its machine stage."""
+    t = Timing.of_parts({"host": [1.4, 1.5, 1.3], "load": [0.2, 0.2, 0.3],
+                         "machine": [0.10, 0.12, 0.11]}, ["machine"])
+    assert t.runs == pytest.approx([1.7, 1.82, 1.71]) and t.median == pytest.approx(1.71)
+    assert t.spread() == pytest.approx((0.11, 0.10, 0.12)) and t.compared == pytest.approx(0.11)
+    assert t.spread(["host", "load"]) == pytest.approx((1.6, 1.6, 1.7))
+    # a stage's CPU seconds are kept beside it, not added to the run's total a second time
+    c = Timing.of_parts({"host": [1.0], "machine": [0.5], "machine_cpu": [0.4]}, ["machine"])
+    assert c.runs == [1.5] and c.spread(["machine_cpu"]) == (0.4, 0.4, 0.4)
+
+    def row(setting, host, machine):
+        tm = Timing.of_parts({"host": host, "machine": machine}, ["machine"])
+        return Row("precision", "s", setting, False, {}, tm.median, {}, "", timing=tm)
+
+    # totals overlap (host noise), machine stages do not: told apart by what they cost
+    a = row("a", [1.0, 2.0, 1.5], [0.10, 0.11, 0.12])
+    b = row("b", [1.2, 1.8, 1.6], [0.20, 0.21, 0.22])
+    assert not indistinguishable(a, b) and time_ties([a, b]) == []
+
+
+def _run_row(axis, setting, machine, run="k1", scene="tetra"):
+    tm = Timing.of_parts({"host": [1.0] * len(machine), "machine": machine}, ["machine"])
+    return Row(axis, scene, setting, False, {}, tm.median, {}, "", timing=tm, run=run)
+
+
+def test_identical_configurations_must_agree_within_their_spread():
+    agree = {"precision": [_run_row("precision", "machine fp32", [0.18, 0.19, 0.20]),
+                           _run_row("precision", "machine fp64", [0.3, 0.31, 0.32], run="k2")],
+             "depth": [_run_row("depth", "depth 5", [0.19, 0.21, 0.22])]}
+    (g,) = identical_runs(agree)
+    assert g.agree and g.rows == [("precision", "machine fp32"), ("depth", "depth 5")]
+    assert "agree within their spread" in g.sentence()
+    # the issue's case: identical work timed 1.63 s (1.60–1.66) and 3.61 s (3.42–4.45)
+    apart = {"precision": [_run_row("precision", "machine fp32", [1.60, 1.63, 1.66])],
+             "depth": [_run_row("depth", "depth 5", [3.42, 3.61, 4.45])]}
+    (g,) = identical_runs(apart)
+    assert not g.agree and "DISAGREE" in g.sentence()
+    from netsushisen.reports.accuracy_report import agreement_lines
+    assert agreement_lines(apart) == [g.sentence()] and agreement_lines(agree)[0].endswith("spread")
+    # another scene or another key is another configuration: nothing to compare
+    assert identical_runs({"precision": [_run_row("precision", "x", [1.0])],
+                           "depth": [_run_row("depth", "y", [3.0], scene="balls")]}) == []
+
+
+def test_round_robin_interleaves_repeats_and_reuses_identical_runs():
+    from netsushisen import accuracy_runs as ar
+
+    order = []
+
+    def job(name):
+        return lambda: (order.append(name) or name, {"machine": 0.1})
+
+    key = "test-round-robin-key"
+    ar._MEASURED.pop((key, 3), None)
+    out = ar.round_robin({"a": job("a"), "b": job("b")}, 3, {"a": key})
+    assert order == ["a", "b"] * 3  # round by round, not a's repeats in a row
+    assert out["a"] == ("a", {"machine": [0.1] * 3})
+    order.clear()
+    again = ar.round_robin({"x": job("x"), "c": job("c")}, 3, {"x": key})
+    assert order == ["c"] * 3 and again["x"] is out["a"]  # measured once, reused
+
+    def stops():
+        raise ar.MachineStopped("no")
+    order.clear()
+    out = ar.round_robin({"s": stops, "b": job("b")}, 2)
+    assert isinstance(out["s"][0], ar.MachineStopped) and order == ["b", "b"]
+
+
 def test_timed_runs_the_function_each_time():
     calls = []
     value, t = timed(lambda: calls.append(1) or len(calls), 4)
@@ -354,7 +427,10 @@ def test_cli_bad_input_is_one_line(cli, tmp_path):
                          (("nosuchscene",), "nosuchscene"),
                          (("tetra", "--res", "0"), "--res 0"),
                          (("tetra", "--engine", "warp"), "warp"),
-                         (("tetra", "--repeats", "0"), "--repeats 0")):
+                         (("tetra", "--repeats", "0"), "--repeats 0"),
+                         (("tetra", "--sizes", "16"), "at least two sizes"),
+                         (("tetra", "--sizes", "16,x"), "--sizes '16,x'"),
+                         (("tetra", "--sizes", "16,0"), "--res 0")):
         code, out, err = cli("accuracy", *argv, "--out", tmp_path / "x", "--quiet")
         assert code == 1, (argv, err)
         assert needle in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
@@ -413,15 +489,17 @@ def test_a_depth_the_machine_cannot_hold_leaves_a_golden_row_not_a_failed_study(
     import netsushisen.accuracy as acc
     from netsushisen.reports.accuracy_report import axis_section
 
-    real = acc.machine_timed
+    real = acc.machine_job
 
-    def timed(scene, config, res, engine, repeats=1, max_cycles=None):
+    def job(scene, config, res, engine, max_cycles=None):
         if config.render.max_depth >= 10:
-            raise acc.MachineStopped("tetra 4x4: the machine run ended fault at cycle 9: "
-                                     "pe0.os pc 66 (queue_overflow)")
-        return real(scene, config, res, engine, repeats, max_cycles)
+            def stopped():
+                raise acc.MachineStopped("tetra 4x4: the machine run ended fault at cycle 9: "
+                                         "pe0.os pc 66 (queue_overflow)")
+            return stopped
+        return real(scene, config, res, engine, max_cycles)
 
-    monkeypatch.setattr(acc, "machine_timed", timed)
+    monkeypatch.setattr(acc, "machine_job", job)
     rows = depth_rows(load_scene("tetra"), 4, MachineConfig(), engine_name, depths=(1, 2), repeats=1)
     truth = next(r for r in rows if r.truth)
     assert truth.cost["cycles"] is None and "queue_overflow" in truth.how and truth.seconds > 0
@@ -429,3 +507,70 @@ def test_a_depth_the_machine_cannot_hold_leaves_a_golden_row_not_a_failed_study(
     section = axis_section("depth", rows)
     (cells,) = [r for r in section.rows if "(truth)" in str(r[1])]
     assert section.cell("cycles", cells[section.columns.index("cycles")]) == "-"
+
+
+# ------------------------------------------------------------------------------------------------
+# Scaling with size (issue 43 item 3) and the README's tables (item 4)
+
+
+def _sized(res, setting, machine, rays=None, ci=False, truth=False):
+    tm = Timing.of_parts({"host": [1.0] * len(machine), "load": [0.2] * len(machine),
+                          "machine": machine}, ["load", "machine"] if ci or truth else ["machine"])
+    return Row("fidelity" if ci or truth else "precision", "tetra", setting, truth, {}, tm.median,
+               {} if rays is None else {"rays": rays}, "", timing=tm,
+               ci_low=1.0 if ci else None, ci_high=2.0 if ci else None)
+
+
+def test_per_ray_fit_predicts_a_larger_size_and_says_how_well_it_fits():
+    from netsushisen.reports.accuracy_scaling import fit_line, measured_sentence, scalings
+
+    f = fit_line([100, 200, 400], [1.1, 1.2, 1.4])  # exactly 1 + 0.001·rays
+    assert (f.a, f.b, f.r2) == pytest.approx((1.0, 0.001, 1.0))
+    assert fit_line([100, 200, 400], [1.0, 1.5, 1.2]).r2 < 0.5  # scattered: a poor fit says so
+    with pytest.raises(ValueError):
+        fit_line([100, 100], [1.0, 2.0])
+    studies = {n: {"precision": [_sized(n, "machine fp32", [0.01 + 1e-5 * n * n] * 2, rays=n * n)]}
+               for n in (16, 32, 64)}
+    (s,) = scalings(studies, 512)
+    assert s.predicted == pytest.approx(0.01 + 1e-5 * 512 * 512) and s.fit.r2 == pytest.approx(1.0)
+    good = {"scene": "tetra", "setting": "machine fp32", "stage": "compared",
+            "seconds": s.predicted * 1.1}
+    assert "(-9.1%: within 20 %)" in measured_sentence([s], good)
+    assert "NOT within" in measured_sentence([s], good | {"seconds": s.predicted * 1.5})
+
+
+def test_sampled_speedup_against_size_flips_where_the_run_is_long():
+    from netsushisen.reports.accuracy_scaling import sampled_speedups
+
+    studies = {16: {"fidelity": [_sized(16, "(d) full", [0.1], truth=True),
+                                 _sized(16, "(c) sampled 10 %", [0.5], ci=True)]},
+               128: {"fidelity": [_sized(128, "(d) full", [20.0], truth=True),
+                                  _sized(128, "(c) sampled 10 %", [3.0], ci=True)]}}
+    ups = sampled_speedups(studies)
+    assert [u["res"] for u in ups] == [16, 128]
+    assert ups[0]["speedup"] < 1 < ups[1]["speedup"]
+
+
+def test_readme_tables_show_median_and_spread_and_replace_an_older_header(tmp_path):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "accuracy_tables", Path(__file__).resolve().parents[1] / "tools" / "accuracy_tables.py")
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    err = {"rmse_u8": 0.0, "hit_ids": 0.0}
+
+    def row(setting, machine, cycles):
+        t = Timing.of_parts({"host": [1.0, 1.1], "machine": machine}, ["machine"])
+        return Row("precision", "tetra", setting, setting == "golden fp64", err, t.median,
+                   {"cycles": cycles}, "", timing=t).to_json()
+
+    data = {"axes": {"precision": [row(s, [0.1, 0.12], 5) for s in (
+        "golden fp64", "golden fp32", "golden fp16", "golden bf16 scene")]
+        + [row("machine fp32", [0.17, 0.19], 100), row("machine fp64", [0.2, 0.22], 114)]}}
+    table = tool.tables(data)["precision"]
+    assert "0.180 (0.170–0.190) s → 0.210 (0.200–0.220) s" in table
+    readme = tmp_path / "README.md"
+    readme.write_text("x\n\n| scene | golden fp32 | old columns |\n| --- | --- |\n| a | b |\n\ny\n")
+    tool.write(readme, {"precision": table})
+    assert readme.read_text() == f"x\n\n{table}\n\ny\n"

@@ -4,7 +4,9 @@
 
 Prints the precision, depth, pre-pass and fidelity tables in the README's condensed form (the
 full tables are in DIR/report.md); `--write` replaces the four tables in the README in place
-(each is found by its header row), so the README quotes a run that a command made.
+(each is found by the start of its header row), so the README quotes a run that a command made.
+Times are the seconds each axis compares (a machine row: its machine run; `timing.basis` in
+accuracy.json) as median (min–max) over the repeated runs.
 """
 
 from __future__ import annotations
@@ -18,12 +20,27 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 HEADERS = {
     "precision": "| scene | golden fp32 | golden fp16 | golden bf16 scene | machine fp32 | "
-                 "machine cycles fp32 → fp64 |",
+                 "machine cycles fp32 → fp64 | machine run s fp32 → fp64 |",
     "depth": "| scene | depth 1 | depth 2 | depth 3 | depth 5 (SPD) | depth 8 | image settles at |",
     "prepass": "| scene | 3×3 (config: 1 %) | 8×8 | 16×16 | 32×32 (truth) |",
     "fidelity": "| scene | (d) compiled (truth) | (a) analytic | (b) trace-driven | (c) sampled 10 % | "
                 "25 % | 50 % | (e) reference engine |",
 }
+
+
+STARTS = {axis: " | ".join(h.split(" | ")[:2]) for axis, h in HEADERS.items()}
+"""Where each table starts: its header's first two cells (an older header with other columns is
+found and replaced too)."""
+
+
+def spread(row: dict, digits: int = 2) -> str:
+    """The compared seconds of a row: `median (low–high)` (the median alone for one run)."""
+    t = row.get("timing") or {}
+    c = t.get("compared") or {"median": row["seconds"], "low": row["seconds"], "high": row["seconds"]}
+    text = f"{c['median']:.{digits}f}"
+    if len(t.get("runs", [])) > 1:
+        text += f" ({c['low']:.{digits}f}–{c['high']:.{digits}f})"
+    return text + " s"
 
 
 def _by(rows: list[dict]) -> dict[str, dict[str, dict]]:
@@ -43,7 +60,8 @@ def precision(rows: list[dict]) -> list[list[str]]:
         cell = [f"{s[k]['error']['rmse_u8']:.2f} / {100 * s[k]['error']['hit_ids']:.1f} %"
                 for k in ("golden fp32", "golden fp16", "golden bf16 scene", "machine fp32")]
         out.append([scene, *cell, f"{s['machine fp32']['cost']['cycles']:,} → "
-                                  f"{s['machine fp64']['cost']['cycles']:,}"])
+                                  f"{s['machine fp64']['cost']['cycles']:,}",
+                    f"{spread(s['machine fp32'], 3)} → {spread(s['machine fp64'], 3)}"])
     return out
 
 
@@ -56,7 +74,7 @@ def depth(rows: list[dict]) -> list[list[str]]:
         for d in (1, 2, 3, 5, 8):
             r = s[f"depth {d}"]
             share = f"{100 * r['cost']['cycles'] / tc:.0f}%" if tc else "–"
-            cells.append(f"{r['error']['rmse_u8']:.2f}, {share}")
+            cells.append(f"{r['error']['rmse_u8']:.2f}, {share}, {spread(r, 3)}")
         settled = None
         for d in sorted((int(r["values"]["depth"]) for r in s.values() if not r["truth"]), reverse=True):
             if s[f"depth {d}"]["error"]["max_u8"] == 0:
@@ -73,9 +91,11 @@ def prepass(rows: list[dict]) -> list[list[str]]:
     for scene, s in _by(rows).items():
         truth = _truth(s)
         tc = truth["cost"]["cycles"]
-        cells = [f"{100 * (s[k]['cost']['cycles'] / tc - 1):+.1f} %, ρ {s[k]['values']['rho']:.3f}"
+        cells = [f"{100 * (s[k]['cost']['cycles'] / tc - 1):+.1f} %, ρ {s[k]['values']['rho']:.3f}, "
+                 f"{spread(s[k], 3)}"
                  for k in ("pre-pass 3x3 (config share)", "pre-pass 8x8", "pre-pass 16x16")]
-        out.append([scene, *cells, f"{tc:,} cycles, ρ {truth['values']['rho']:.3f}"])
+        out.append([scene, *cells, f"{tc:,} cycles, ρ {truth['values']['rho']:.3f}, "
+                                   f"{spread(truth, 3)}"])
     return out
 
 
@@ -83,13 +103,13 @@ def fidelity(rows: list[dict]) -> list[list[str]]:
     out = []
     for scene, s in _by(rows).items():
         truth = _truth(s)
-        cells = [f"{truth['cost']['cycles']:,} cycles, {truth['seconds']:.1f} s"]
+        cells = [f"{truth['cost']['cycles']:,} cycles, {spread(truth)}"]
         for k in ("(a) analytic", "(b) trace-driven"):
-            cells.append(f"{100 * s[k]['error']['cycles']:.1f} %, {s[k]['seconds']:.1f} s")
+            cells.append(f"{100 * s[k]['error']['cycles']:.1f} %, {spread(s[k])}")
         for share in (10, 25, 50):
             r = s[f"(c) sampled {share} %"]
             mark = "✓" if r["values"].get("covers") else "✗"
-            cells.append(f"{100 * r['error']['cycles']:.1f} % {mark}, {r['seconds']:.1f} s")
+            cells.append(f"{100 * r['error']['cycles']:.1f} % {mark}, {spread(r)}")
         e = s.get("(e) reference engine")
         if e is None:
             cells.append("–")
@@ -118,7 +138,7 @@ def tables(data: dict) -> dict[str, str]:
 def write(readme: Path, made: dict[str, str]) -> None:
     text = readme.read_text(encoding="utf-8")
     for axis, table in made.items():
-        start = text.find(HEADERS[axis])
+        start = text.find(STARTS[axis])
         if start < 0:
             raise SystemExit(f"{readme}: the {axis} table's header is not there")
         end = re.compile(r"\n(?!\|)").search(text, start)

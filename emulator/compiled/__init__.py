@@ -16,6 +16,8 @@ the debugger's hand-off are produced by the reference engine's own code from the
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from netsushisen.isa.errors import Diagnostic, NetsushisenError
@@ -73,7 +75,10 @@ class CompiledEngine(Engine):
             return ReferenceEngine.run(self, max_cycles, progress)
         limit = self.config.max_cycles if max_cycles is None else max_cycles
         loop = load(self.config.precision)
+        start, cpu = time.perf_counter(), time.process_time()
         st = S.flatten(m)
+        self.phases = {"flatten": time.perf_counter() - start, "write_back": 0.0,
+                       "flatten_cpu": time.process_time() - cpu, "write_back_cpu": 0.0}
         self._live = st
         g = st.arrays["g"]
         if self._stop is not None:
@@ -101,7 +106,10 @@ class CompiledEngine(Engine):
                     break
         finally:  # Ctrl-C between chunks leaves a consistent machine behind
             self._live = None
+            start, cpu = time.perf_counter(), time.process_time()
             S.write_back(st, m)
+            self.phases["write_back"] = time.perf_counter() - start
+            self.phases["write_back_cpu"] = time.process_time() - cpu
         if code == S.S_STOPPED:
             return self.result()
         if code == S.S_RUNNING:
@@ -121,6 +129,11 @@ class CompiledEngine(Engine):
         lrec[0] = 0
 
     _live: S.State | None = None
+    phases: dict[str, float] = {}
+    """Wall seconds of the last `run`'s fixed stages around the cycle loop: `flatten` (the
+    reference machine's state into arrays: the engine's load, ~0.2 s at 16x16 whatever the
+    cycles) and `write_back`, in wall seconds and (`_cpu`) this process's CPU seconds. The accuracy study charges them to load and read-out, so a run's
+    machine seconds follow its cycles (netsushisen/accuracy_runs.py)."""
     _stop: tuple[int, int] | None = None
 
     def run_to_pc(self, processor: str, pc: int, max_cycles: int | None = None) -> str | None:

@@ -1,6 +1,7 @@
 """Show what accuracy costs in time: per knob, each setting's error against truth beside its cost.
 
-    netsushisen accuracy [SCENE ...] [--res N] [--axes precision,depth,prepass,fidelity]
+    netsushisen accuracy [SCENE ...] [--res N | --sizes N,N,...] [--predict N]
+                         [--axes precision,depth,prepass,fidelity]
                          [--engine NAME] [--out DIR] [--config FILE] [--set field=value]...
                          [--seed N] [--repeats N] [--scheduler ADDRESS] [--workers N] [--fresh]
                          [--quiet]
@@ -20,7 +21,10 @@ timed runs share the cores), or the cluster at --scheduler ADDRESS; each worker 
 engine before its first timed row. Rows are written in input order, whatever order they finish
 in. A finished scene × axis is kept in DIR/runs/ by content key and reused by a rerun with the
 same inputs (--fresh: measure again). Ctrl-C writes every row that had finished (also those of
-a scene × axis still running) and exits 130.
+a scene × axis still running) and exits 130. Every row's time is split into stages (host,
+load, machine, read-out, auxiliary), each with its spread; repeats run round-robin over an axis's
+settings. --sizes 16,32,64 runs every size into DIR/NxN/ and fits per setting seconds = a + b·rays
+(DIR/scaling.json, scaling.md), predicting --predict (default 512).
 """
 
 from __future__ import annotations
@@ -61,7 +65,26 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         default="1: rows are timed, and runs side by side share the cores")
     parser.add_argument("--fresh", action="store_true",
                         help="measure every scene × axis again (default: one already in DIR/runs/ is reused)")
+    parser.add_argument("--sizes", metavar="N,N,...",
+                        help="run the study at each of these sizes (e.g. 16,32,64,128; instead of "
+                             "--res), each into DIR/NxN/, and fit per setting seconds = a + b·rays "
+                             "(least squares, R²) into DIR/scaling.json and scaling.md")
+    parser.add_argument("--predict", type=int, default=512, metavar="N",
+                        help="the size the --sizes fit predicts (default 512)")
     add_quiet(parser, "no progress, no tables")
+
+
+def parse_sizes(text: str) -> list[int]:
+    """`16,32,64` -> [16, 32, 64] (ascending, each once); anything else is one error."""
+    try:
+        sizes = sorted({int(x) for x in text.split(",") if x.strip()})
+    except ValueError:
+        raise NetsushisenError(f"--sizes {text!r}: comma-separated sizes, e.g. 16,32,64,128") from None
+    if len(sizes) < 2:
+        raise NetsushisenError(f"--sizes {text!r}: at least two sizes (a line needs two points)")
+    for n in sizes:
+        check_resolution(n)
+    return sizes
 
 
 def parse_axes(text: str) -> list[str]:
@@ -90,6 +113,45 @@ def _machine() -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.sizes:
+        return run_sizes(args)
+    return run_one(args)
+
+
+def run_sizes(args: argparse.Namespace) -> int:
+    """The study at every --sizes size (DIR/NxN/), then the per-ray fits (DIR/scaling.*)."""
+    import json
+
+    from netsushisen.isa.outputs import write_text
+    from netsushisen.reports.accuracy_scaling import sampled_speedups, scaling_markdown, scalings
+
+    sizes = parse_sizes(args.sizes)
+    check_resolution(args.predict)
+    base = Path(args.out)
+    studies = {}
+    for n in sizes:
+        args.res, args.out = n, str(base / f"{n}x{n}")
+        code = run_one(args)
+        studies[n] = _STUDIES.pop()
+        if code:
+            return code
+    fits, ups = scalings(studies, args.predict), sampled_speedups(studies)
+    write_text(base / "scaling.json", json.dumps(
+        {"sizes": sizes, "predict_res": args.predict, "fits": [f.to_json() for f in fits],
+         "sampled_speedups": ups}, indent=1, allow_nan=False, ensure_ascii=False) + "\n")
+    md = scaling_markdown(fits, ups)
+    write_text(base / "scaling.md", "# How the costs scale\n\n" + md)
+    if not args.quiet:
+        print(md, end="")
+        print(f"wrote {base / 'scaling.json'}, {base / 'scaling.md'}")
+    return 0
+
+
+_STUDIES: list[dict] = []
+"""The rows of each `run_one` (per axis), for `run_sizes`."""
+
+
+def run_one(args: argparse.Namespace) -> int:
     check_resolution(args.res)
     check_cluster_options(args)
     if args.repeats < 1:
@@ -108,13 +170,14 @@ def run(args: argparse.Namespace) -> int:
 
     from netsushisen.accuracy import run_study
     from netsushisen.host.nff import format_nff
-    from netsushisen.reports.accuracy_report import tables_text, write_all
+    from netsushisen.reports.accuracy_report import agreement_lines, tables_text, write_all
 
     start = time.perf_counter()
     study = run_study(scenes, axes, args.res, config, engine, args.seed, args.repeats,
                       args.scheduler, args.workers or 1, show=not args.quiet, cache_dir=out / "runs",
                       fresh=args.fresh)
     rows, warm, interrupted = study.rows, study.warm, study.interrupted
+    _STUDIES.append(rows)
     meta = {"command": _command(args, specs), "res": args.res, "engine": engine,
             "machine": _machine(), "seconds": time.perf_counter() - start,
             "config": config.to_dict(), "interrupted": interrupted,
@@ -125,6 +188,8 @@ def run(args: argparse.Namespace) -> int:
     paths = write_all(out, rows, meta) if rows else []
     if not args.quiet and rows:
         print(tables_text(rows), end="")
+        for line in agreement_lines(rows):
+            print(line)
         print("warm-up (compile and first run, charged to no row): "
               + ", ".join(f"{k} {v:.1f} s" for k, v in warm.items()))
     if interrupted:

@@ -444,9 +444,10 @@ def list_timing(proc: Processor, graph: DependenceGraph, config: MachineConfig
 
 def region_bounds(program: Program, region: Region, config: MachineConfig,
                   optimum_ops: int = OPTIMUM_MAX_OPS, seconds: float | None = None,
-                  label: str | None = None) -> Bounds:
+                  label: str | None = None, budget=None) -> Bounds:
     """The bounds of one block or loop; a block of 1..`optimum_ops` operations also gets its
-    optimum from CP-SAT (`asm.optimum`; `seconds` of deterministic time, default its own)."""
+    optimum from CP-SAT (`asm.optimum`; `seconds` of deterministic time, default its own; its
+    model drawn from the program's `budget`, an `asm.optimum.ModelBudget`, when given)."""
     proc = program.processor
     loop = region.kind == "loop"
     ops, graph = region_graph(program, region, config)
@@ -462,12 +463,12 @@ def region_bounds(program: Program, region: Region, config: MachineConfig,
     if not loop and ops:
         b.list_scheduled = list_timing(proc, graph, config)[0]
     if not loop and 0 < len(ops) <= optimum_ops:
-        add_optimum(program, b, config, seconds, (ops, graph))
+        add_optimum(program, b, config, seconds, (ops, graph), budget)
     return b
 
 
 def add_optimum(program: Program, b: Bounds, config: MachineConfig, seconds: float | None = None,
-                graph: tuple | None = None) -> None:
+                graph: tuple | None = None, budget=None) -> None:
     """Set a block's optimum (`asm.optimum`: CP-SAT, `seconds` of deterministic time), starting
     from the shorter of the schedule as written and the list scheduler's."""
     from netsushisen.asm.optimum import DETERMINISTIC_SECONDS, optimum_schedule
@@ -480,19 +481,24 @@ def add_optimum(program: Program, b: Bounds, config: MachineConfig, seconds: flo
              "list": list_timing(proc, g, config)}
     upper, hint = min(start.values(), key=lambda lh: lh[0])
     best = optimum_schedule(g, value_reads(ops), proc, config, lower=b.bound, upper=upper,
-                            hint=hint, seconds=DETERMINISTIC_SECONDS if seconds is None else seconds)
+                            hint=hint, seconds=DETERMINISTIC_SECONDS if seconds is None else seconds,
+                            budget=budget)
     if best is not None:
         b.optimum, b.optimum_proven, b.optimum_note = best.length, best.proven, best.note
 
 
 def program_bounds(program: Program, config: MachineConfig, optimum_ops: int = OPTIMUM_MAX_OPS,
                    seconds: float | None = None) -> list[Bounds]:
-    """The bounds of every loop and block of `program` (`regions`)."""
+    """The bounds of every loop and block of `program` (`regions`), the blocks' optima within one
+    model budget for the program (`asm.optimum.ModelBudget`: many blocks with long loads, each
+    under the size limit, took a minute together)."""
     from netsushisen.asm.listing import target_names
+    from netsushisen.asm.optimum import ModelBudget
 
     names = target_names(program)
-    return [region_bounds(program, r, config, optimum_ops, seconds, names.get(r.start, str(r.start)))
-            for r in regions(program)]
+    budget = ModelBudget()
+    return [region_bounds(program, r, config, optimum_ops, seconds, names.get(r.start, str(r.start)),
+                          budget) for r in regions(program)]
 
 
 # ---------------------------------------------------------------------------------------------

@@ -49,6 +49,19 @@ MAX_MODEL_CELLS = 10_000
 largest model built: a second or two of building (a 40-operation block of the bundled kernels
 needs a few thousand); larger is stated as too large, not attempted."""
 
+PROGRAM_MODEL_CELLS = 4 * MAX_MODEL_CELLS
+"""The model size (as MAX_MODEL_CELLS counts it) all the optima of one program may build
+together: each block under the limit, 30 blocks of a kernel with long loads still took a minute
+(`ModelBudget`). The bundled kernels' programs need under a quarter of it."""
+
+
+@dataclass
+class ModelBudget:
+    """What is left of one program's PROGRAM_MODEL_CELLS: the optima of its blocks draw on it in
+    program order, and a block whose model would overdraw it is stated, not solved — counted
+    in model cells, not seconds, so the same program gets the same outcomes on any host."""
+    left: int = PROGRAM_MODEL_CELLS
+
 
 @dataclass(frozen=True)
 class Optimum:
@@ -75,7 +88,8 @@ def serial_length(graph: DependenceGraph, proc: Processor, config: MachineConfig
 def optimum_schedule(graph: DependenceGraph, reads: list[list[tuple[int, int]]], proc: Processor,
                      config: MachineConfig, lower: int = 0, upper: int | None = None,
                      hint: list[int] | None = None,
-                     seconds: float = DETERMINISTIC_SECONDS) -> Optimum | None:
+                     seconds: float = DETERMINISTIC_SECONDS,
+                     budget: ModelBudget | None = None) -> Optimum | None:
     """The shortest schedule of the block `graph` (serial order) on `proc`; `reads[o]` the values
     op o reads (asm.bounds.value_reads), `lower` a known bound, `upper` a known feasible length
     (the code as written) with `hint` its start cycles. None when nothing was found in time."""
@@ -94,18 +108,19 @@ def optimum_schedule(graph: DependenceGraph, reads: list[list[tuple[int, int]]],
 
     started = time.monotonic()
     result = _solve(cp_model, graph, reads, proc, config, lower, horizon, hint, seconds,
-                    WALL_SECONDS)
+                    WALL_SECONDS, budget)
     if result is not None and result.length is None:
         return result  # too large: the serial horizon would be larger still
     left = WALL_SECONDS - (time.monotonic() - started)
     if result is None and horizon < serial and left > 1:  # the written length was not enough
-        result = _solve(cp_model, graph, reads, proc, config, lower, serial, None, seconds, left)
+        result = _solve(cp_model, graph, reads, proc, config, lower, serial, None, seconds, left,
+                        budget)
     return result
 
 
 def _solve(cp_model, graph: DependenceGraph, reads, proc: Processor, config: MachineConfig,
            lower: int, horizon: int, hint: list[int] | None, seconds: float,
-           wall: float) -> Optimum | None:
+           wall: float, budget: ModelBudget | None = None) -> Optimum | None:
     n = len(graph.ops)
     # earliest and latest issue cycles within the horizon (edges of one pass run forward)
     est = [0] * n
@@ -121,9 +136,19 @@ def _solve(cp_model, graph: DependenceGraph, reads, proc: Processor, config: Mac
     if any(lst[i] < est[i] for i in range(n)):
         return None
     cells = sum(lst[i] - est[i] + 1 for i in range(n))
-    if cells + len(graph.edges) > MAX_MODEL_CELLS:
+    # a load's hold is a clause per issue slot and held cycle: with a long access time (a legal
+    # ic_memory.t_r of 1,024) that, not the slots, is the model's size (millions of clauses)
+    holds = sum((lst[i] - est[i] + 1) * (h - 1) for i, h in enumerate(graph.holds) if h > 1)
+    size = cells + len(graph.edges) + holds
+    if size > MAX_MODEL_CELLS:
         return Optimum(None, False, (), f"too large: {n:,} operations × {horizon:,} cycles "
-                                        f"(more than {MAX_MODEL_CELLS:,} issue slots and edges)")
+                                        f"(more than {MAX_MODEL_CELLS:,} issue slots and edges, "
+                                        "loads' held cycles counted)")
+    if budget is not None:
+        if size > budget.left:
+            return Optimum(None, False, (), f"not sought: the program's {PROGRAM_MODEL_CELLS:,} "
+                                            "issue slots and edges for optima are spent")
+        budget.left -= size
     m = cp_model.CpModel()
     starts = [m.NewIntVar(est[i], lst[i], f"s{i}") for i in range(n)]
     x = [{t: m.NewBoolVar(f"x{i}_{t}") for t in range(est[i], lst[i] + 1)} for i in range(n)]

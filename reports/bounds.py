@@ -21,6 +21,7 @@ from netsushisen.asm.bounds import (OPTIMUM_MAX_OPS, Bounds, Region, add_optimum
                                     program_bounds, program_from_listing, region_bounds, regions)
 from netsushisen.asm.listing import target_names
 from netsushisen.asm.objects import Program
+from netsushisen.asm.optimum import ModelBudget
 from netsushisen.isa.errors import NetsushisenError
 from netsushisen.isa.config import config_from_dict
 from netsushisen.reports.annotate import BundleCounts, bundle_counts, choose_processors
@@ -260,9 +261,10 @@ def bounds_report(stats: dict, proc: str | None = None, top: int | None = None,
                 for b in blocks}
         blocks.sort(key=lambda b: (-heat[b.start], b.start))
         blocks = blocks[:20 if top is None else top]
+        budget = ModelBudget()  # the hottest blocks first
         for b in blocks:
             if b.optimum is None and not b.optimum_note and 0 < b.ops <= optimum_ops:
-                add_optimum(program, b, config)
+                add_optimum(program, b, config, budget=budget)
         rows.append((name, chosen_loops + blocks, counts))
     from netsushisen.reports.floor import floor_sections
 

@@ -136,3 +136,69 @@ def test_side_exit_edges_are_linear_and_keep_the_schedule():
     g = dependences(ops, PROCESSORS["ic"], MachineConfig(), deadout=frozenset({30}))
     control = [e for e in g.edges if e.kind == "control"]
     assert len(control) <= 3 * len(ops)
+
+
+def _long_load_blocks(blocks: int) -> str:
+    """`blocks` blocks, each two loads and a few independent operations ending in a side exit:
+    the shape of the fuzz case linear-18 (a `.pipeline` loop that is not one block)."""
+    rng = random.Random(18)
+    lines = [".proc ic"]
+    for b in range(blocks):
+        lines += [f"        ld r{rng.randint(1, 9)}, [r{rng.randint(10, 20)} + {rng.randint(0, 99)}]",
+                  f"        ld r{rng.randint(21, 25)}, [r{rng.randint(10, 20)} + {rng.randint(0, 99)}]",
+                  f"        fmul r{rng.randint(26, 30)}, r{rng.randint(26, 30)}, r31",
+                  "        beq r1, r0, out"]
+    return "\n".join(lines + ["        halt", "out:    halt"]) + "\n"
+
+
+def test_a_long_load_counts_its_held_cycles_in_the_optimums_model(monkeypatch):
+    """Fuzz linear-18 (`asm --bounds --optimum-ops 100000`, ic_memory.t_r=1024) ran over 60 s:
+    each block's model was under 10,000 issue slots, but a load's hold added a clause per slot
+    and held cycle (8.4 million in all). Counted, not timed: the clauses and 0/1 variables every
+    optimum of the program builds stay within twice the program's budget (the clauses stop at
+    the first one over it), and each block's outcome is stated."""
+    from ortools.sat.python import cp_model
+
+    from netsushisen.asm import optimum
+    from netsushisen.asm.bounds import program_bounds
+
+    built = {"n": 0}
+    limit = 2 * optimum.PROGRAM_MODEL_CELLS
+    for name in ("add_bool_or", "new_bool_var"):
+        real = getattr(cp_model.CpModel, name)
+
+        def counted(self, *args, _real=real, **kwargs):
+            built["n"] += 1
+            assert built["n"] <= limit, "the optima build more than the program's budget"
+            return _real(self, *args, **kwargs)
+        monkeypatch.setattr(cp_model.CpModel, name, counted)
+    program = assemble_text(_long_load_blocks(12))
+    bounds = program_bounds(program, load_config(overrides=["ic_memory.t_r=1024"]), 100_000)
+    blocks = [b for b in bounds if b.kind == "block"]
+    assert all(b.optimum is not None or b.optimum_note for b in blocks)
+    assert any("loads' held cycles counted" in b.optimum_note for b in blocks)
+
+
+def test_the_optima_of_one_program_share_one_model_budget(monkeypatch):
+    """30 blocks each under the size limit took a minute together: a program's optima draw on one
+    budget in program order; a block that would overdraw it is stated, not solved."""
+    from netsushisen.asm import optimum
+    from netsushisen.asm.bounds import program_bounds
+
+    program = assemble_text(_long_load_blocks(3))
+    config = load_config()
+    full = [b for b in program_bounds(program, config, 100_000) if b.kind == "block"]
+    assert all(b.optimum is not None for b in full)
+    budgets = []
+
+    class Recorded(optimum.ModelBudget):
+        def __init__(self):
+            super().__init__(optimum.PROGRAM_MODEL_CELLS)
+            budgets.append(self)
+    monkeypatch.setattr(optimum, "ModelBudget", Recorded)
+    program_bounds(program, config, 100_000)
+    drawn = optimum.PROGRAM_MODEL_CELLS - budgets[-1].left  # the whole program's models
+    monkeypatch.setattr(optimum, "PROGRAM_MODEL_CELLS", drawn - 1)
+    short = [b for b in program_bounds(program, config, 100_000) if b.kind == "block"]
+    assert [b.optimum for b in short[:-1]] == [b.optimum for b in full[:-1]]
+    assert short[-1].optimum is None and "for optima are spent" in short[-1].optimum_note

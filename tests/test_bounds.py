@@ -448,3 +448,35 @@ def test_asm_bounds_from_a_source(cli, tmp_path):
     code, _, err = cli("asm", "--bounds", src, "--optimum-ops", "-1")
     assert code == 1 and err.count("\n") == 1
     assert not list(tmp_path.glob("*.o"))  # --bounds is an analysis: no object file
+
+
+def test_recurrence_mii_of_a_large_loop_takes_little_work(monkeypatch):
+    """`report bounds` of a small run spent 17 s in an all-pairs closure over every carried
+    edge's head, per II tried. A 3,000-operation loop with 1,000 carried
+    edges (one long recurrence, the rest short) needs a handful of longest-path searches of a
+    few passes each (O(V·E) relaxations at most), well within seconds, and gets the long
+    recurrence's ratio."""
+    from netsushisen.asm import bounds
+    from netsushisen.asm.dependences import Edge
+
+    rng = random.Random(46)
+    n = 3000
+    edges = [Edge(i, i + 1, 2, 0, "true") for i in range(n - 1)]  # the long chain: 2 a step
+    edges.append(Edge(n - 1, 0, 2, 3, "true"))  # closed over 3 iterations: 2n / 3 = 2,000
+    for _ in range(1000):
+        a = rng.randrange(n - 5)
+        edges.append(Edge(a + rng.randint(1, 4), a, rng.randint(1, 9), 1, "true"))
+    calls = []
+    real = bounds.positive_cycle
+
+    def counted(size, inner, ii):
+        calls.append(len(inner))
+        return real(size, inner, ii)
+    monkeypatch.setattr(bounds, "positive_cycle", counted)
+    import time
+
+    started = time.monotonic()
+    assert bounds.recurrence_mii(n, edges) == 2000
+    assert time.monotonic() - started < 5  # the closure took 23 s on this loop (0.05 s now)
+    assert len(calls) <= 2 * 20  # a binary search over at most 2^20 IIs, often shortened
+    assert sum(calls) <= len(calls) * len(edges)

@@ -456,7 +456,7 @@ def test_recurrence_mii_of_a_large_loop_takes_little_work(monkeypatch):
     edges (one long recurrence, the rest short) needs a handful of longest-path searches of a
     few passes each (O(V·E) relaxations at most), well within seconds, and gets the long
     recurrence's ratio."""
-    from netsushisen.asm import bounds
+    from netsushisen.asm import bounds, recurrence
     from netsushisen.asm.dependences import Edge
 
     rng = random.Random(46)
@@ -467,12 +467,12 @@ def test_recurrence_mii_of_a_large_loop_takes_little_work(monkeypatch):
         a = rng.randrange(n - 5)
         edges.append(Edge(a + rng.randint(1, 4), a, rng.randint(1, 9), 1, "true"))
     calls = []
-    real = bounds.positive_cycle
+    real = recurrence.positive_cycle
 
     def counted(size, inner, ii):
         calls.append(len(inner))
         return real(size, inner, ii)
-    monkeypatch.setattr(bounds, "positive_cycle", counted)
+    monkeypatch.setattr(recurrence, "positive_cycle", counted)
     import time
 
     started = time.monotonic()

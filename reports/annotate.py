@@ -185,7 +185,7 @@ def annotate_sections(stats: dict, proc: str | None = None, top: int | None = No
                             "cycles; dominant stall: the cause of most of its stall cycles, as a "
                             "share of its cycles" + ("" if all_loops else "; --all: every loop"),
                     group_by="processor")
-    loops.panels = [loops.columns[:10], ["processor", "loop"] + loops.columns[10:]]
+    loops.panels = [loops.columns[:8], ["processor", "loop"] + loops.columns[8:]]  # 80 columns
     hot = hot_path_section()
     without_text = False
     for name, p in choose_processors(stats, proc):
